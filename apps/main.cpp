@@ -1,0 +1,49 @@
+// hedgefit: measure spherical hedges from a binocular camera.
+// A table of subcommands, each in its own file; errors become one line on stderr.
+
+#include <iostream>
+
+#include "apps/commands.hpp"
+#include "cloud/error.hpp"
+#include "cloud/version.hpp"
+
+int main(int argc, char** argv) {
+  using namespace hedgefit::apps;
+  CLI::App app{"hedgefit " + std::string(hedgefit::kVersion) +
+               ": reconstruct and measure spherical hedges from stereo images and point clouds"};
+  app.set_version_flag("--version", std::string("hedgefit ") + hedgefit::kVersion);
+  app.require_subcommand(1);
+  app.footer("Exit codes: 0 ok, 1 bad input or usage, 2 processing failure.\n"
+             "Run 'hedgefit COMMAND --help' for a command's options and examples.");
+  CommandFn run;
+  AddInfoCommand(app, &run);
+  AddPipelineCommand(app, &run);
+  AddPluginsCommand(app, &run);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "hedgefit: " << e.what() << "; run 'hedgefit --help'\n";
+    return kExitBadInput;
+  }
+  try {
+    return run ? run() : kExitBadInput;
+  } catch (const hedgefit::ProcessingError& e) {
+    std::cerr << "hedgefit: " << e.what() << "\n";
+    return kExitProcessing;
+  } catch (const hedgefit::Error& e) {
+    std::cerr << "hedgefit: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "hedgefit: out of memory; process a smaller cloud or downsample first (filters.voxel_grid)\n";
+    return kExitProcessing;
+  } catch (const std::exception& e) {
+    std::cerr << "hedgefit: internal error: " << e.what() << "\n";
+    return kExitProcessing;
+  }
+}

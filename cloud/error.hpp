@@ -1,0 +1,22 @@
+#pragma once
+/// The one error type hedgefit throws for bad input or options. Its message is a
+/// single line naming the file, stage or option at fault and what would fix it;
+/// the CLI prints it as-is and exits non-zero.
+
+#include <stdexcept>
+#include <string>
+
+namespace hedgefit {
+
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Thrown when processing fails on otherwise valid input (exit code 2 in the CLI).
+class ProcessingError : public Error {
+ public:
+  using Error::Error;
+};
+
+}  // namespace hedgefit

@@ -1,0 +1,251 @@
+#include "cloud/filters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+#include "cloud/error.hpp"
+#include "cloud/neighbour_search.hpp"
+#include "cloud/voxel_neighbours.hpp"
+
+namespace hedgefit::cloud {
+
+namespace {
+
+// Builds a FilterResult from per-point keep flags (non-finite points never kept).
+FilterResult Finish(const PointCloud& cloud, std::vector<bool> keep, bool keep_organized) {
+  FilterResult r;
+  std::vector<std::size_t> kept_idx;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const bool finite = IsFinite(cloud.points_mm[i]);
+    if (!finite) {
+      ++r.nonfinite;
+      keep[i] = false;
+    } else if (keep[i]) {
+      ++r.kept;
+      kept_idx.push_back(i);
+    } else {
+      ++r.removed;
+    }
+  }
+  r.cloud = keep_organized ? MaskOrganized(cloud, keep) : Select(cloud, kept_idx);
+  return r;
+}
+
+}  // namespace
+
+FilterResult RemoveNonFinite(const PointCloud& cloud) {
+  return Finish(cloud, std::vector<bool>(cloud.size(), true), false);
+}
+
+void StatisticalOutlierOptions::Check() const {
+  if (mean_k < 1) throw Error("mean_k: must be >= 1 neighbour, got " + std::to_string(mean_k));
+  if (!std::isfinite(stddev_mul)) throw Error("stddev_mul: must be a finite number");
+  if (num_threads < 0) throw Error("num_threads: must be >= 0 (0 = all cores)");
+}
+
+std::vector<float> MeanNeighbourDistances(const PointCloud& cloud, int mean_k, int num_threads) {
+  std::vector<float> distances(cloud.size(), 0.0f);
+  const internal::FiniteIndex index(cloud);
+  const auto& finite = index.finite();
+  const std::size_t k = static_cast<std::size_t>(mean_k) + 1;  // the query point comes back first
+  internal::ParallelFor(finite.size(), num_threads, [&](std::size_t begin, std::size_t end) {
+    std::vector<std::uint32_t> idx(k);
+    std::vector<float> sq(k);
+    for (std::size_t j = begin; j < end; ++j) {
+      const std::uint32_t i = finite[j];
+      const std::size_t found = index.Knn(cloud.points_mm[i].data(), k, idx.data(), sq.data());
+      // PCL divides by mean_k even when fewer neighbours exist; do the same.
+      double sum = 0.0;
+      for (std::size_t n = 1; n < found; ++n) sum += std::sqrt(static_cast<double>(sq[n]));
+      distances[i] = static_cast<float>(sum / mean_k);
+    }
+  });
+  return distances;
+}
+
+std::vector<bool> StatisticalInliers(const PointCloud& cloud, const StatisticalOutlierOptions& options,
+                                     double* threshold) {
+  options.Check();
+  const std::vector<float> distances = internal::GridMeanKnnDistances(cloud, options.mean_k, options.num_threads);
+  // Mean and sample standard deviation exactly as PCL accumulates them (float squares, double sums).
+  double sum = 0, sq_sum = 0;
+  std::size_t valid = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!IsFinite(cloud.points_mm[i])) continue;
+    const float d = distances[i];
+    sum += d;
+    sq_sum += d * d;
+    ++valid;
+  }
+  std::vector<bool> keep(cloud.size(), false);
+  if (valid == 0) return keep;
+  const double n = static_cast<double>(valid);
+  const double mean = sum / n;
+  const double variance = valid > 1 ? (sq_sum - sum * sum / n) / (n - 1) : 0.0;
+  const double limit = mean + options.stddev_mul * std::sqrt(std::max(variance, 0.0));
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    keep[i] = IsFinite(cloud.points_mm[i]) && !(distances[i] > limit);
+  }
+  if (threshold) *threshold = limit;
+  return keep;
+}
+
+FilterResult StatisticalOutlierRemoval(const PointCloud& cloud, const StatisticalOutlierOptions& options) {
+  double threshold = 0;
+  std::vector<bool> keep = StatisticalInliers(cloud, options, &threshold);
+  FilterResult r = Finish(cloud, std::move(keep), options.keep_organized);
+  r.threshold = threshold;
+  return r;
+}
+
+void RadiusOutlierOptions::Check() const {
+  if (!(radius_mm > 0 && std::isfinite(radius_mm))) throw Error("radius: must be > 0 mm");
+  if (min_neighbours < 0) throw Error("min_neighbours: must be >= 0");
+  if (num_threads < 0) throw Error("num_threads: must be >= 0 (0 = all cores)");
+}
+
+FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOptions& options) {
+  options.Check();
+  const internal::FiniteIndex index(cloud);
+  const auto& finite = index.finite();
+  std::vector<bool> keep(cloud.size(), false);
+  std::vector<char> keep_finite(finite.size(), 0);  // vector<bool> is not thread-safe per element
+  const float sq_radius = static_cast<float>(options.radius_mm * options.radius_mm);
+  // The count includes the query point itself, as PCL's does.
+  const std::size_t needed = static_cast<std::size_t>(options.min_neighbours) + 1;
+  internal::ParallelFor(finite.size(), options.num_threads, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = begin; j < end; ++j) {
+      keep_finite[j] = index.CountWithin(cloud.points_mm[finite[j]].data(), sq_radius, needed) >= needed;
+    }
+  });
+  for (std::size_t j = 0; j < finite.size(); ++j) keep[finite[j]] = keep_finite[j] != 0;
+  FilterResult r = Finish(cloud, std::move(keep), options.keep_organized);
+  r.threshold = options.radius_mm;
+  return r;
+}
+
+void VoxelGridOptions::Check() const {
+  if (!(leaf_mm > 0 && std::isfinite(leaf_mm))) throw Error("leaf: must be > 0 mm");
+  if (min_points_per_voxel < 1) throw Error("min_points_per_voxel: must be >= 1");
+}
+
+FilterResult VoxelGrid(const PointCloud& cloud, const VoxelGridOptions& options) {
+  options.Check();
+  FilterResult r;
+  struct Entry {
+    std::uint64_t key;
+    std::uint32_t index;
+  };
+  std::vector<Entry> entries;
+  entries.reserve(cloud.size());
+  Eigen::Vector3f lo, hi;
+  if (!Bounds(cloud, &lo, &hi)) throw Error("filters.voxel_grid: the cloud has no finite points");
+  const double inv = 1.0 / options.leaf_mm;
+  const double span = ((hi - lo).cast<double>() * inv).maxCoeff();
+  if (span >= double(1 << 21)) {
+    throw Error("leaf: " + std::to_string(options.leaf_mm) + " mm gives more than 2^21 voxels along one axis of this cloud; use a larger leaf");
+  }
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const auto& p = cloud.points_mm[i];
+    if (!IsFinite(p)) {
+      ++r.nonfinite;
+      continue;
+    }
+    // Same voxel assignment as PCL: floor(p / leaf), here relative to the minimum (21 bits per axis).
+    const auto q = ((p.cast<double>() * inv).array().floor() - (lo.cast<double>() * inv).array().floor()).cast<std::uint64_t>();
+    entries.push_back({(q[2] << 42) | (q[1] << 21) | q[0], static_cast<std::uint32_t>(i)});
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.key < b.key || (a.key == b.key && a.index < b.index);
+  });
+  PointCloud& out = r.cloud;
+  for (std::size_t b = 0; b < entries.size();) {
+    std::size_t e = b;
+    while (e < entries.size() && entries[e].key == entries[b].key) ++e;
+    const std::size_t n = e - b;
+    if (n >= static_cast<std::size_t>(options.min_points_per_voxel)) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Vector3d color = Eigen::Vector3d::Zero();
+      for (std::size_t j = b; j < e; ++j) {
+        sum += cloud.points_mm[entries[j].index].cast<double>();
+        if (cloud.HasColor()) {
+          const Rgb& c = cloud.colors[entries[j].index];
+          color += Eigen::Vector3d(c[0], c[1], c[2]);
+        }
+      }
+      out.points_mm.push_back((sum / double(n)).cast<float>());
+      if (cloud.HasColor()) {
+        color /= double(n);
+        out.colors.push_back(Rgb{static_cast<std::uint8_t>(std::lround(color[0])),
+                                 static_cast<std::uint8_t>(std::lround(color[1])),
+                                 static_cast<std::uint8_t>(std::lround(color[2]))});
+      }
+      for (const auto& [name, values] : cloud.fields) {
+        if (values.empty()) continue;
+        double s = 0;
+        for (std::size_t j = b; j < e; ++j) s += values[entries[j].index];
+        out.fields[name].push_back(static_cast<float>(s / double(n)));
+      }
+      r.kept += 1;
+    }
+    b = e;
+  }
+  r.removed = entries.size() - r.kept;  // merged into a centroid or in a sparse voxel
+  out.Flatten();
+  r.threshold = options.leaf_mm;
+  return r;
+}
+
+void CropBoxOptions::Check() const {
+  if (!min_mm.allFinite() || !max_mm.allFinite()) throw Error("min/max: box corners must be finite");
+  for (int a = 0; a < 3; ++a) {
+    if (min_mm[a] > max_mm[a]) {
+      throw Error(std::string("min/max: min ") + "xyz"[a] + " (" + std::to_string(min_mm[a]) + ") is above max " +
+                  "xyz"[a] + " (" + std::to_string(max_mm[a]) + "); swap them");
+    }
+  }
+}
+
+FilterResult CropBox(const PointCloud& cloud, const CropBoxOptions& options) {
+  options.Check();
+  std::vector<bool> keep(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const auto& p = cloud.points_mm[i];
+    const bool inside = (p.array() >= options.min_mm.array()).all() && (p.array() <= options.max_mm.array()).all();
+    keep[i] = inside != options.negative;
+  }
+  return Finish(cloud, std::move(keep), options.keep_organized);
+}
+
+void PassThroughOptions::Check() const {
+  if (field.empty()) throw Error("field: name the field to test (x, y, z or an extra field)");
+  if (std::isnan(min) || std::isnan(max) || min > max) throw Error("min/max: need min <= max");
+}
+
+FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& options) {
+  options.Check();
+  const std::vector<float>* values = nullptr;
+  int axis = -1;
+  if (options.field == "x" || options.field == "y" || options.field == "z") {
+    axis = options.field[0] - 'x';
+  } else {
+    auto it = cloud.fields.find(options.field);
+    if (it == cloud.fields.end() || it->second.empty()) {
+      std::string have = "x, y, z";
+      for (const auto& [name, v] : cloud.fields) have += ", " + name;
+      throw Error("field: the cloud has no field '" + options.field + "'; it has " + have);
+    }
+    values = &it->second;
+  }
+  std::vector<bool> keep(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const double v = axis >= 0 ? cloud.points_mm[i][axis] : (*values)[i];
+    const bool inside = v >= options.min && v <= options.max;
+    keep[i] = inside != options.negative;
+  }
+  return Finish(cloud, std::move(keep), options.keep_organized);
+}
+
+}  // namespace hedgefit::cloud

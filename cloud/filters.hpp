@@ -1,0 +1,90 @@
+#pragma once
+/// Cleaning filters on hedgefit::cloud::PointCloud. Each is a free function with
+/// an options struct (Check() names the bad field) and returns what it did.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "cloud/point_cloud.hpp"
+
+namespace hedgefit::cloud {
+
+/// What a filter kept, and its diagnostics.
+struct FilterResult {
+  PointCloud cloud;         ///< the kept points (organised, with NaN for removed points, if asked)
+  std::size_t kept = 0;     ///< finite points kept
+  std::size_t removed = 0;  ///< finite points removed
+  std::size_t nonfinite = 0;  ///< NaN/Inf input points (dropped, or left in place when organised)
+  double threshold = 0;     ///< the filter's decision threshold, where it has one (mm)
+};
+
+/// Drops points with a NaN/Inf coordinate. Unorganises the cloud.
+FilterResult RemoveNonFinite(const PointCloud& cloud);
+
+struct StatisticalOutlierOptions {
+  int mean_k = 50;          ///< neighbours per point for the mean distance (points)
+  double stddev_mul = 1.0;  ///< threshold = mean + stddev_mul * stddev of mean distances
+  int num_threads = 0;      ///< 0 = all hardware threads
+  bool keep_organized = false;  ///< removed points become NaN, structure kept
+  void Check() const;
+};
+
+/// Per-point mean distance to the mean_k nearest neighbours (mm; 0 for non-finite
+/// points), computed exactly as PCL's StatisticalOutlierRemoval does.
+std::vector<float> MeanNeighbourDistances(const PointCloud& cloud, int mean_k, int num_threads);
+
+/// Inlier flags of PCL's StatisticalOutlierRemoval decision (same kept set on
+/// finite points; non-finite points are flagged false). `threshold` gets mean + k sigma.
+std::vector<bool> StatisticalInliers(const PointCloud& cloud, const StatisticalOutlierOptions& options,
+                                     double* threshold = nullptr);
+
+/// Rusu et al. 2008 statistical outlier removal; same kept set as PCL, several times faster.
+FilterResult StatisticalOutlierRemoval(const PointCloud& cloud, const StatisticalOutlierOptions& options);
+
+struct RadiusOutlierOptions {
+  double radius_mm = 10.0;  ///< neighbourhood radius (mm)
+  int min_neighbours = 5;   ///< other points needed within radius_mm to keep a point
+  int num_threads = 0;      ///< 0 = all hardware threads
+  bool keep_organized = false;
+  void Check() const;
+};
+
+/// PCL RadiusOutlierRemoval's decision: keep a point with >= min_neighbours others within radius.
+FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOptions& options);
+
+struct VoxelGridOptions {
+  double leaf_mm = 5.0;           ///< cubic voxel edge (mm)
+  int min_points_per_voxel = 1;   ///< voxels with fewer points are dropped
+  void Check() const;
+};
+
+/// One point per occupied voxel at the centroid of its points (colours and
+/// extra fields averaged). Voxel indices are 64-bit, so unlike PCL's VoxelGrid
+/// small leaves on large extents do not overflow. Output is unorganised, in voxel order.
+FilterResult VoxelGrid(const PointCloud& cloud, const VoxelGridOptions& options);
+
+struct CropBoxOptions {
+  Eigen::Vector3f min_mm = Eigen::Vector3f::Constant(-1e9f);  ///< box corner (mm)
+  Eigen::Vector3f max_mm = Eigen::Vector3f::Constant(1e9f);   ///< opposite corner (mm)
+  bool negative = false;        ///< keep the points outside the box instead
+  bool keep_organized = false;
+  void Check() const;
+};
+
+/// Keeps points inside an axis-aligned box (bounds inclusive).
+FilterResult CropBox(const PointCloud& cloud, const CropBoxOptions& options);
+
+struct PassThroughOptions {
+  std::string field = "z";  ///< x, y, z or an extra field's name
+  double min = -1e30;       ///< inclusive lower limit (field's unit; mm for x y z)
+  double max = 1e30;        ///< inclusive upper limit
+  bool negative = false;    ///< keep the points outside [min, max]
+  bool keep_organized = false;
+  void Check() const;
+};
+
+/// Keeps points whose `field` lies in [min, max]; throws Error if the field is missing.
+FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& options);
+
+}  // namespace hedgefit::cloud

@@ -1,0 +1,87 @@
+#pragma once
+// Exact nearest-neighbour search over the finite points of a cloud (nanoflann
+// k-d tree), plus a parallel-for over index ranges. Private to cloud/.
+
+#include <nanoflann.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <thread>
+#include <vector>
+
+#include "cloud/point_cloud.hpp"
+
+namespace hedgefit::cloud::internal {
+
+/// Calls fn(begin, end) on `threads` contiguous slices of [0, n).
+template <class Fn>
+void ParallelFor(std::size_t n, int threads, Fn fn) {
+  unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  unsigned t = threads > 0 ? static_cast<unsigned>(threads) : hw;
+  t = static_cast<unsigned>(std::min<std::size_t>(t, std::max<std::size_t>(1, n / 1024)));
+  if (t <= 1) {
+    fn(std::size_t{0}, n);
+    return;
+  }
+  std::vector<std::thread> pool;
+  const std::size_t chunk = (n + t - 1) / t;
+  for (unsigned i = 0; i < t; ++i) {
+    const std::size_t b = i * chunk, e = std::min(n, b + chunk);
+    if (b < e) pool.emplace_back([=] { fn(b, e); });
+  }
+  for (auto& th : pool) th.join();
+}
+
+/// The finite points of a cloud, and a k-d tree over them.
+class FiniteIndex {
+ public:
+  explicit FiniteIndex(const PointCloud& cloud) : cloud_(cloud) {
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (IsFinite(cloud.points_mm[i])) finite_.push_back(static_cast<std::uint32_t>(i));
+    }
+    tree_ = std::make_unique<Tree>(3, *this, nanoflann::KDTreeSingleIndexAdaptorParams(12));
+  }
+  // nanoflann dataset interface (positions in finite_ order).
+  std::size_t kdtree_get_point_count() const { return finite_.size(); }
+  float kdtree_get_pt(std::size_t i, std::size_t dim) const { return cloud_.points_mm[finite_[i]][dim]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const { return false; }
+
+  /// Cloud index of the i-th finite point.
+  const std::vector<std::uint32_t>& finite() const { return finite_; }
+
+  /// k nearest squared distances (ascending) to `query`, including the point itself.
+  std::size_t Knn(const float* query, std::size_t k, std::uint32_t* idx, float* sq_dist) const {
+    nanoflann::KNNResultSet<float, std::uint32_t> rs(k);
+    rs.init(idx, sq_dist);
+    tree_->findNeighbors(rs, query, nanoflann::SearchParams(0, 0, true));
+    return rs.size();
+  }
+
+  /// Number of points strictly within sqrt(sq_radius), including the query point, up to `cap`.
+  std::size_t CountWithin(const float* query, float sq_radius, std::size_t cap) const {
+    CountingResultSet rs{sq_radius, 0, cap};
+    tree_->findNeighbors(rs, query, nanoflann::SearchParams(0, 0, false));
+    return rs.count;
+  }
+
+ private:
+  struct CountingResultSet {
+    float radius;
+    std::size_t count;
+    std::size_t cap;
+    bool full() const { return true; }
+    bool addPoint(float dist, std::uint32_t) {
+      if (dist < radius) ++count;
+      return count < cap;  // stop once the answer is known
+    }
+    float worstDist() const { return radius; }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FiniteIndex>, FiniteIndex, 3,
+                                                   std::uint32_t>;
+  const PointCloud& cloud_;
+  std::vector<std::uint32_t> finite_;
+  std::unique_ptr<Tree> tree_;
+};
+
+}  // namespace hedgefit::cloud::internal

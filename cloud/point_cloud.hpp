@@ -1,0 +1,55 @@
+#pragma once
+/// hedgefit's point cloud: plain Eigen/STL storage so that public headers need
+/// no PCL. Coordinates are millimetres by convention.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace hedgefit::cloud {
+
+using Rgb = std::array<std::uint8_t, 3>;
+
+struct PointCloud {
+  std::vector<Eigen::Vector3f> points_mm;  ///< x y z, mm; NaN marks an invalid point
+  std::vector<Rgb> colors;                 ///< empty, or one colour per point
+  /// Extra per-point scalar fields (e.g. "disparity", "sigma_z"), each empty or one per point.
+  std::map<std::string, std::vector<float>> fields;
+  std::uint32_t width = 0;   ///< organised: columns; unorganised: size()
+  std::uint32_t height = 1;  ///< organised: rows (> 1); unorganised: 1
+
+  std::size_t size() const { return points_mm.size(); }
+  bool empty() const { return points_mm.empty(); }
+  bool HasColor() const { return !colors.empty(); }
+  bool IsOrganized() const { return height > 1; }
+  /// Marks the cloud unorganised (width = size, height = 1).
+  void Flatten() {
+    width = static_cast<std::uint32_t>(points_mm.size());
+    height = 1;
+  }
+  /// Throws hedgefit::Error if colours or fields disagree with the point count
+  /// or width*height does not match it; `what` names the source for the message.
+  void CheckConsistent(const std::string& what) const;
+};
+
+/// True if all three coordinates are finite.
+inline bool IsFinite(const Eigen::Vector3f& p) { return p.allFinite(); }
+
+/// Copy of the points at `indices` (with colours and fields), unorganised.
+PointCloud Select(const PointCloud& cloud, const std::vector<std::size_t>& indices);
+
+/// Copy of `cloud` where points not flagged in `keep` are set to NaN, keeping
+/// the organised structure (PCL's setKeepOrganized behaviour).
+PointCloud MaskOrganized(const PointCloud& cloud, const std::vector<bool>& keep);
+
+/// Number of points with a non-finite coordinate.
+std::size_t CountNonFinite(const PointCloud& cloud);
+
+/// Axis-aligned bounds of the finite points; returns false if there are none.
+bool Bounds(const PointCloud& cloud, Eigen::Vector3f* min_mm, Eigen::Vector3f* max_mm);
+
+}  // namespace hedgefit::cloud

@@ -1,0 +1,70 @@
+#include "cloud/registry.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+namespace hedgefit::cloud {
+
+void Registry::Add(StageInfo info, StageFactory make, const std::string& origin) {
+  if (info.name.empty() || info.name.find('.') == std::string::npos) {
+    throw Error("stage name '" + info.name + "' (from " + origin +
+                ") must be 'kind.name', e.g. 'filters.my_filter'");
+  }
+  if (const StageDescriptor* existing = Find(info.name)) {
+    throw Error("stage '" + info.name + "' from " + origin + " is already registered by " +
+                existing->origin + "; rename one of them");
+  }
+  for (const OptionSpec& spec : info.options) {
+    // A default that fails its own validation is a programming error in the stage.
+    ResolveOptions(info, {{spec.name, spec.default_value}}, info.name);
+  }
+  stages_.push_back(StageDescriptor{std::move(info), std::move(make), origin});
+}
+
+const StageDescriptor* Registry::Find(const std::string& name) const {
+  for (const auto& d : stages_) {
+    if (d.info.name == name) return &d;
+  }
+  return nullptr;
+}
+
+std::vector<std::string> Registry::Names() const {
+  std::vector<std::string> names;
+  for (const auto& d : stages_) names.push_back(d.info.name);
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+const StageDescriptor& Registry::Get(const std::string& name, const std::string& where) const {
+  if (const StageDescriptor* d = Find(name)) return *d;
+  const std::string hint = DidYouMean(name, Names());
+  throw Error(where + "unknown stage '" + name + "'" +
+              (hint.empty() ? "" : " (did you mean '" + hint + "'?)") +
+              "; `hedgefit plugins` lists every stage");
+}
+
+const StageDescriptor* Registry::ForExtension(const std::string& path, bool writer) const {
+  const auto dot = path.find_last_of('.');
+  if (dot == std::string::npos) return nullptr;
+  std::string ext = path.substr(dot);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string prefix = writer ? "writers." : "readers.";
+  for (const auto& d : stages_) {
+    if (d.info.name.rfind(prefix, 0) != 0) continue;
+    const auto& exts = d.info.extensions;
+    if (std::find(exts.begin(), exts.end(), ext) != exts.end()) return &d;
+  }
+  return nullptr;
+}
+
+Registry& Registry::Global() {
+  static Registry* registry = [] {
+    auto* r = new Registry();
+    RegisterCloudStages(*r);
+    return r;
+  }();
+  return *registry;
+}
+
+}  // namespace hedgefit::cloud
