@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "cloud/error.hpp"
@@ -35,6 +36,97 @@ void CheckReadable(const std::string& path) {
   if (fs::file_size(path, ec) == 0) throw Error(path + ": is empty (0 bytes); the file was not written completely");
   std::ifstream probe(path, std::ios::binary);
   if (!probe) throw Error(path + ": cannot be opened for reading; check its permissions");
+}
+
+// PCL's PCD reader trusts its input (a file with no header at all crashes it), so the
+// header is checked here first: every field declared consistently, sizes and types
+// known, and enough bytes behind it for the points it promises.
+void CheckPcdHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const auto file_size = static_cast<std::uintmax_t>(fs::file_size(path));
+  std::map<std::string, std::vector<std::string>> entries;
+  std::string line;
+  std::size_t line_no = 0;
+  std::string data;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line_no > 64) break;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    std::string key;
+    ss >> key;
+    const bool known = key == "VERSION" || key == "FIELDS" || key == "SIZE" || key == "TYPE" || key == "COUNT" ||
+                       key == "WIDTH" || key == "HEIGHT" || key == "VIEWPOINT" || key == "POINTS" || key == "DATA";
+    if (!known) {
+      throw Error(path + ": not a PCD file (line " + std::to_string(line_no) + " starts with '" + key.substr(0, 20) +
+                  "', expected a header keyword such as FIELDS)");
+    }
+    std::vector<std::string> values;
+    for (std::string v; ss >> v;) values.push_back(v);
+    entries[key] = values;
+    if (key == "DATA") {
+      data = values.empty() ? "" : values[0];
+      break;
+    }
+  }
+  if (data.empty()) throw Error(path + ": malformed PCD header: no DATA line (ascii, binary or binary_compressed)");
+  if (data != "ascii" && data != "binary" && data != "binary_compressed") {
+    throw Error(path + ": malformed PCD header: unknown DATA '" + data + "'");
+  }
+  for (const char* key : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS"}) {
+    if (entries[key].empty()) throw Error(path + ": malformed PCD header: missing " + key);
+  }
+  const std::size_t nf = entries["FIELDS"].size();
+  if (entries["SIZE"].size() != nf || entries["TYPE"].size() != nf ||
+      (!entries["COUNT"].empty() && entries["COUNT"].size() != nf)) {
+    throw Error(path + ": malformed PCD header: FIELDS, SIZE, TYPE and COUNT list different numbers of fields");
+  }
+  auto number = [&](const std::string& text, const char* what) {
+    char* end = nullptr;
+    const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+    if (end == text.c_str() || *end != '\0' || text[0] == '-' || v > (1ull << 40)) {
+      throw Error(path + ": malformed PCD header: " + what + " '" + text + "' is not a valid count");
+    }
+    return static_cast<std::uint64_t>(v);
+  };
+  std::uint64_t point_size = 0;
+  for (std::size_t i = 0; i < nf; ++i) {
+    const std::uint64_t size = number(entries["SIZE"][i], "SIZE");
+    const std::string& type = entries["TYPE"][i];
+    const std::uint64_t count = entries["COUNT"].empty() ? 1 : number(entries["COUNT"][i], "COUNT");
+    const bool ok = (type == "F" && (size == 4 || size == 8)) ||
+                    ((type == "I" || type == "U") && (size == 1 || size == 2 || size == 4 || size == 8));
+    if (!ok) {
+      throw Error(path + ": malformed PCD header: field '" + entries["FIELDS"][i] + "' has TYPE " + type + " SIZE " +
+                  entries["SIZE"][i]);
+    }
+    point_size += size * count;
+  }
+  const std::uint64_t width = number(entries["WIDTH"][0], "WIDTH");
+  const std::uint64_t height = number(entries["HEIGHT"][0], "HEIGHT");
+  const std::uint64_t points = number(entries["POINTS"][0], "POINTS");
+  if (width * height != points) {
+    throw Error(path + ": malformed PCD header: WIDTH*HEIGHT = " + std::to_string(width * height) + " but POINTS = " +
+                std::to_string(points));
+  }
+  const auto data_start = static_cast<std::uint64_t>(in.tellg());
+  if (data == "binary" && file_size < data_start + points * point_size) {
+    throw Error(path + ": truncated: the header promises " + std::to_string(points) + " points (" +
+                std::to_string(points * point_size) + " bytes) but only " + std::to_string(file_size - data_start) +
+                " bytes follow it");
+  }
+  if (data == "binary_compressed" && points > 0) {
+    std::uint32_t sizes[2] = {0, 0};
+    in.read(reinterpret_cast<char*>(sizes), sizeof(sizes));
+    if (!in || data_start + 8 + sizes[0] > file_size) {
+      throw Error(path + ": truncated: compressed point data ends before the size its header gives");
+    }
+    if (sizes[1] != points * point_size) {
+      throw Error(path + ": corrupt: compressed data unpack to " + std::to_string(sizes[1]) + " bytes, but " +
+                  std::to_string(points) + " points need " + std::to_string(points * point_size));
+    }
+  }
 }
 
 // Reads x y z [r g b] lines; '#' or '//' start a comment; separators: spaces, tabs, commas.
@@ -109,6 +201,35 @@ void WriteXyz(const std::string& path, const PointCloud& cloud, int precision) {
   if (!out) throw Error(path + ": write failed (disk full?)");
 }
 
+// ASCII PLY with full float precision (PCL's ASCII PLY writer prints 6 digits, losing
+// up to 0.005 mm at 2 m).
+void WritePlyAscii(const std::string& path, const PointCloud& cloud, int precision) {
+  std::ofstream out(path);
+  if (!out) throw Error(path + ": cannot be opened for writing");
+  out << "ply\nformat ascii 1.0\ncomment written by hedgefit\nelement vertex " << cloud.size()
+      << "\nproperty float x\nproperty float y\nproperty float z\n";
+  if (cloud.HasColor()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  std::vector<std::pair<std::string, const std::vector<float>*>> extra;
+  for (const auto& [name, values] : cloud.fields) {
+    if (values.empty()) continue;
+    out << "property float " << name << "\n";
+    extra.emplace_back(name, &values);
+  }
+  out << "end_header\n";
+  char buf[64];
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const auto& p = cloud.points_mm[i];
+    out.write(buf, std::snprintf(buf, sizeof(buf), "%.*g %.*g %.*g", precision, p.x(), precision, p.y(), precision, p.z()));
+    if (cloud.HasColor()) {
+      out.write(buf, std::snprintf(buf, sizeof(buf), " %d %d %d", cloud.colors[i][0], cloud.colors[i][1], cloud.colors[i][2]));
+    }
+    for (const auto& e : extra) out.write(buf, std::snprintf(buf, sizeof(buf), " %.*g", precision, (*e.second)[i]));
+    out.put('\n');
+  }
+  out.flush();
+  if (!out) throw Error(path + ": write failed (disk full?)");
+}
+
 }  // namespace
 
 void ReadOptions::Check() const {
@@ -146,6 +267,7 @@ PointCloud ReadCloud(const std::string& path, const ReadOptions& options, CloudF
       int version = 0;
       int status = 0;
       if (format == CloudFormat::kPcd) {
+        CheckPcdHeader(path);
         pcl::PCDReader reader;
         int data_type = 0;
         unsigned int data_idx = 0;
@@ -236,8 +358,12 @@ void WriteCloud(const std::string& path, const PointCloud& cloud, const WriteOpt
             break;
         }
       } else {
-        pcl::PLYWriter writer;
-        status = writer.write(tmp.string(), blob, origin, orientation, options.ply_binary, false);
+        if (options.ply_binary) {
+          pcl::PLYWriter writer;
+          status = writer.writeBinary(tmp.string(), blob, origin, orientation, false);
+        } else {
+          WritePlyAscii(tmp.string(), cloud, options.ascii_precision);  // PCL's prints 6 digits
+        }
       }
     }
   } catch (const std::exception& e) {

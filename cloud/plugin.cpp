@@ -77,9 +77,14 @@ PluginReport LoadPlugin(Registry& registry, const std::string& path) {
   Registry scratch;
   try {
     info->register_stages(&scratch);
+    for (const auto& d : scratch.stages()) {
+      if (const StageDescriptor* existing = registry.Find(d.info.name)) {
+        throw Error("stage '" + d.info.name + "' is already registered by " + existing->origin +
+                    "; rename the plugin's stage");
+      }
+    }
     for (const auto& d : scratch.stages()) registry.Add(d.info, d.make, path);
   } catch (const std::exception& e) {
-    // Stages added before the failure stay valid: their code stays loaded.
     report.message = std::string("registration failed: ") + e.what();
     return report;
   }

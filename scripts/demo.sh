@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Command 1: install dependencies, build hedgefit (Release), run the main job on the
+# bundled sample data.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j2 --target hedgefit
+mkdir -p build/demo
+echo "== hedgefit info sample_clouds/scene_ground_z2300.pcd"
+./build/apps/hedgefit info sample_clouds/scene_ground_z2300.pcd
+echo "== hedgefit pipeline examples/clean.json --metadata build/demo/metadata.json"
+./build/apps/hedgefit pipeline examples/clean.json --metadata build/demo/metadata.json
+echo "== wrote build/demo/cleaned.pcd and build/demo/metadata.json"

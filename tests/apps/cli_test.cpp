@@ -1,0 +1,145 @@
+// The hedgefit executable end to end: every bad input gives one line on stderr naming
+// the file, stage or option, and the documented exit code; good runs produce output.
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "cloud/cloud_io.hpp"
+#include "tests/test_data.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Runs hedgefit with `args` (shell words) from `cwd`, with an optional environment prefix.
+Result RunHedgefit(const std::string& args, const fs::path& cwd, const std::string& env = "") {
+  const fs::path out = cwd / "stdout.txt", err = cwd / "stderr.txt";
+  const std::string cmd = "cd '" + cwd.string() + "' && " + env + " '" + HEDGEFIT_EXE + "' " + args + " >'" +
+                          out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  Result r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = Slurp(out);
+  r.err = Slurp(err);
+  fs::remove(out);
+  fs::remove(err);
+  return r;
+}
+
+void ExpectOneLineError(const Result& r, int code, const std::string& fragment) {
+  EXPECT_EQ(r.code, code) << r.err;
+  EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "expected one line: " << r.err;
+  EXPECT_EQ(r.err.rfind("hedgefit: ", 0), 0u) << r.err;
+}
+
+hedgefit::cloud::PointCloud SmallCloud() {
+  hedgefit::cloud::PointCloud c;
+  for (int i = 0; i < 30; ++i)
+    for (int j = 0; j < 30; ++j) c.points_mm.emplace_back(float(i), float(j), 2000.f + float((i * j) % 3));
+  c.points_mm.emplace_back(900.f, 900.f, 900.f);
+  c.Flatten();
+  return c;
+}
+
+TEST(Cli, InfoReportsTheCloud) {
+  const fs::path dir = hedgefit::testing::ScratchDir();
+  hedgefit::cloud::WriteCloud((dir / "c.pcd").string(), SmallCloud());
+  const Result text = RunHedgefit("info c.pcd", dir);
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("points      901 (unorganised)"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("units       mm"), std::string::npos) << text.out;
+  const Result js = RunHedgefit("info --json c.pcd", dir);
+  ASSERT_EQ(js.code, 0) << js.err;
+  const auto j = nlohmann::json::parse(js.out);
+  EXPECT_EQ(j["points"], 901);
+  EXPECT_EQ(j["nonfinite"], 0);
+  EXPECT_EQ(j["bounds"]["max"][2], 2002.0);
+}
+
+TEST(Cli, PipelineRunsWithOverridesAndMetadata) {
+  const fs::path dir = hedgefit::testing::ScratchDir();
+  hedgefit::cloud::WriteCloud((dir / "c.pcd").string(), SmallCloud());
+  std::ofstream(dir / "p.json") << R"(["c.pcd", {"type": "filters.statistical_outlier", "tag": "sor"}, "out.pcd"])";
+  const Result r = RunHedgefit("pipeline p.json --set sor.mean_k=6 --metadata meta.json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("sor"), std::string::npos);
+  EXPECT_EQ(hedgefit::cloud::ReadCloud((dir / "out.pcd").string()).size(), 900u);
+  const auto meta = nlohmann::json::parse(Slurp(dir / "meta.json"));
+  EXPECT_EQ(meta["pipeline"][1]["mean_k"], 6);
+  EXPECT_EQ(meta["pipeline"][1]["tag"], "sor");
+}
+
+TEST(Cli, BadInputsGiveOneLineAndExitCodeOne) {
+  const fs::path dir = hedgefit::testing::ScratchDir();
+  hedgefit::cloud::WriteCloud((dir / "c.pcd").string(), SmallCloud());
+  fs::create_directories(dir / "d.pcd");
+  std::ofstream(dir / "trunc.pcd") << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 5\n"
+                                       "HEIGHT 1\nPOINTS 5\nDATA binary\nabc";
+  std::ofstream(dir / "empty.ply") << "";
+  std::ofstream(dir / "bad.json") << "[\"c.pcd\", {\"type\": ";
+  std::ofstream(dir / "unknown.json") << R"(["c.pcd", {"type": "filters.radius_outlier", "radious": 5}])";
+  std::ofstream(dir / "stage.json") << R"(["c.pcd", {"type": "filters.voxelgrid"}])";
+  std::ofstream(dir / "typed.json") << R"(["c.pcd", {"type": "filters.voxel_grid", "leaf": "big"}])";
+
+  ExpectOneLineError(RunHedgefit("info missing.pcd", dir), 1, "missing.pcd: no such file");
+  ExpectOneLineError(RunHedgefit("info d.pcd", dir), 1, "d.pcd: is a directory");
+  ExpectOneLineError(RunHedgefit("info trunc.pcd", dir), 1, "trunc.pcd");
+  ExpectOneLineError(RunHedgefit("info empty.ply", dir), 1, "empty.ply: is empty");
+  ExpectOneLineError(RunHedgefit("pipeline bad.json", dir), 1, "bad.json: invalid JSON");
+  ExpectOneLineError(RunHedgefit("pipeline unknown.json", dir), 1, "unknown option 'radious' (did you mean 'radius'?)");
+  ExpectOneLineError(RunHedgefit("pipeline stage.json", dir), 1, "unknown stage 'filters.voxelgrid' (did you mean 'filters.voxel_grid'?)");
+  ExpectOneLineError(RunHedgefit("pipeline typed.json", dir), 1, "option 'leaf': expected number, got string \"big\"");
+  ExpectOneLineError(RunHedgefit("pipeline nothere.json", dir), 1, "nothere.json: no such pipeline file");
+  ExpectOneLineError(RunHedgefit("pipeline d.pcd", dir), 1, "d.pcd: is a directory");
+  ExpectOneLineError(RunHedgefit("frobnicate", dir), 1, "hedgefit --help");
+  ExpectOneLineError(RunHedgefit("info", dir), 1, "FILE is required");
+}
+
+TEST(Cli, PluginsListsStagesAndReportsBrokenPlugins) {
+  const fs::path dir = hedgefit::testing::ScratchDir();
+  const std::string plugins = HEDGEFIT_TEST_PLUGIN_DIR;
+  const std::string env = "HEDGEFIT_PLUGIN_PATH='" + plugins + "/decimate:" + plugins + "/missing_entry:" + plugins +
+                          "/wrong_abi'";
+  const Result r = RunHedgefit("plugins --json", dir, env);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  bool found_decimate = false, found_sor = false;
+  for (const auto& s : j["stages"]) {
+    if (s["name"] == "filters.decimate") found_decimate = true;
+    if (s["name"] == "filters.statistical_outlier") {
+      found_sor = true;
+      EXPECT_EQ(s["options"][0]["name"], "mean_k");
+      EXPECT_EQ(s["options"][0]["default"], 50);
+      EXPECT_EQ(s["options"][0]["unit"], "points");
+    }
+  }
+  EXPECT_TRUE(found_decimate);
+  EXPECT_TRUE(found_sor);
+  int loaded = 0, skipped = 0;
+  for (const auto& p : j["plugins"]) (p["loaded"].get<bool>() ? loaded : skipped)++;
+  EXPECT_EQ(loaded, 1);
+  EXPECT_EQ(skipped, 2);
+  const Result text = RunHedgefit("plugins", dir, env);
+  EXPECT_NE(text.out.find("skipped  " + plugins + "/wrong_abi/wrong_abi.so: plugin ABI version"), std::string::npos)
+      << text.out;
+}
+
+}  // namespace
