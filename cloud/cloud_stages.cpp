@@ -2,6 +2,7 @@
 // declared options to the free functions in cloud_io.hpp and filters.hpp.
 
 #include <cmath>
+#include <filesystem>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/filters.hpp"
@@ -51,13 +52,24 @@ void AddWriter(Registry& r, const std::string& name, const std::string& what, st
   StageInfo info{name, "Writes the 'cloud' artifact as " + what + " (atomically: temporary file, then rename)",
                  {StringOption("filename", "", "file to write")}, {"cloud"}, {}, exts};
   for (auto& e : extra) info.options.push_back(std::move(e));
-  r.Add(info, MakeFactory([name, to_write_options](const Options& o, Context& ctx) {
-    if (o.GetString("filename").empty()) throw Error("stage '" + name + "', option 'filename': give the file to write");
+  const StageFactory run = MakeFactory([to_write_options](const Options& o, Context& ctx) {
     const PointCloud& cloud = ctx.Get<PointCloud>("cloud");
     WriteCloud(o.GetString("filename"), cloud, to_write_options(o));
     ctx.Note("points", static_cast<std::int64_t>(cloud.size()));
     ctx.Note("filename", o.GetString("filename"));
-  }));
+  });
+  // Checked when the pipeline is built, so a bad output path fails before any work is done.
+  r.Add(info, [name, run](const Options& o) {
+    const std::string& file = o.GetString("filename");
+    if (file.empty()) throw Error("stage '" + name + "', option 'filename': give the file to write");
+    const std::filesystem::path dir = std::filesystem::path(file).parent_path();
+    std::error_code ec;
+    if (!dir.empty() && !std::filesystem::is_directory(dir, ec)) {
+      throw Error("stage '" + name + "', option 'filename': directory '" + dir.string() +
+                  "' does not exist; create it first");
+    }
+    return run(o);
+  });
 }
 
 }  // namespace
@@ -95,7 +107,6 @@ void RegisterCloudStages(Registry& r) {
           PointCloud& cloud = ctx.Get<PointCloud>("cloud");
           const bool was_organized = cloud.IsOrganized();
           FilterResult res = RemoveNonFinite(cloud);
-          NoteFilter(ctx, res);
           ctx.Note("dropped", static_cast<std::int64_t>(res.nonfinite));
           if (was_organized && res.nonfinite) ctx.Note("organization", std::string("lost (dropping points unorganises)"));
           cloud = std::move(res.cloud);
