@@ -119,7 +119,9 @@ Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& sou
       throw Error(where + ": must be a file name or an object with \"type\"");
     }
     if (p.type.empty()) {
-      const bool writer = seen_non_reader;
+      // PDAL's rule: a filename is a writer after any non-reader stage, or as the last of
+      // several stages (so ["in.pcd", "out.ply"] converts).
+      const bool writer = seen_non_reader || (i + 1 == doc.size() && i > 0);
       const StageDescriptor* d = registry.ForExtension(filename, writer);
       if (d == nullptr) {
         throw Error(where + ": no " + std::string(writer ? "writer" : "reader") + " for '" + filename +

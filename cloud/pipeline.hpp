@@ -1,7 +1,7 @@
 #pragma once
 /// Pipelines in JSON, PDAL-style: an array of stages (or {"pipeline": [...]}).
-/// A bare filename is a reader (before any other stage) or a writer (after),
-/// chosen by extension; an object has "type", an optional "tag", and options.
+/// A bare filename is a reader, or a writer when it follows a non-reader stage or
+/// ends a pipeline of several; the extension picks which; an object has "type", an optional "tag", and options.
 /// Everything is validated when the pipeline is built, before anything runs.
 
 #include <memory>

@@ -63,6 +63,8 @@ struct RoundTripCase {
   bool exact;
 };
 
+void PrintTo(const RoundTripCase& c, std::ostream* os) { *os << c.extension; }
+
 class RoundTrip : public ::testing::TestWithParam<RoundTripCase> {};
 
 TEST_P(RoundTrip, PointsAndColourSurvive) {

@@ -74,6 +74,10 @@ struct SorCase {
   int threads;
 };
 
+void PrintTo(const SorCase& c, std::ostream* os) {
+  *os << "k" << c.mean_k << "_mul" << c.stddev_mul << "_threads" << c.threads;
+}
+
 class StatisticalVsPcl : public ::testing::TestWithParam<SorCase> {};
 
 TEST_P(StatisticalVsPcl, SameKeptSetOnSyntheticCloud) {

@@ -79,6 +79,8 @@ TEST(Pipeline, BareFilenamesChooseReaderThenWriter) {
   EXPECT_EQ(p.stages()[1].type, "readers.xyz");
   EXPECT_EQ(p.stages()[3].type, "writers.pcd");
   EXPECT_EQ(p.stages()[3].options.GetString("filename"), "c.pcd");
+  const Pipeline convert = Pipeline::FromJson("[\"a.ply\", \"b.pcd\"]", "p", Registry::Global());
+  EXPECT_EQ(convert.stages()[1].type, "writers.pcd");
 }
 
 TEST(Pipeline, RunsEndToEndAndWritesMetadata) {
