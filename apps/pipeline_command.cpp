@@ -15,7 +15,7 @@ void AddPipelineCommand(CLI::App& app, CommandFn* run) {
       "Examples:\n"
       "  hedgefit pipeline examples/clean.json\n"
       "  hedgefit pipeline examples/clean.json --set filters.statistical_outlier.mean_k=30 --metadata run.json\n"
-      "Stages and their options: hedgefit plugins");
+      "Stages and their options: hedgefit plugins\n");
   struct Args {
     std::string file;
     std::vector<std::string> sets;

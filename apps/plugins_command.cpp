@@ -16,7 +16,7 @@ void AddPluginsCommand(CLI::App& app, CommandFn* run) {
   cmd->footer(
       "Examples:\n"
       "  hedgefit plugins\n"
-      "  HEDGEFIT_PLUGIN_PATH=build/tests/plugins hedgefit plugins --json");
+      "  HEDGEFIT_PLUGIN_PATH=build/tests/plugins/decimate hedgefit plugins --json\n");
   auto as_json = std::make_shared<bool>(false);
   cmd->add_flag("--json", *as_json, "print JSON instead of text");
   cmd->callback([=]() {

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Installs hedgefit into a scratch prefix, builds the example out-of-tree plugin against
+# it with find_package(hedgefit), and checks the installed hedgefit loads that plugin.
+set -euo pipefail
+build_dir=$1
+source_dir=$2
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+cmake --install "$build_dir" --prefix "$scratch/prefix" > /dev/null
+cmake -S "$source_dir/examples/plugin_decimate" -B "$scratch/plugin" -DCMAKE_PREFIX_PATH="$scratch/prefix" \
+  -DCMAKE_BUILD_TYPE=Release > /dev/null
+cmake --build "$scratch/plugin" > /dev/null
+out=$(HEDGEFIT_PLUGIN_PATH="$scratch/plugin" "$scratch/prefix/bin/hedgefit" plugins)
+echo "$out" | grep -q "^loaded   $scratch/plugin/libhedgefit_decimate.so (decimate 1.0): filters.decimate" || {
+  echo "installed hedgefit did not load the plugin built with find_package(hedgefit):"; echo "$out" | tail -5; exit 1; }
+echo "install + find_package(hedgefit) + plugin load: ok"
