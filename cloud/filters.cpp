@@ -46,29 +46,13 @@ void StatisticalOutlierOptions::Check() const {
 }
 
 std::vector<float> MeanNeighbourDistances(const PointCloud& cloud, int mean_k, int num_threads) {
-  std::vector<float> distances(cloud.size(), 0.0f);
-  const internal::FiniteIndex index(cloud);
-  const auto& finite = index.finite();
-  const std::size_t k = static_cast<std::size_t>(mean_k) + 1;  // the query point comes back first
-  internal::ParallelFor(finite.size(), num_threads, [&](std::size_t begin, std::size_t end) {
-    std::vector<std::uint32_t> idx(k);
-    std::vector<float> sq(k);
-    for (std::size_t j = begin; j < end; ++j) {
-      const std::uint32_t i = finite[j];
-      const std::size_t found = index.Knn(cloud.points_mm[i].data(), k, idx.data(), sq.data());
-      // PCL divides by mean_k even when fewer neighbours exist; do the same.
-      double sum = 0.0;
-      for (std::size_t n = 1; n < found; ++n) sum += std::sqrt(static_cast<double>(sq[n]));
-      distances[i] = static_cast<float>(sum / mean_k);
-    }
-  });
-  return distances;
+  return internal::GridMeanKnnDistances(cloud, mean_k, num_threads);
 }
 
 std::vector<bool> StatisticalInliers(const PointCloud& cloud, const StatisticalOutlierOptions& options,
                                      double* threshold) {
   options.Check();
-  const std::vector<float> distances = internal::GridMeanKnnDistances(cloud, options.mean_k, options.num_threads);
+  const std::vector<float> distances = MeanNeighbourDistances(cloud, options.mean_k, options.num_threads);
   // Mean and sample standard deviation exactly as PCL accumulates them (float squares, double sums).
   double sum = 0, sq_sum = 0;
   std::size_t valid = 0;

@@ -1,6 +1,6 @@
 #pragma once
-// Exact nearest-neighbour search over the finite points of a cloud (nanoflann
-// k-d tree), plus a parallel-for over index ranges. Private to cloud/.
+// Exact radius counting over the finite points of a cloud (nanoflann k-d tree),
+// plus a parallel-for over index ranges. Private to cloud/.
 
 #include <nanoflann.hpp>
 
@@ -49,14 +49,6 @@ class FiniteIndex {
 
   /// Cloud index of the i-th finite point.
   const std::vector<std::uint32_t>& finite() const { return finite_; }
-
-  /// k nearest squared distances (ascending) to `query`, including the point itself.
-  std::size_t Knn(const float* query, std::size_t k, std::uint32_t* idx, float* sq_dist) const {
-    nanoflann::KNNResultSet<float, std::uint32_t> rs(k);
-    rs.init(idx, sq_dist);
-    tree_->findNeighbors(rs, query, nanoflann::SearchParams(0, 0, true));
-    return rs.size();
-  }
 
   /// Number of points strictly within sqrt(sq_radius), including the query point, up to `cap`.
   std::size_t CountWithin(const float* query, float sq_radius, std::size_t cap) const {

@@ -9,16 +9,22 @@
 #include <random>
 #include <thread>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 namespace hedgefit::cloud::internal {
 
 namespace {
+
+bool g_force_portable = false;
 
 // Median distance to the k-th neighbour, from a random subset rescaled to the full
 // density. Only speed depends on this estimate, never the result.
 double EstimateKthDistance(const std::vector<Eigen::Vector3f>& pts, std::size_t k) {
   const std::size_t n = pts.size();
-  const std::size_t subset = std::min<std::size_t>(n, 20000);
-  const std::size_t queries = std::min<std::size_t>(n, 64);
+  const std::size_t subset = std::min<std::size_t>(n, 8000);
+  const std::size_t queries = std::min<std::size_t>(n, 32);
   std::mt19937 rng(12345);  // fixed, so the grid (and so the timing) does not vary run to run
   std::uniform_int_distribution<std::size_t> pick(0, n - 1);
   std::vector<Eigen::Vector3f> sub(subset);
@@ -38,7 +44,158 @@ double EstimateKthDistance(const std::vector<Eigen::Vector3f>& pts, std::size_t 
   return radii[radii.size() / 2];
 }
 
+// The two inner loops of every query, in a portable version and an AVX-512 one picked
+// at run time. Both compute each squared distance with the same float operations in the
+// same order as FLANN's and nanoflann's L2 (no FMA), so distances match PCL's bit for bit.
+
+// Appends to near[count...] the squared distances <= limit from q to points [b, e);
+// returns the new count. near needs 16 floats of slack past the last value it keeps.
+std::size_t ScanPortable(const float* xs, const float* ys, const float* zs, std::size_t b, std::size_t e, float qx,
+                         float qy, float qz, float limit, float* near, std::size_t count) {
+  for (std::size_t j = b; j < e; ++j) {
+    const float ex = qx - xs[j], ey = qy - ys[j], ez = qz - zs[j];
+    float acc = ex * ex;
+    acc += ey * ey;
+    acc += ez * ez;
+    near[count] = acc;
+    count += acc <= limit ? 1 : 0;  // branch-free compaction
+  }
+  return count;
+}
+
+// Sums sqrt of the values <= sure (into *sum, counting them in *in) and copies the others
+// to ring (16 floats of slack needed); returns how many were copied. near is unchanged.
+std::size_t SplitPortable(const float* near, std::size_t count, float sure, double* sum, std::size_t* in,
+                          float* ring_out) {
+  double s = 0.0;
+  std::size_t ring = 0, n_in = 0;
+  for (std::size_t j = 0; j < count; ++j) {
+    const float v = near[j];
+    if (v <= sure) {
+      s += std::sqrt(static_cast<double>(v));
+      ++n_in;
+    } else {
+      ring_out[ring++] = v;
+    }
+  }
+  *sum = s;
+  *in = n_in;
+  return ring;
+}
+
+// The 10 compare-exchange layers of a 16-lane bitonic sort: each lane's partner, and
+// which lanes keep the larger value.
+struct BitonicNetwork {
+  std::array<std::array<std::int32_t, 16>, 10> partner{};
+  std::array<std::uint16_t, 10> take_max{};
+};
+
+const BitonicNetwork& Bitonic16() {
+  static const BitonicNetwork net = [] {
+    BitonicNetwork b;
+    std::size_t l = 0;
+    for (int k = 2; k <= 16; k *= 2) {
+      for (int j = k / 2; j >= 1; j /= 2, ++l) {
+        for (int i = 0; i < 16; ++i) {
+          const int p = i ^ j;
+          b.partner[l][static_cast<std::size_t>(i)] = p;
+          const bool ascending = (i & k) == 0;
+          if (ascending != (i < p)) b.take_max[l] = static_cast<std::uint16_t>(b.take_max[l] | (1u << i));
+        }
+      }
+    }
+    return b;
+  }();
+  return net;
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define HEDGEFIT_HAVE_AVX512_KERNELS 1
+// GCC 12 reports its own intrinsics' deliberately undefined lanes as "maybe uninitialized".
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+__attribute__((target("avx512f"))) std::size_t ScanAvx512(const float* xs, const float* ys, const float* zs,
+                                                         std::size_t b, std::size_t e, float qx, float qy, float qz,
+                                                         float limit, float* near, std::size_t count) {
+  const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz);
+  const __m512 vl = _mm512_set1_ps(limit);
+  for (std::size_t j = b; j < e; j += 16) {
+    const __mmask16 valid = e - j >= 16 ? __mmask16(0xffff) : __mmask16((1u << (e - j)) - 1);
+    const __m512 ex = _mm512_sub_ps(vx, _mm512_maskz_loadu_ps(valid, xs + j));
+    const __m512 ey = _mm512_sub_ps(vy, _mm512_maskz_loadu_ps(valid, ys + j));
+    const __m512 ez = _mm512_sub_ps(vz, _mm512_maskz_loadu_ps(valid, zs + j));
+    __m512 acc = _mm512_mul_ps(ex, ex);
+    acc = _mm512_add_ps(acc, _mm512_mul_ps(ey, ey));
+    acc = _mm512_add_ps(acc, _mm512_mul_ps(ez, ez));
+    const __mmask16 keep = _mm512_mask_cmp_ps_mask(valid, acc, vl, _CMP_LE_OQ);
+    // Compress in a register, then a plain store: compress-to-memory is slow on some CPUs.
+    _mm512_storeu_ps(near + count, _mm512_maskz_compress_ps(keep, acc));
+    count += static_cast<std::size_t>(__builtin_popcount(keep));
+  }
+  return count;
+}
+
+__attribute__((target("avx512f"))) std::size_t SplitAvx512(const float* near, std::size_t count, float sure,
+                                                          double* sum, std::size_t* in, float* ring_out) {
+  const __m512 vs = _mm512_set1_ps(sure);
+  __m512d acc_lo = _mm512_setzero_pd(), acc_hi = _mm512_setzero_pd();
+  std::size_t ring = 0, n_in = 0;
+  for (std::size_t j = 0; j < count; j += 16) {
+    const __mmask16 valid = count - j >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - j)) - 1);
+    const __m512 v = _mm512_maskz_loadu_ps(valid, near + j);
+    const __mmask16 le = _mm512_mask_cmp_ps_mask(valid, v, vs, _CMP_LE_OQ);
+    const __mmask16 gt = valid & static_cast<__mmask16>(~le);
+    const __m512d d_lo = _mm512_cvtps_pd(_mm512_castps512_ps256(v));
+    const __m512d d_hi = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
+    acc_lo = _mm512_mask_add_pd(acc_lo, static_cast<__mmask8>(le & 0xff), acc_lo, _mm512_sqrt_pd(d_lo));
+    acc_hi = _mm512_mask_add_pd(acc_hi, static_cast<__mmask8>(le >> 8), acc_hi, _mm512_sqrt_pd(d_hi));
+    n_in += static_cast<std::size_t>(__builtin_popcount(le));
+    _mm512_storeu_ps(ring_out + ring, _mm512_maskz_compress_ps(gt, v));
+    ring += static_cast<std::size_t>(__builtin_popcount(gt));
+  }
+  *sum = _mm512_reduce_add_pd(acc_lo) + _mm512_reduce_add_pd(acc_hi);
+  *in = n_in;
+  return ring;
+}
+
+// Sorts up to 16 floats ascending with a bitonic network in one register.
+__attribute__((target("avx512f"))) void Sort16Avx512(float* v, std::size_t n) {
+  const BitonicNetwork& net = Bitonic16();
+  const __mmask16 valid = static_cast<__mmask16>((1u << n) - 1);
+  __m512 x = _mm512_mask_loadu_ps(_mm512_set1_ps(std::numeric_limits<float>::infinity()), valid, v);
+  for (std::size_t l = 0; l < net.partner.size(); ++l) {
+    const __m512 y = _mm512_permutexvar_ps(_mm512_loadu_si512(net.partner[l].data()), x);
+    x = _mm512_mask_blend_ps(net.take_max[l], _mm512_min_ps(x, y), _mm512_max_ps(x, y));
+  }
+  _mm512_mask_storeu_ps(v, valid, x);
+}
+#pragma GCC diagnostic pop
+#endif
+
+void SortPortable(float* v, std::size_t n) { std::sort(v, v + n); }
+
+struct Kernels {
+  decltype(&ScanPortable) scan = &ScanPortable;
+  decltype(&SplitPortable) split = &SplitPortable;
+  decltype(&SortPortable) sort16 = &SortPortable;  ///< sorts at most 16 values
+};
+
+Kernels PickKernels() {
+  Kernels k;
+#ifdef HEDGEFIT_HAVE_AVX512_KERNELS
+  if (!g_force_portable && __builtin_cpu_supports("avx512f")) {
+    k.scan = &ScanAvx512;
+    k.split = &SplitAvx512;
+    k.sort16 = &Sort16Avx512;
+  }
+#endif
+  return k;
+}
+
 }  // namespace
+
+void ForcePortableKnn(bool portable) { g_force_portable = portable; }
 
 std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int num_threads) {
   std::vector<float> out(cloud.size(), 0.0f);
@@ -62,7 +219,7 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
   const Eigen::Vector3d extent = hi - lo;
   const double diag = extent.norm();
   const double rho0 = n > k ? EstimateKthDistance(finite_pts, k) : diag;
-  // Cells of 1.5 typical k-th distances (fastest on real stereo clouds: larger cells make
+  // Cells of 1.5 typical k-th distances (fastest on real stereo clouds: larger cells let
   // consecutive queries share boxes); coarser if the (y, z) row table would be too big.
   constexpr double kMaxRows = double(1 << 24);
   double h = std::max(rho0 * 1.5, diag * 1e-6);
@@ -105,9 +262,10 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
 
   std::atomic<std::size_t> next{0};
   constexpr std::size_t kChunk = 2048;
+  const Kernels kernels = PickKernels();
   auto worker = [&]() {
-    std::vector<float> near(n);
-    std::vector<float> scratch;
+    std::vector<float> near(n + 16);  // slack for the vector kernels' full-width stores
+    std::vector<float> ring(n + 16);
     std::vector<std::pair<std::ptrdiff_t, std::ptrdiff_t>> ranges;
     std::array<std::uint32_t, 6> cached_box{1, 0, 1, 0, 1, 0};  // empty
     float guess = static_cast<float>(rho0 * rho0);  // k-th squared distance of the previous query
@@ -118,7 +276,7 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
       for (std::size_t s = first; s < last; ++s) {
         const float qx = xs[s], qy = ys[s], qz = zs[s];
         // Neighbouring queries have similar k-th distances: start just above the previous one.
-        double rho2 = std::max(double(guess) * 1.15, 1e-30);
+        double rho2 = std::max(double(guess) * 1.12, 1e-30);
         std::size_t count = 0;
         for (;;) {
           // Every point within sqrt(rho2) of q lies in this box of cells (slightly padded
@@ -146,25 +304,8 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
           }
           count = 0;
           for (const auto& [b, e] : ranges) {
-            const std::size_t len = static_cast<std::size_t>(e - b);
-            if (scratch.size() < len) scratch.resize(len);
-            float* dd = scratch.data();
-            const float* px = xs.data() + b;
-            const float* py = ys.data() + b;
-            const float* pz = zs.data() + b;
-            // Same float operations, in the same order, as FLANN's and nanoflann's L2, so every
-            // distance matches PCL's bit for bit; a separate loop so it vectorises.
-            for (std::size_t j = 0; j < len; ++j) {
-              const float ex = qx - px[j], ey = qy - py[j], ez = qz - pz[j];
-              float acc = ex * ex;
-              acc += ey * ey;
-              acc += ez * ez;
-              dd[j] = acc;
-            }
-            for (std::size_t j = 0; j < len; ++j) {  // branch-free compaction
-              near[count] = dd[j];
-              count += dd[j] <= limit ? 1 : 0;
-            }
+            count = kernels.scan(xs.data(), ys.data(), zs.data(), static_cast<std::size_t>(b), static_cast<std::size_t>(e),
+                                 qx, qy, qz, limit, near.data(), count);
           }
           const bool whole_grid = x0 == 0 && y0 == 0 && z0 == 0 && x1 == nx - 1 && y1 == ny - 1 && z1 == nz - 1;
           if (count >= k || (whole_grid && rho2 >= diag * diag)) break;
@@ -175,38 +316,22 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
         // Sum of sqrt over the kk smallest squared distances. The query itself is among
         // them at distance 0 and adds nothing, as in PCL. Values clearly below the previous
         // k-th distance are certainly in; only the few near it need ordering.
-        const float sure = guess * 0.8f;
+        const float sure = guess * 0.88f;
         double sum = 0.0;
         std::size_t in = 0;
-        std::size_t ring_size = 0;
-        for (std::size_t j = 0; j < count; ++j) {
-          const float v = near[j];
-          if (v <= sure) {
-            sum += std::sqrt(static_cast<double>(v));
-            ++in;
-          } else {
-            near[ring_size++] = v;  // j >= ring_size: never overwrites an unread value
-          }
-        }
+        const std::size_t ring_size = kernels.split(near.data(), count, sure, &sum, &in, ring.data());
         float kth;
         if (in <= kk) {
           const std::size_t need = kk - in;  // ring_size >= need since count >= kk
-          float* ring = near.data();
-          std::sort(ring, ring + ring_size);
-          for (std::size_t j = 0; j < need; ++j) sum += std::sqrt(static_cast<double>(ring[j]));
-          kth = need > 0 ? ring[need - 1] : sure;
-        } else {  // the guess was too high: select among everything again
-          count = 0;
-          for (const auto& [b, e] : ranges) {
-            for (std::ptrdiff_t j = b; j < e; ++j) {
-              const float ex = qx - xs[j], ey = qy - ys[j], ez = qz - zs[j];
-              float acc = ex * ex;
-              acc += ey * ey;
-              acc += ez * ez;
-              near[count] = acc;
-              count += acc <= sure ? 1 : 0;
-            }
+          if (ring_size <= 16) {
+            kernels.sort16(ring.data(), ring_size);
+          } else {
+            std::nth_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(need),
+                             ring.begin() + static_cast<std::ptrdiff_t>(ring_size));
           }
+          for (std::size_t j = 0; j < need; ++j) sum += std::sqrt(static_cast<double>(ring[j]));
+          kth = need > 0 ? *std::max_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(need)) : sure;
+        } else {  // the neighbourhood got denser than the guess: select among all of near
           std::nth_element(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(kk - 1),
                            near.begin() + static_cast<std::ptrdiff_t>(count));
           sum = 0.0;

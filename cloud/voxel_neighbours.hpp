@@ -19,4 +19,7 @@ namespace hedgefit::cloud::internal {
 /// (0 for non-finite ones), as PCL's StatisticalOutlierRemoval computes it.
 std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int num_threads);
 
+/// Tests only: use the portable inner loops even where AVX-512 is available.
+void ForcePortableKnn(bool portable);
+
 }  // namespace hedgefit::cloud::internal

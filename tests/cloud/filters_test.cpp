@@ -13,6 +13,7 @@
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "cloud/pcl_adapter.hpp"
+#include "cloud/voxel_neighbours.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::cloud {
@@ -100,6 +101,19 @@ TEST_P(StatisticalVsPcl, SameKeptSetOnSyntheticCloud) {
 INSTANTIATE_TEST_SUITE_P(Parameters, StatisticalVsPcl,
                          ::testing::Values(SorCase{1, 1.0, 1}, SorCase{8, 0.5, 2}, SorCase{50, 1.0, 0},
                                            SorCase{50, 2.0, 1}, SorCase{200, 1.0, 2}));
+
+// The portable inner loops (used where the CPU lacks AVX-512) decide the same as PCL too.
+TEST(Statistical, PortableKernelsMatchPcl) {
+  QuietPcl();
+  const PointCloud cloud = MixedCloud(20000, 17);
+  StatisticalOutlierOptions o;
+  o.mean_k = 30;
+  internal::ForcePortableKnn(true);
+  const std::vector<bool> portable = StatisticalInliers(cloud, o);
+  internal::ForcePortableKnn(false);
+  EXPECT_EQ(FiniteDifferences(cloud, portable, PclSor(cloud, 30, 1.0, false)), 0u);
+  EXPECT_EQ(FiniteDifferences(cloud, portable, StatisticalInliers(cloud, o)), 0u);
+}
 
 TEST(Statistical, CloudSmallerThanKMatchesPcl) {
   QuietPcl();
