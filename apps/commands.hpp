@@ -20,6 +20,7 @@ using CommandFn = std::function<int()>;
 void AddInfoCommand(CLI::App& app, CommandFn* run);
 void AddPipelineCommand(CLI::App& app, CommandFn* run);
 void AddPluginsCommand(CLI::App& app, CommandFn* run);
+void AddCompareCommand(CLI::App& app, CommandFn* run);
 
 /// The global registry with every built-in stage and the plugins on the search path.
 void PrepareRegistry(bool load_plugins);

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   AddInfoCommand(app, &run);
   AddPipelineCommand(app, &run);
   AddPluginsCommand(app, &run);
+  AddCompareCommand(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

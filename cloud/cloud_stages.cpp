@@ -210,9 +210,37 @@ void RegisterCloudStages(Registry& r) {
                     }));
   }
   {
+    const std::string name = "filters.plane_removal";
+    StageInfo info{name, "Removes dominant planes (floor, walls) one by one with RANSAC, so fits see the object",
+                   {DoubleOption("distance_threshold", 20.0, "points this close to a plane are removed", "mm").Min(1e-9),
+                    IntOption("min_inliers", 1000, "stop when the best plane has fewer points", "points").Range(3, 1000000000),
+                    IntOption("max_planes", 5, "planes to remove at most", "planes").Range(1, 1000),
+                    IntOption("max_iterations", 1000, "RANSAC samples per plane", "samples").Range(1, 10000000),
+                    IntOption("seed", -1, "sampler seed; -1 = the pipeline's --seed").Min(-1)},
+                   {"cloud"}, {"cloud"}, {}};
+    r.Add(info, [name](const Options& o) -> std::unique_ptr<Stage> {
+      PlaneRemovalOptions p;
+      p.distance_threshold_mm = o.GetDouble("distance_threshold");
+      p.min_inliers = static_cast<int>(o.GetInt("min_inliers"));
+      p.max_planes = static_cast<int>(o.GetInt("max_planes"));
+      p.max_iterations = static_cast<int>(o.GetInt("max_iterations"));
+      p = Checked(p, name);
+      const std::int64_t seed = o.GetInt("seed");
+      return std::make_unique<LambdaStage>(o, [p, seed](const Options&, Context& ctx) {
+        PlaneRemovalOptions run = p;
+        run.seed = seed >= 0 ? static_cast<std::uint64_t>(seed) : ctx.seed;
+        PointCloud& cloud = ctx.Get<PointCloud>("cloud");
+        FilterResult res = RemovePlanes(cloud, run);
+        NoteFilter(ctx, res);
+        ctx.Note("planes", static_cast<std::int64_t>(res.threshold));
+        cloud = std::move(res.cloud);
+      });
+    });
+  }
+  {
     const std::string name = "filters.pass_through";
-    StageInfo info{name, "Keeps points whose field (x, y, z or an extra field) lies in [min, max]",
-                   {StringOption("field", "z", "field to test: x, y, z or an extra field's name"),
+    StageInfo info{name, "Keeps points whose field (x, y, z, range or an extra field) lies in [min, max]",
+                   {StringOption("field", "z", "field to test: x, y, z, range (distance from the sensor) or an extra field"),
                     DoubleOption("min", -1e30, "inclusive lower limit", "field unit (mm for x y z)"),
                     DoubleOption("max", 1e30, "inclusive upper limit", "field unit (mm for x y z)"),
                     BoolOption("negative", false, "keep the points outside [min, max]"),

@@ -5,7 +5,11 @@
 #include <numeric>
 #include <unordered_map>
 
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
+
 #include "cloud/error.hpp"
+#include "cloud/pcl_adapter.hpp"
 #include "cloud/neighbour_search.hpp"
 #include "cloud/voxel_neighbours.hpp"
 
@@ -214,10 +218,12 @@ FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& opti
   int axis = -1;
   if (options.field == "x" || options.field == "y" || options.field == "z") {
     axis = options.field[0] - 'x';
+  } else if (options.field == "range") {
+    axis = 3;  // distance from the sensor at the origin
   } else {
     auto it = cloud.fields.find(options.field);
     if (it == cloud.fields.end() || it->second.empty()) {
-      std::string have = "x, y, z";
+      std::string have = "x, y, z, range";
       for (const auto& [name, v] : cloud.fields) have += ", " + name;
       throw Error("field: the cloud has no field '" + options.field + "'; it has " + have);
     }
@@ -225,11 +231,71 @@ FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& opti
   }
   std::vector<bool> keep(cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const double v = axis >= 0 ? cloud.points_mm[i][axis] : (*values)[i];
+    const double v = axis == 3 ? double(cloud.points_mm[i].norm()) : axis >= 0 ? cloud.points_mm[i][axis] : (*values)[i];
     const bool inside = v >= options.min && v <= options.max;
     keep[i] = inside != options.negative;
   }
   return Finish(cloud, std::move(keep), options.keep_organized);
+}
+
+void PlaneRemovalOptions::Check() const {
+  if (!(distance_threshold_mm > 0)) throw Error("distance_threshold: must be > 0 mm");
+  if (min_inliers < 3) throw Error("min_inliers: must be >= 3 points");
+  if (max_planes < 1) throw Error("max_planes: must be >= 1");
+  if (max_iterations < 1) throw Error("max_iterations: must be >= 1");
+}
+
+namespace {
+
+// PCL seeds its sampler with a constant; this exposes the seed.
+class SeededPlaneModel : public pcl::SampleConsensusModelPlane<pcl::PointXYZ> {
+ public:
+  SeededPlaneModel(const PointCloudConstPtr& cloud, const pcl::Indices& indices, std::uint64_t seed)
+      : pcl::SampleConsensusModelPlane<pcl::PointXYZ>(cloud, indices, false) {
+    rng_alg_.seed(static_cast<unsigned>(seed ^ (seed >> 32)));
+  }
+};
+
+}  // namespace
+
+FilterResult RemovePlanes(const PointCloud& cloud, const PlaneRemovalOptions& options) {
+  options.Check();
+  QuietPcl();
+  Eigen::Vector3f lo, hi;
+  std::vector<bool> keep(cloud.size(), false);
+  if (!Bounds(cloud, &lo, &hi)) return Finish(cloud, keep, false);
+  // PCL works in float: centre the coordinates first.
+  const Eigen::Vector3f mid = 0.5f * (lo + hi);
+  auto pc = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  pc->resize(cloud.size());
+  pcl::Indices remaining;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f q = cloud.points_mm[i] - mid;
+    (*pc)[i] = pcl::PointXYZ(q.x(), q.y(), q.z());
+    if (IsFinite(cloud.points_mm[i])) {
+      remaining.push_back(static_cast<int>(i));
+      keep[i] = true;
+    }
+  }
+  int planes = 0;
+  for (; planes < options.max_planes && remaining.size() >= static_cast<std::size_t>(options.min_inliers); ++planes) {
+    auto model = std::make_shared<SeededPlaneModel>(pc, remaining, options.seed + static_cast<std::uint64_t>(planes));
+    pcl::RandomSampleConsensus<pcl::PointXYZ> sac(model, options.distance_threshold_mm);
+    sac.setMaxIterations(options.max_iterations);
+    if (!sac.computeModel()) break;
+    pcl::Indices inliers;
+    sac.getInliers(inliers);
+    if (inliers.size() < static_cast<std::size_t>(options.min_inliers)) break;
+    for (int i : inliers) keep[static_cast<std::size_t>(i)] = false;
+    pcl::Indices next;
+    for (int i : remaining) {
+      if (keep[static_cast<std::size_t>(i)]) next.push_back(i);
+    }
+    remaining.swap(next);
+  }
+  FilterResult r = Finish(cloud, std::move(keep), false);
+  r.threshold = planes;
+  return r;
 }
 
 }  // namespace hedgefit::cloud

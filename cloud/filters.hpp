@@ -76,7 +76,7 @@ struct CropBoxOptions {
 FilterResult CropBox(const PointCloud& cloud, const CropBoxOptions& options);
 
 struct PassThroughOptions {
-  std::string field = "z";  ///< x, y, z or an extra field's name
+  std::string field = "z";  ///< x, y, z, range (distance from the origin) or an extra field's name
   double min = -1e30;       ///< inclusive lower limit (field's unit; mm for x y z)
   double max = 1e30;        ///< inclusive upper limit
   bool negative = false;    ///< keep the points outside [min, max]
@@ -86,5 +86,19 @@ struct PassThroughOptions {
 
 /// Keeps points whose `field` lies in [min, max]; throws Error if the field is missing.
 FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& options);
+
+struct PlaneRemovalOptions {
+  double distance_threshold_mm = 20.0;  ///< points this close to a found plane are removed (mm)
+  int min_inliers = 1000;               ///< stop when the best plane has fewer points
+  int max_planes = 5;                   ///< remove at most this many planes
+  int max_iterations = 1000;            ///< RANSAC samples per plane
+  std::uint64_t seed = 42;              ///< RANSAC sampler seed
+  void Check() const;
+};
+
+/// Removes the dominant planes (floor, walls) one after another with PCL's RANSAC on
+/// SACMODEL_PLANE (on centred data), so a sphere fit sees the object, not the room.
+/// `threshold` in the result holds the number of planes removed.
+FilterResult RemovePlanes(const PointCloud& cloud, const PlaneRemovalOptions& options);
 
 }  // namespace hedgefit::cloud

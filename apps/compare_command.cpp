@@ -1,0 +1,355 @@
+// hedgefit compare CLOUD...: clean each cloud, run every fitter, and print one row per
+// method; with ground truth, the paper's AER / RER / LD columns and a summary per method.
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "apps/commands.hpp"
+#include "cloud/cloud_io.hpp"
+#include "cloud/pipeline.hpp"
+#include "fitting/algebraic_fit.hpp"
+#include "fitting/evaluation.hpp"
+#include "fitting/geometric_fit.hpp"
+#include "fitting/ransac_fit.hpp"
+
+namespace hedgefit::apps {
+
+namespace {
+
+using fitting::Sphere;
+using fitting::SphereFitResult;
+using nlohmann::json;
+
+const std::vector<std::string> kAllMethods = {"kasa", "pratt", "taubin", "hyper", "ransac", "geometric",
+                                              "ransac_geometric"};
+
+struct CompareArgs {
+  std::vector<std::string> clouds;
+  std::string truth;
+  std::string pipeline;
+  std::string methods = "all";
+  std::string format = "table";
+  double scale = 1.0;
+  double ransac_threshold_mm = 10.0;
+  double min_radius_mm = 50.0;
+  double max_radius_mm = 5000.0;
+  double sample_radius_mm = 0.0;
+  std::uint64_t seed = 42;
+};
+
+struct CloudReport {
+  std::string file;
+  std::size_t points = 0;
+  std::size_t points_cleaned = 0;
+  std::optional<Sphere> truth;
+  std::vector<SphereFitResult> fits;
+};
+
+std::vector<std::string> ParseMethods(const std::string& text) {
+  if (text == "all") return kAllMethods;
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  for (std::string m; std::getline(ss, m, ',');) {
+    if (std::find(kAllMethods.begin(), kAllMethods.end(), m) == kAllMethods.end()) {
+      const std::string hint = cloud::DidYouMean(m, kAllMethods);
+      throw Error("--methods: unknown method '" + m + "'" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)") +
+                  "; choose from kasa, pratt, taubin, hyper, ransac, geometric, ransac_geometric, or all");
+    }
+    out.push_back(m);
+  }
+  if (out.empty()) throw Error("--methods: name at least one method");
+  return out;
+}
+
+// The cleaning stages as JSON: the user's pipeline file, or NaN removal + statistical outliers.
+json CleaningStages(const CompareArgs& a) {
+  if (a.pipeline.empty()) {
+    return json::array({{{"type", "filters.nonfinite"}},
+                        {{"type", "filters.statistical_outlier"}, {"mean_k", 30}, {"stddev_mul", 1.0}}});
+  }
+  std::ifstream in(a.pipeline);
+  if (!in) throw Error(a.pipeline + ": cannot open the cleaning pipeline; check the path");
+  json j;
+  try {
+    in >> j;
+  } catch (const json::exception&) {
+    throw Error(a.pipeline + ": invalid JSON; give an array of cleaning stages, e.g. [{\"type\": \"filters.voxel_grid\"}]");
+  }
+  if (j.is_object() && j.contains("pipeline")) j = j["pipeline"];
+  if (!j.is_array()) throw Error(a.pipeline + ": a cleaning pipeline is a JSON array of filter stages");
+  for (const auto& s : j) {
+    const bool reader_or_writer =
+        s.is_string() || (s.is_object() && s.contains("type") && s["type"].is_string() &&
+                          (s["type"].get<std::string>().rfind("readers.", 0) == 0 ||
+                           s["type"].get<std::string>().rfind("writers.", 0) == 0));
+    if (reader_or_writer) {
+      throw Error(a.pipeline + ": give filter stages only; compare reads each cloud itself");
+    }
+  }
+  return j;
+}
+
+SphereFitResult RunMethod(const std::string& method, const std::vector<Eigen::Vector3d>& pts, const CompareArgs& a) {
+  using namespace fitting;
+  auto algebraic = [&](AlgebraicMethod m) {
+    AlgebraicFitOptions o;
+    o.method = m;
+    return FitSphereAlgebraic(pts, o);
+  };
+  RansacFitOptions ro;
+  ro.distance_threshold_mm = a.ransac_threshold_mm;
+  ro.min_radius_mm = a.min_radius_mm;
+  ro.max_radius_mm = a.max_radius_mm;
+  ro.seed = a.seed;
+  ro.sample_radius_mm = a.sample_radius_mm;
+  if (method == "kasa") return algebraic(AlgebraicMethod::kKasa);
+  if (method == "pratt") return algebraic(AlgebraicMethod::kPratt);
+  if (method == "taubin") return algebraic(AlgebraicMethod::kTaubin);
+  if (method == "hyper") return algebraic(AlgebraicMethod::kHyper);
+  if (method == "ransac") return FitSphereRansac(pts, ro);
+  if (method == "geometric") return FitSphereGeometric(pts, {});
+  // RANSAC to find the inliers, then the geometric fit on them from RANSAC's sphere.
+  std::vector<std::size_t> inliers;
+  const SphereFitResult coarse = FitSphereRansac(pts, ro, &inliers);
+  SphereFitResult r;
+  if (!coarse.converged) {
+    r = coarse;
+  } else {
+    std::vector<Eigen::Vector3d> in;
+    in.reserve(inliers.size());
+    for (std::size_t i : inliers) in.push_back(pts[i]);
+    r = FitSphereGeometric(in, {}, &coarse.sphere);
+    r.wall_ms += coarse.wall_ms;
+    r.points_used = pts.size();
+  }
+  r.method = "ransac_geometric";
+  return r;
+}
+
+json FitJson(const SphereFitResult& f, const std::optional<Sphere>& truth) {
+  json j;
+  j["method"] = f.method;
+  j["converged"] = f.converged;
+  j["center_mm"] = f.converged ? json::array({f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()})
+                               : json(nullptr);
+  j["radius_mm"] = f.converged ? json(f.sphere.radius_mm) : json(nullptr);
+  j["rms_mm"] = f.converged ? json(f.rms_mm) : json(nullptr);
+  j["inliers"] = f.inliers;
+  j["points_used"] = f.points_used;
+  j["iterations"] = f.iterations;
+  j["wall_ms"] = f.wall_ms;
+  j["std_error_mm"] = f.std_error_mm ? json::array({(*f.std_error_mm)[0], (*f.std_error_mm)[1], (*f.std_error_mm)[2],
+                                                    (*f.std_error_mm)[3]})
+                                     : json(nullptr);
+  j["message"] = f.message;
+  if (truth && f.converged) {
+    const fitting::FitError e = fitting::Evaluate(f.sphere, *truth);
+    j["errors"] = {{"aer_mm", e.aer_mm}, {"rer_percent", e.rer_percent}, {"ld_mm", e.ld_mm}};
+  } else {
+    j["errors"] = nullptr;
+  }
+  return j;
+}
+
+std::string Num(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+}  // namespace
+
+void AddCompareCommand(CLI::App& app, CommandFn* run) {
+  auto* cmd = app.add_subcommand("compare", "Clean clouds, fit spheres with every method, compare (with truth: AER, RER, LD)");
+  cmd->footer(
+      "Examples:\n"
+      "  hedgefit compare sample_clouds/*.pcd\n"
+      "  hedgefit compare scan.pcd --truth scan.truth.json --methods hyper,ransac_geometric --format json\n"
+      "  hedgefit compare ../shared/data/sphere_scans/example2/L1_S1.xyz --scale 1000 --min-radius 250 --max-radius 350\n"
+      "Truth: --truth FILE, or CLOUD.truth.json beside each cloud: {\"center_mm\": [x, y, z], \"radius_mm\": r}.\n");
+  auto a = std::make_shared<CompareArgs>();
+  cmd->add_option("CLOUD", a->clouds, "cloud files (.pcd, .ply, .xyz)")->required();
+  cmd->add_option("--truth", a->truth, "ground-truth JSON for every cloud (default: CLOUD.truth.json if present)");
+  cmd->add_option("--pipeline", a->pipeline, "JSON array of cleaning stages replacing the default (nonfinite + statistical_outlier)");
+  cmd->add_option("--methods", a->methods, "comma-separated: kasa,pratt,taubin,hyper,ransac,geometric,ransac_geometric or all")
+      ->capture_default_str();
+  cmd->add_option("--format", a->format, "table, json or csv")->check(CLI::IsMember({"table", "json", "csv"}))->capture_default_str();
+  cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
+  cmd->add_option("--ransac-threshold", a->ransac_threshold_mm, "RANSAC inlier band, mm")->capture_default_str();
+  cmd->add_option("--min-radius", a->min_radius_mm, "RANSAC radius limit, mm")->capture_default_str();
+  cmd->add_option("--max-radius", a->max_radius_mm, "RANSAC radius limit, mm")->capture_default_str();
+  cmd->add_option("--sample-radius", a->sample_radius_mm,
+                  "RANSAC draws each sample within this distance, mm (0 = anywhere; use ~2 r in large scenes)")
+      ->capture_default_str();
+  cmd->add_option("--seed", a->seed, "RANSAC sampler seed")->capture_default_str();
+  cmd->callback([=]() {
+    *run = [=]() {
+      PrepareRegistry(true);
+      const std::vector<std::string> methods = ParseMethods(a->methods);
+      const json cleaning = CleaningStages(*a);
+      std::optional<Sphere> common_truth;
+      if (!a->truth.empty()) common_truth = fitting::ReadTruthFile(a->truth);
+      // Validate the cleaning pipeline once, before any cloud is read.
+      {
+        json probe = json::array({a->clouds.front()});
+        for (const auto& s : cleaning) probe.push_back(s);
+        cloud::Pipeline::FromJson(probe.dump(), a->pipeline.empty() ? "default cleaning" : a->pipeline,
+                                  cloud::Registry::Global());
+      }
+      std::vector<CloudReport> reports;
+      int failed = 0;
+      for (const std::string& file : a->clouds) {
+        CloudReport rep;
+        rep.file = file;
+        try {
+          json stages = json::array();
+          cloud::ReadOptions ro;
+          ro.scale = a->scale;
+          rep.points = cloud::ReadCloud(file, ro).size();
+          stages.push_back({{"filename", file}, {"scale", a->scale}});
+          for (const auto& s : cleaning) stages.push_back(s);
+          cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "cleaning of " + file, cloud::Registry::Global());
+          cloud::Context ctx;
+          ctx.seed = a->seed;
+          p.Run(ctx);
+          const cloud::PointCloud& cleaned = ctx.Get<cloud::PointCloud>("cloud");
+          std::vector<Eigen::Vector3d> pts;
+          for (const auto& q : cleaned.points_mm) {
+            if (cloud::IsFinite(q)) pts.push_back(q.cast<double>());
+          }
+          rep.points_cleaned = pts.size();
+          if (common_truth) {
+            rep.truth = common_truth;
+          } else if (auto t = fitting::TruthFileFor(file)) {
+            rep.truth = fitting::ReadTruthFile(*t);
+          }
+          for (const auto& m : methods) rep.fits.push_back(RunMethod(m, pts, *a));
+          reports.push_back(std::move(rep));
+        } catch (const Error& e) {
+          std::cerr << "hedgefit: " << e.what() << "; skipped\n";
+          ++failed;
+        }
+      }
+
+      fitting::SummaryBuilder summary;
+      std::size_t with_truth = 0;
+      for (const auto& r : reports) {
+        if (!r.truth) continue;
+        ++with_truth;
+        for (const auto& f : r.fits) summary.Add(f.method, f, *r.truth);
+      }
+      const auto stats = summary.Finish();
+
+      if (a->format == "json") {
+        json out;
+        out["clouds"] = json::array();
+        for (const auto& r : reports) {
+          json c;
+          c["file"] = r.file;
+          c["points"] = r.points;
+          c["points_cleaned"] = r.points_cleaned;
+          c["truth"] = r.truth ? json{{"center_mm", {r.truth->center_mm.x(), r.truth->center_mm.y(), r.truth->center_mm.z()}},
+                                      {"radius_mm", r.truth->radius_mm}}
+                               : json(nullptr);
+          c["fits"] = json::array();
+          for (const auto& f : r.fits) c["fits"].push_back(FitJson(f, r.truth));
+          out["clouds"].push_back(c);
+        }
+        out["summary"] = json::object();
+        for (const auto& m : methods) {
+          auto it = stats.find(m);
+          if (it == stats.end()) continue;
+          const auto& s = it->second;
+          out["summary"][m] = {{"clouds", s.clouds}, {"failures", s.failures}, {"mean_abs_aer_mm", s.mean_abs_aer_mm},
+                               {"max_abs_aer_mm", s.max_abs_aer_mm}, {"mean_rer_percent", s.mean_rer_percent},
+                               {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm},
+                               {"rmse_radius_mm", s.rmse_radius_mm}};
+        }
+        out["paper"] = {{"mean_abs_aer_mm", 1.58}, {"max_abs_aer_mm", 3.00}, {"mean_rer_percent", 0.52},
+                        {"mean_ld_mm", 15.92}, {"max_ld_mm", 19.12}, {"rmse_radius_mm", 1.59}};
+        std::cout << out.dump(2) << "\n";
+      } else if (a->format == "csv") {
+        std::printf("cloud,method,converged,cx_mm,cy_mm,cz_mm,r_mm,rms_mm,inliers,points_used,iterations,wall_ms,"
+                    "se_cx_mm,se_cy_mm,se_cz_mm,se_r_mm,true_r_mm,aer_mm,rer_percent,ld_mm,message\n");
+        for (const auto& r : reports) {
+          for (const auto& f : r.fits) {
+            std::string msg = f.message;
+            std::replace(msg.begin(), msg.end(), '"', '\'');
+            std::printf("%s,%s,%d,", r.file.c_str(), f.method.c_str(), f.converged ? 1 : 0);
+            if (f.converged) {
+              std::printf("%.4f,%.4f,%.4f,%.4f,%.4f,", f.sphere.center_mm.x(), f.sphere.center_mm.y(),
+                          f.sphere.center_mm.z(), f.sphere.radius_mm, f.rms_mm);
+            } else {
+              std::printf(",,,,,");
+            }
+            std::printf("%zu,%zu,%d,%.3f,", f.inliers, f.points_used, f.iterations, f.wall_ms);
+            if (f.std_error_mm) {
+              const auto& e = *f.std_error_mm;
+              std::printf("%.4f,%.4f,%.4f,%.4f,", e[0], e[1], e[2], e[3]);
+            } else {
+              std::printf(",,,,");
+            }
+            if (r.truth && f.converged) {
+              const auto e = fitting::Evaluate(f.sphere, *r.truth);
+              std::printf("%.4f,%.4f,%.4f,%.4f,", r.truth->radius_mm, e.aer_mm, e.rer_percent, e.ld_mm);
+            } else {
+              std::printf(",,,,");
+            }
+            std::printf("\"%s\"\n", msg.c_str());
+          }
+        }
+      } else {
+        for (const auto& r : reports) {
+          std::printf("%s: %zu points, %zu after cleaning", r.file.c_str(), r.points, r.points_cleaned);
+          if (r.truth) {
+            std::printf("; truth r %.2f mm at [%.2f, %.2f, %.2f]", r.truth->radius_mm, r.truth->center_mm.x(),
+                        r.truth->center_mm.y(), r.truth->center_mm.z());
+          }
+          std::printf("\n  %-17s %10s %10s %10s %9s %7s %8s %8s %7s %6s", "method", "cx mm", "cy mm", "cz mm", "r mm",
+                      "rms", "inliers", "ms", "se(c)", "se(r)");
+          if (r.truth) std::printf(" %8s %7s %8s", "AER mm", "RER %", "LD mm");
+          std::printf("\n");
+          for (const auto& f : r.fits) {
+            if (!f.converged) {
+              std::printf("  %-17s failed: %s\n", f.method.c_str(), f.message.c_str());
+              continue;
+            }
+            const std::string se_c = f.std_error_mm ? Num(f.std_error_mm->head<3>().norm(), 2) : "-";
+            const std::string se_r = f.std_error_mm ? Num((*f.std_error_mm)[3], 2) : "-";
+            std::printf("  %-17s %10.2f %10.2f %10.2f %9.2f %7.2f %8zu %8.2f %7s %6s", f.method.c_str(),
+                        f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm,
+                        f.rms_mm, f.inliers, f.wall_ms, se_c.c_str(), se_r.c_str());
+            if (r.truth) {
+              const auto e = fitting::Evaluate(f.sphere, *r.truth);
+              std::printf(" %8.2f %7.2f %8.2f", e.aer_mm, e.rer_percent, e.ld_mm);
+            }
+            std::printf("\n");
+          }
+          std::printf("\n");
+        }
+        if (with_truth > 0) {
+          std::printf("summary over %zu clouds with truth\n  %-17s %11s %11s %10s %9s %9s %9s %6s\n", with_truth,
+                      "method", "mean|AER|", "max|AER|", "mean RER%", "RMSE", "mean LD", "max LD", "fails");
+          for (const auto& m : methods) {
+            auto it = stats.find(m);
+            if (it == stats.end()) continue;
+            const auto& s = it->second;
+            std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f %9.2f %6zu\n", m.c_str(), s.mean_abs_aer_mm,
+                        s.max_abs_aer_mm, s.mean_rer_percent, s.rmse_radius_mm, s.mean_ld_mm, s.max_ld_mm, s.failures);
+          }
+          std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f %9.2f %6s   (Table 2, lab, 2.0-2.6 m)\n", "paper",
+                      1.58, 3.00, 0.52, 1.59, 15.92, 19.12, "-");
+          std::printf("  (mm; AER = measured - true radius, RER = |AER| / true radius, LD = centre distance)\n");
+        }
+      }
+      return failed > 0 ? kExitBadInput : kExitOk;
+    };
+  });
+}
+
+}  // namespace hedgefit::apps

@@ -1,0 +1,91 @@
+#include "fitting/evaluation.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "cloud/error.hpp"
+
+namespace hedgefit::fitting {
+
+Sphere ReadTruthFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": cannot open the truth file; check the path");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception&) {
+    throw Error(path + ": invalid JSON; a truth file is {\"center_mm\": [x, y, z], \"radius_mm\": r}");
+  }
+  const auto bad = [&] {
+    return Error(path + ": needs \"center_mm\": [x, y, z] and \"radius_mm\": r (numbers, mm)");
+  };
+  if (!j.is_object() || !j.contains("center_mm") || !j.contains("radius_mm")) throw bad();
+  const auto& c = j["center_mm"];
+  if (!c.is_array() || c.size() != 3 || !j["radius_mm"].is_number()) throw bad();
+  Sphere s;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!c[k].is_number()) throw bad();
+    s.center_mm[static_cast<Eigen::Index>(k)] = c[k].get<double>();
+  }
+  s.radius_mm = j["radius_mm"].get<double>();
+  if (!(s.radius_mm > 0) || !s.center_mm.allFinite()) throw bad();
+  return s;
+}
+
+std::optional<std::string> TruthFileFor(const std::string& cloud_path) {
+  std::filesystem::path p(cloud_path);
+  p.replace_extension(".truth.json");
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(p, ec)) return p.string();
+  return std::nullopt;
+}
+
+FitError Evaluate(const Sphere& fit, const Sphere& truth) {
+  FitError e;
+  e.aer_mm = fit.radius_mm - truth.radius_mm;
+  e.rer_percent = std::abs(e.aer_mm) / truth.radius_mm * 100.0;
+  e.ld_mm = (fit.center_mm - truth.center_mm).norm();
+  return e;
+}
+
+void SummaryBuilder::Add(const std::string& method, const SphereFitResult& fit, const Sphere& truth) {
+  if (!fit.converged) {
+    ++failures_[method];
+    errors_[method];  // keep the method listed
+    return;
+  }
+  errors_[method].push_back(Evaluate(fit.sphere, truth));
+}
+
+std::map<std::string, MethodSummary> SummaryBuilder::Finish() const {
+  std::map<std::string, MethodSummary> out;
+  for (const auto& [method, errors] : errors_) {
+    MethodSummary s;
+    s.clouds = errors.size();
+    auto f = failures_.find(method);
+    s.failures = f == failures_.end() ? 0 : f->second;
+    double ss = 0;
+    for (const auto& e : errors) {
+      s.mean_abs_aer_mm += std::abs(e.aer_mm);
+      s.max_abs_aer_mm = std::max(s.max_abs_aer_mm, std::abs(e.aer_mm));
+      s.mean_rer_percent += e.rer_percent;
+      s.mean_ld_mm += e.ld_mm;
+      s.max_ld_mm = std::max(s.max_ld_mm, e.ld_mm);
+      ss += e.aer_mm * e.aer_mm;
+    }
+    if (!errors.empty()) {
+      const double n = double(errors.size());
+      s.mean_abs_aer_mm /= n;
+      s.mean_rer_percent /= n;
+      s.mean_ld_mm /= n;
+      s.rmse_radius_mm = std::sqrt(ss / n);
+    }
+    out[method] = s;
+  }
+  return out;
+}
+
+}  // namespace hedgefit::fitting

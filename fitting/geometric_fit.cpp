@@ -1,0 +1,176 @@
+#include "fitting/geometric_fit.hpp"
+
+#include <ceres/ceres.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "cloud/error.hpp"
+
+namespace hedgefit::fitting {
+
+namespace {
+
+// |p - c| - r with its analytic Jacobian: d/dc = -(p - c)^T / |p - c|, d/dr = -1.
+class SphereDistanceCost : public ceres::SizedCostFunction<1, 3, 1> {
+ public:
+  explicit SphereDistanceCost(const Eigen::Vector3d& p) : p_(p) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const Eigen::Map<const Eigen::Vector3d> c(parameters[0]);
+    const Eigen::Vector3d d = p_ - c;
+    const double n = d.norm();
+    residuals[0] = n - parameters[1][0];
+    if (jacobians) {
+      if (jacobians[0]) {
+        const Eigen::Vector3d g = n > 0 ? Eigen::Vector3d(-d / n) : Eigen::Vector3d::Zero();
+        jacobians[0][0] = g.x();
+        jacobians[0][1] = g.y();
+        jacobians[0][2] = g.z();
+      }
+      if (jacobians[1]) jacobians[1][0] = -1.0;
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d p_;
+};
+
+// The same residual for Ceres' automatic differentiation.
+struct SphereDistanceFunctor {
+  explicit SphereDistanceFunctor(const Eigen::Vector3d& p) : p_(p) {}
+  template <class T>
+  bool operator()(const T* c, const T* r, T* residual) const {
+    const T dx = T(p_.x()) - c[0], dy = T(p_.y()) - c[1], dz = T(p_.z()) - c[2];
+    residual[0] = ceres::sqrt(dx * dx + dy * dy + dz * dz) - r[0];
+    return true;
+  }
+  Eigen::Vector3d p_;
+};
+
+ceres::LossFunction* MakeLoss(RobustLoss loss, double scale) {
+  switch (loss) {
+    case RobustLoss::kNone: return nullptr;
+    case RobustLoss::kHuber: return new ceres::HuberLoss(scale);
+    case RobustLoss::kCauchy: return new ceres::CauchyLoss(scale);
+    case RobustLoss::kTukey: return new ceres::TukeyLoss(scale);
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+const char* LossName(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kNone: return "none";
+    case RobustLoss::kHuber: return "huber";
+    case RobustLoss::kCauchy: return "cauchy";
+    case RobustLoss::kTukey: return "tukey";
+  }
+  return "?";
+}
+
+RobustLoss ParseLoss(const std::string& name) {
+  for (RobustLoss l : {RobustLoss::kNone, RobustLoss::kHuber, RobustLoss::kCauchy, RobustLoss::kTukey}) {
+    if (name == LossName(l)) return l;
+  }
+  throw Error("loss: '" + name + "' is not one of none, huber, cauchy, tukey");
+}
+
+void GeometricFitOptions::Check() const {
+  if (!(loss_scale_mm > 0 && std::isfinite(loss_scale_mm))) throw Error("loss_scale: must be > 0 mm");
+  if (max_iterations < 1) throw Error("max_iterations: must be >= 1");
+  if (num_threads < 0) throw Error("num_threads: must be >= 0 (0 = all cores)");
+}
+
+SphereFitResult FitSphereGeometric(const std::vector<Eigen::Vector3d>& points_mm, const GeometricFitOptions& options,
+                                   const Sphere* initial) {
+  options.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); };
+  SphereFitResult r;
+  r.method = "geometric";
+  r.points_used = points_mm.size();
+  if (auto reason = DegeneracyReason(points_mm)) {
+    r.message = *reason;
+    r.wall_ms = elapsed();
+    return r;
+  }
+  Sphere start;
+  if (initial) {
+    start = *initial;
+  } else {
+    AlgebraicFitOptions ao;
+    ao.method = options.initial;
+    const SphereFitResult seed = FitSphereAlgebraic(points_mm, ao);
+    if (!seed.converged) {
+      r.message = "starting " + seed.method + " fit failed: " + seed.message;
+      r.wall_ms = elapsed();
+      return r;
+    }
+    start = seed.sphere;
+  }
+  // Solve for the centre relative to the points' mean: better conditioned far from the origin.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points_mm) mean += p;
+  mean /= double(points_mm.size());
+  double center[3] = {start.center_mm.x() - mean.x(), start.center_mm.y() - mean.y(), start.center_mm.z() - mean.z()};
+  double radius = start.radius_mm;
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  std::unique_ptr<ceres::LossFunction> loss(MakeLoss(options.loss, options.loss_scale_mm));
+  for (const auto& p : points_mm) {
+    const Eigen::Vector3d q = p - mean;
+    ceres::CostFunction* cost = options.analytic_derivatives
+                                    ? static_cast<ceres::CostFunction*>(new SphereDistanceCost(q))
+                                    : new ceres::AutoDiffCostFunction<SphereDistanceFunctor, 1, 3, 1>(
+                                          new SphereDistanceFunctor(q));
+    problem.AddResidualBlock(cost, loss.get(), center, &radius);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = options.max_iterations;
+  so.num_threads = options.num_threads > 0 ? options.num_threads
+                                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-12;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  r.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  r.sphere.center_mm = Eigen::Vector3d(center[0], center[1], center[2]) + mean;
+  r.sphere.radius_mm = std::abs(radius);
+  r.converged = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
+  if (!r.converged) r.message = "Ceres: " + summary.message;
+  r.inliers = points_mm.size();
+  r.rms_mm = RmsResidual(points_mm, r.sphere);
+
+  if (options.compute_covariance && summary.IsSolutionUsable() && points_mm.size() > 4) {
+    ceres::Covariance::Options co;
+    co.num_threads = so.num_threads;
+    ceres::Covariance covariance(co);
+    std::vector<std::pair<const double*, const double*>> blocks = {{center, center}, {center, &radius}, {&radius, &radius}};
+    if (covariance.Compute(blocks, &problem)) {
+      double cc[9], cr[3], rr[1];
+      covariance.GetCovarianceBlock(center, center, cc);
+      covariance.GetCovarianceBlock(center, &radius, cr);
+      covariance.GetCovarianceBlock(&radius, &radius, rr);
+      (void)cr;
+      // Ceres assumes unit-variance residuals; scale by the estimated residual variance.
+      const double dof = double(points_mm.size()) - 4.0;
+      const double sigma2 = 2.0 * summary.final_cost / dof;
+      r.std_error_mm = Eigen::Vector4d(std::sqrt(cc[0] * sigma2), std::sqrt(cc[4] * sigma2), std::sqrt(cc[8] * sigma2),
+                                       std::sqrt(rr[0] * sigma2));
+    } else if (r.message.empty()) {
+      r.message = "covariance is rank deficient; no standard errors";
+    }
+  }
+  r.wall_ms = elapsed();
+  return r;
+}
+
+}  // namespace hedgefit::fitting

@@ -1,0 +1,43 @@
+#pragma once
+/// Spheres, fit results, and the checks every fitter shares. Units are mm.
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace hedgefit::fitting {
+
+struct Sphere {
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();  ///< centre, mm, in the cloud's frame
+  double radius_mm = 0.0;                                ///< radius, mm
+};
+
+/// What a fitter found, and whether it can be trusted. Failing is a result, not an exception.
+struct SphereFitResult {
+  std::string method;           ///< "kasa", "pratt", "taubin", "hyper", "ransac", "geometric"
+  Sphere sphere;                ///< meaningful only when converged
+  bool converged = false;       ///< false: `message` says why
+  double rms_mm = 0.0;          ///< RMS of |p - c| - r over the points used (inliers for RANSAC), mm
+  std::size_t points_used = 0;  ///< points the fit saw
+  std::size_t inliers = 0;      ///< points counted as inliers (all points for non-robust fits)
+  int iterations = 0;           ///< solver iterations (0 for closed-form fits)
+  double wall_ms = 0.0;         ///< time spent in the fitter, ms
+  /// Standard errors of (cx, cy, cz, r), mm, where the method provides them.
+  std::optional<Eigen::Vector4d> std_error_mm;
+  std::string message;          ///< empty, or why the fit failed, or a warning
+};
+
+/// Why a point set cannot determine a sphere, or nullopt if it can: fewer than 4
+/// points, a NaN/Inf coordinate, all points identical, collinear or coplanar.
+/// Coordinates are centred and scaled before the rank test, so the check does not
+/// depend on where the cloud is or its units.
+std::optional<std::string> DegeneracyReason(const std::vector<Eigen::Vector3d>& points_mm);
+
+/// RMS of the geometric residuals |p - c| - r, mm.
+double RmsResidual(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere);
+
+/// Converts float points (a cloud's storage) to double.
+std::vector<Eigen::Vector3d> ToDouble(const std::vector<Eigen::Vector3f>& points_mm);
+
+}  // namespace hedgefit::fitting
