@@ -117,11 +117,21 @@ SphereFitResult FitSphereRansac(const std::vector<Eigen::Vector3d>& points_mm, c
   sac->getInliers(inliers);
   Eigen::VectorXf coeffs;
   sac->getModelCoefficients(coeffs);
-  if (options.optimize && inliers.size() >= 4) {
-    Eigen::VectorXf refined;
-    model->optimizeModelCoefficients(inliers, coeffs, refined);
-    if (refined.size() == 4 && refined.allFinite()) coeffs = refined;
-    model->selectWithinDistance(coeffs, options.distance_threshold_mm, inliers);
+  if (options.optimize) {
+    // PCL refines once, on the consensus set of the best sample. When that sample is off
+    // by more than the band, its set is truncated on one side and the refit inherits the
+    // bias; so refit and reselect until the set stops changing (a few rounds at most).
+    for (int round = 0; round < 10 && inliers.size() >= 4; ++round) {
+      Eigen::VectorXf refined;
+      model->optimizeModelCoefficients(inliers, coeffs, refined);
+      if (refined.size() != 4 || !refined.allFinite()) break;
+      coeffs = refined;
+      pcl::Indices again;
+      model->selectWithinDistance(coeffs, options.distance_threshold_mm, again);
+      const bool stable = again == inliers;
+      inliers.swap(again);
+      if (stable) break;
+    }
   }
   r.sphere.center_mm = coeffs.head<3>().cast<double>() + mean;
   r.sphere.radius_mm = static_cast<double>(coeffs[3]);

@@ -1,0 +1,95 @@
+// hedgefit compare end to end: the JSON and CSV outputs are stable, the truth columns
+// are the paper's statistics, and bad arguments give one line and exit code 1.
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "tests/test_data.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Result RunHedgefit(const std::string& args, const fs::path& scratch) {
+  const std::string cmd = "cd '" + std::string(HEDGEFIT_SOURCE_DIR) + "' && '" + HEDGEFIT_EXE + "' " + args + " >'" +
+                          (scratch / "out").string() + "' 2>'" + (scratch / "err").string() + "'";
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, Slurp(scratch / "out"), Slurp(scratch / "err")};
+}
+
+TEST(Compare, JsonHasEveryMethodAndTheTruthColumns) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const Result r = RunHedgefit(
+      "compare sample_clouds/cap_z2300_a60_o0.pcd sample_clouds/cap_z2600_a60_o10.pcd --format json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["clouds"].size(), 2u);
+  const auto& c = j["clouds"][0];
+  EXPECT_EQ(c["truth"]["radius_mm"], 300.0);
+  ASSERT_EQ(c["fits"].size(), 7u);
+  for (const auto& f : c["fits"]) {
+    ASSERT_TRUE(f["converged"].get<bool>()) << f["method"] << ": " << f["message"];
+    // AER is measured minus true radius, LD the centre distance: recompute them.
+    const double aer = f["radius_mm"].get<double>() - 300.0;
+    EXPECT_NEAR(f["errors"]["aer_mm"].get<double>(), aer, 1e-9);
+    EXPECT_NEAR(f["errors"]["rer_percent"].get<double>(), std::abs(aer) / 3.0, 1e-9);
+    const double dx = f["center_mm"][0].get<double>() - 80, dy = f["center_mm"][1].get<double>() + 40,
+                 dz = f["center_mm"][2].get<double>() - 2300;
+    EXPECT_NEAR(f["errors"]["ld_mm"].get<double>(), std::sqrt(dx * dx + dy * dy + dz * dz), 1e-9);
+    // Sample clouds carry sigma_Z ~ 4 mm at 2.3 m on ~4000 points: every method is within 5 mm.
+    EXPECT_LT(std::abs(aer), 5.0) << f["method"];
+  }
+  EXPECT_EQ(j["summary"]["hyper"]["clouds"], 2);
+  EXPECT_EQ(j["paper"]["mean_ld_mm"], 15.92);
+}
+
+TEST(Compare, CsvAndTableAndMethodSelection) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const Result csv = RunHedgefit("compare sample_clouds/cap_z2000_a60_o10.pcd --methods kasa,hyper --format csv", dir);
+  ASSERT_EQ(csv.code, 0) << csv.err;
+  std::istringstream lines(csv.out);
+  std::string header, row1, row2, extra;
+  std::getline(lines, header);
+  std::getline(lines, row1);
+  std::getline(lines, row2);
+  EXPECT_FALSE(std::getline(lines, extra));
+  EXPECT_EQ(header.rfind("cloud,method,converged,cx_mm,cy_mm,cz_mm,r_mm,rms_mm,", 0), 0u);
+  EXPECT_NE(row1.find(",kasa,1,"), std::string::npos);
+  EXPECT_NE(row2.find(",hyper,1,"), std::string::npos);
+  const Result table = RunHedgefit("compare sample_clouds/cap_z2000_a60_o10.pcd", dir);
+  ASSERT_EQ(table.code, 0);
+  EXPECT_NE(table.out.find("summary over 1 clouds with truth"), std::string::npos);
+  EXPECT_NE(table.out.find("paper"), std::string::npos);
+}
+
+TEST(Compare, BadArgumentsAreOneLine) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  Result r = RunHedgefit("compare sample_clouds/cap_z2000_a60_o10.pcd --methods hyper,kassa", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("unknown method 'kassa' (did you mean 'kasa'?)"), std::string::npos) << r.err;
+  r = RunHedgefit("compare no_such.pcd sample_clouds/cap_z2000_a60_o10.pcd --format csv", dir);
+  EXPECT_EQ(r.code, 1);  // the bad cloud is reported and skipped; the good one still runs
+  EXPECT_NE(r.err.find("no_such.pcd: no such file; check the path; skipped"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("cap_z2000_a60_o10.pcd,hyper,1"), std::string::npos);
+  r = RunHedgefit("compare sample_clouds/cap_z2000_a60_o10.pcd --truth missing.json", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("missing.json: cannot open the truth file"), std::string::npos) << r.err;
+}
+
+}  // namespace

@@ -1,0 +1,118 @@
+// fitters.* stages in a pipeline: fits accumulate in the 'fits' artifact, RANSAC can hand
+// its inliers to a later geometric fit that starts from it, and options are validated.
+
+#include "fitting/fitting_stages.hpp"
+
+#include <gtest/gtest.h>
+
+#include "cloud/cloud_io.hpp"
+#include "cloud/pipeline.hpp"
+#include "fitting/evaluation.hpp"
+#include "tests/fitting/synthetic.hpp"
+#include "tests/test_data.hpp"
+
+namespace hedgefit::fitting {
+namespace {
+
+cloud::Registry& Registry() {
+  static cloud::Registry* r = [] {
+    auto* reg = new cloud::Registry();
+    cloud::RegisterCloudStages(*reg);
+    RegisterFittingStages(*reg);
+    return reg;
+  }();
+  return *r;
+}
+
+TEST(FittingStages, PipelineAccumulatesFits) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  std::mt19937_64 rng(4);
+  auto pts = hedgefit::testing::Cap(Eigen::Vector3d(0, 0, 2300), 300, 60, Eigen::Vector3d(0, 0, -1), 1500, 3.0, rng);
+  hedgefit::testing::AddOutliers(&pts, 0.25, 200, rng);
+  cloud::PointCloud c;
+  for (const auto& p : pts) c.points_mm.push_back(p.cast<float>());
+  c.Flatten();
+  cloud::WriteCloud((dir / "cap.pcd").string(), c);
+  const std::string json = "[\"" + (dir / "cap.pcd").string() + R"(",
+      {"type": "fitters.algebraic"}, {"type": "fitters.hyper"},
+      {"type": "fitters.ransac", "distance_threshold": 9, "min_radius": 100, "max_radius": 1000, "keep_inliers": true},
+      {"type": "fitters.geometric", "initial": "previous"}])";
+  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", Registry());
+  cloud::Context ctx;
+  const cloud::RunReport report = p.Run(ctx);
+  const auto& fits = ctx.Get<std::vector<SphereFitResult>>("fits");
+  ASSERT_EQ(fits.size(), 4u);
+  EXPECT_EQ(fits[0].method, "kasa");
+  EXPECT_EQ(fits[1].method, "hyper");
+  EXPECT_EQ(fits[2].method, "ransac");
+  EXPECT_EQ(fits[3].method, "geometric");
+  // keep_inliers: the geometric fit saw only RANSAC's inliers, and found the sphere
+  // (sigma 3 mm on 1500 points: within 1 mm, see robust_fit_test for the scatter).
+  EXPECT_EQ(fits[3].points_used, fits[2].inliers);
+  EXPECT_EQ(report.stages[3].points_out, static_cast<std::int64_t>(fits[2].inliers));
+  EXPECT_NEAR(fits[3].sphere.radius_mm, 300.0, 1.0);
+  EXPECT_LT(fits[3].sphere.center_mm.norm() - 2300.0, 1.0);
+  // The outliers pull the non-robust Kasa fit far off.
+  EXPECT_GT(std::abs(fits[0].sphere.radius_mm - 300.0), 5.0);
+  EXPECT_TRUE(report.stages[4].notes.count("std_error_mm"));
+}
+
+TEST(FittingStages, OptionsAreValidated) {
+  auto error = [](const std::string& json) {
+    try {
+      cloud::Pipeline::FromJson(json, "p", Registry());
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error(R"(["a.pcd", {"type": "fitters.ransac", "method": "ransak"}])"),
+            "stage 'fitters.ransac', option 'method': 'ransak' is not one of ransac, msac, lmeds, prosac, mlesac "
+            "(did you mean 'ransac'?)");
+  EXPECT_EQ(error(R"(["a.pcd", {"type": "fitters.ransac", "min_radius": 500, "max_radius": 100}])"),
+            "stage 'fitters.ransac', option min_radius/max_radius: need 0 <= min_radius < max_radius (mm)");
+  EXPECT_EQ(error(R"(["a.pcd", {"type": "fitters.geometric", "loss": "l1"}])"),
+            "stage 'fitters.geometric', option 'loss': 'l1' is not one of none, huber, cauchy, tukey");
+}
+
+TEST(FittingStages, PreviousWithoutAnEarlierFitFailsClearly) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  cloud::PointCloud c;
+  std::mt19937_64 rng(1);
+  for (const auto& p : hedgefit::testing::Cap(Eigen::Vector3d(0, 0, 2000), 300, 60, Eigen::Vector3d(0, 0, -1), 100, 1, rng)) {
+    c.points_mm.push_back(p.cast<float>());
+  }
+  c.Flatten();
+  cloud::WriteCloud((dir / "c.pcd").string(), c);
+  cloud::Pipeline p = cloud::Pipeline::FromJson(
+      "[\"" + (dir / "c.pcd").string() + R"(", {"type": "fitters.geometric", "initial": "previous"}])", "p", Registry());
+  cloud::Context ctx;
+  EXPECT_THROW(p.Run(ctx), Error);
+}
+
+TEST(Evaluation, PaperStatistics) {
+  Sphere truth{Eigen::Vector3d(0, 0, 2000), 300};
+  Sphere fit{Eigen::Vector3d(3, 4, 2000), 301.5};
+  const FitError e = Evaluate(fit, truth);
+  EXPECT_DOUBLE_EQ(e.aer_mm, 1.5);
+  EXPECT_DOUBLE_EQ(e.rer_percent, 0.5);
+  EXPECT_DOUBLE_EQ(e.ld_mm, 5.0);
+  SummaryBuilder b;
+  SphereFitResult r1, r2, failed;
+  r1.converged = r2.converged = true;
+  r1.sphere = fit;
+  r2.sphere = Sphere{Eigen::Vector3d(0, 0, 2000), 298.5};
+  b.Add("m", r1, truth);
+  b.Add("m", r2, truth);
+  b.Add("m", failed, truth);
+  const MethodSummary s = b.Finish().at("m");
+  EXPECT_EQ(s.clouds, 2u);
+  EXPECT_EQ(s.failures, 1u);
+  EXPECT_DOUBLE_EQ(s.mean_abs_aer_mm, 1.5);
+  EXPECT_DOUBLE_EQ(s.rmse_radius_mm, 1.5);
+  EXPECT_DOUBLE_EQ(s.mean_ld_mm, 2.5);
+  EXPECT_DOUBLE_EQ(s.max_ld_mm, 5.0);
+}
+
+}  // namespace
+}  // namespace hedgefit::fitting

@@ -1,0 +1,52 @@
+#pragma once
+// Synthetic spheres with exact truth for the fitting tests.
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace hedgefit::testing {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// n points on the cap of half-angle `half_angle_deg` around `axis` (unit), uniform by
+/// area, each moved along its normal by N(0, sigma_mm).
+inline std::vector<Eigen::Vector3d> Cap(const Eigen::Vector3d& center, double radius, double half_angle_deg,
+                                        const Eigen::Vector3d& axis, std::size_t n, double sigma_mm,
+                                        std::mt19937_64& rng) {
+  const Eigen::Quaterniond to_axis = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis.normalized());
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, sigma_mm > 0 ? sigma_mm : 1.0);
+  const double cos_max = std::cos(half_angle_deg * kPi / 180.0);
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double c = cos_max + (1.0 - cos_max) * u(rng);
+    const double s = std::sqrt(std::max(0.0, 1.0 - c * c));
+    const double phi = 2 * kPi * u(rng);
+    const Eigen::Vector3d normal = to_axis * Eigen::Vector3d(s * std::cos(phi), s * std::sin(phi), c);
+    const double e = sigma_mm > 0 ? noise(rng) : 0.0;
+    pts.push_back(center + (radius + e) * normal);
+  }
+  return pts;
+}
+
+/// Appends outliers uniform in the points' bounding box grown by `margin_mm`, so that
+/// they make up `fraction` of the result.
+inline void AddOutliers(std::vector<Eigen::Vector3d>* pts, double fraction, double margin_mm, std::mt19937_64& rng) {
+  Eigen::Vector3d lo = pts->front(), hi = pts->front();
+  for (const auto& p : *pts) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  lo.array() -= margin_mm;
+  hi.array() += margin_mm;
+  const auto count = static_cast<std::size_t>(std::lround(fraction / (1 - fraction) * double(pts->size())));
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (std::size_t i = 0; i < count; ++i) {
+    pts->push_back(lo + (hi - lo).cwiseProduct(Eigen::Vector3d(u(rng), u(rng), u(rng))));
+  }
+}
+
+}  // namespace hedgefit::testing
