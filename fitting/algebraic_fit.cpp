@@ -4,6 +4,8 @@
 #include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
+#include <optional>
+#include <thread>
 
 namespace hedgefit::fitting {
 
@@ -16,35 +18,108 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-Eigen::Vector3d Mean(const std::vector<Eigen::Vector3d>& pts) {
-  Eigen::Vector3d m = Eigen::Vector3d::Zero();
-  for (const auto& p : pts) m += p;
-  return m / double(pts.size());
+// Runs fn(begin, end, slot) on up to two slices of [0, n) (the target machine has two
+// cores) and returns the per-slice results; small inputs stay on one thread.
+template <class Acc, class Fn>
+std::vector<Acc> Slices(std::size_t n, Fn fn) {
+  const std::size_t threads = n >= 200000 ? std::min(2u, std::max(1u, std::thread::hardware_concurrency())) : 1;
+  std::vector<Acc> acc(threads);
+  std::vector<std::thread> pool;
+  const std::size_t chunk = (n + threads - 1) / threads;
+  for (std::size_t t = 1; t < threads; ++t) {
+    pool.emplace_back([&, t] { fn(t * chunk, std::min(n, (t + 1) * chunk), &acc[t]); });
+  }
+  fn(0, std::min(n, chunk), &acc[0]);
+  for (auto& th : pool) th.join();
+  return acc;
+}
+
+// Centred moments of the points, in one pass after the mean: everything the four fits,
+// the degeneracy check and the radius need. q = p - mean, z = |q|^2.
+struct Moments {
+  std::size_t n = 0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d qq = Eigen::Matrix3d::Zero();  // mean(q q^T)
+  Eigen::Vector3d qz = Eigen::Vector3d::Zero();  // mean(q z)
+  double z = 0;                                   // mean(z)
+  double zz = 0;                                  // mean(z^2)
+  bool finite = true;
+};
+
+Moments ComputeMoments(const std::vector<Eigen::Vector3d>& pts) {
+  Moments m;
+  m.n = pts.size();
+  const auto sums = Slices<Eigen::Vector3d>(pts.size(), [&](std::size_t b, std::size_t e, Eigen::Vector3d* out) {
+    Eigen::Vector3d s = Eigen::Vector3d::Zero();
+    for (std::size_t i = b; i < e; ++i) s += pts[i];
+    *out = s;
+  });
+  for (const auto& s : sums) m.mean += s;
+  m.mean /= double(pts.size());
+  if (!m.mean.allFinite()) {
+    m.finite = false;
+    return m;
+  }
+  struct Acc {
+    double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz_ = 0, x3 = 0, y3 = 0, z3 = 0, z = 0, z2 = 0;
+  };
+  const Eigen::Vector3d c = m.mean;
+  const auto accs = Slices<Acc>(pts.size(), [&](std::size_t b, std::size_t e, Acc* out) {
+    Acc a;
+    for (std::size_t i = b; i < e; ++i) {
+      const double x = pts[i].x() - c.x(), y = pts[i].y() - c.y(), w = pts[i].z() - c.z();
+      const double q2 = x * x + y * y + w * w;
+      a.xx += x * x;
+      a.xy += x * y;
+      a.xz += x * w;
+      a.yy += y * y;
+      a.yz += y * w;
+      a.zz_ += w * w;
+      a.x3 += x * q2;
+      a.y3 += y * q2;
+      a.z3 += w * q2;
+      a.z += q2;
+      a.z2 += q2 * q2;
+    }
+    *out = a;
+  });
+  Acc t;
+  for (const auto& a : accs) {
+    t.xx += a.xx, t.xy += a.xy, t.xz += a.xz, t.yy += a.yy, t.yz += a.yz, t.zz_ += a.zz_;
+    t.x3 += a.x3, t.y3 += a.y3, t.z3 += a.z3, t.z += a.z, t.z2 += a.z2;
+  }
+  const double inv = 1.0 / double(pts.size());
+  m.qq << t.xx, t.xy, t.xz, t.xy, t.yy, t.yz, t.xz, t.yz, t.zz_;
+  m.qq *= inv;
+  m.qz = Eigen::Vector3d(t.x3, t.y3, t.z3) * inv;
+  m.z = t.z * inv;
+  m.zz = t.z2 * inv;
+  m.finite = m.qq.allFinite() && m.qz.allFinite() && std::isfinite(m.zz);
+  return m;
+}
+
+// Why the moments cannot determine a sphere (the same rules as DegeneracyReason).
+std::optional<std::string> MomentDegeneracy(const Moments& m) {
+  if (m.n < 4) return "need at least 4 points to fit a sphere, got " + std::to_string(m.n);
+  if (!m.finite) return std::string("points contain NaN or Inf; remove them first (filters.nonfinite)");
+  const double scale = m.qq.trace();
+  if (!(scale > 1e-24 * (m.mean.squaredNorm() + 1.0))) {
+    return std::string("all points coincide; a sphere is not determined");
+  }
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.qq / scale).eigenvalues();
+  if (ev[1] < 1e-12) return std::string("points are collinear; a sphere is not determined");
+  if (ev[0] < 1e-12) return std::string("points are coplanar; a sphere is not determined");
+  return std::nullopt;
 }
 
 // METHOD.md's corrected Kasa equations on centred data q = p - mean (so mean(q) = 0):
 //   Cov(q) c = 1/2 mean(q |q|^2),   r^2 = mean(|q|^2) + |c|^2.
-bool Kasa(const std::vector<Eigen::Vector3d>& pts, Sphere* out) {
-  const Eigen::Vector3d mean = Mean(pts);
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
-  double mean_sq = 0.0;
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = p - mean;
-    const double q2 = q.squaredNorm();
-    cov.noalias() += q * q.transpose();
-    rhs += q * q2;
-    mean_sq += q2;
-  }
-  const double n = double(pts.size());
-  cov /= n;
-  rhs /= 2.0 * n;
-  mean_sq /= n;
-  const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
+bool Kasa(const Moments& m, Sphere* out) {
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(m.qq);
   if (ldlt.info() != Eigen::Success) return false;
-  const Eigen::Vector3d c = ldlt.solve(rhs);
-  out->center_mm = c + mean;
-  out->radius_mm = std::sqrt(mean_sq + c.squaredNorm());
+  const Eigen::Vector3d c = ldlt.solve(0.5 * m.qz);
+  out->center_mm = c + m.mean;
+  out->radius_mm = std::sqrt(m.z + c.squaredNorm());
   return c.allFinite();
 }
 
@@ -69,21 +144,17 @@ Matrix5d Constraint(AlgebraicMethod method) {
 // Minimises a^T M a subject to a^T N a = 1. With M = V L V^T and Y = V L^(1/2) V^T, b = Y a
 // turns it into maximising b^T K b / b^T b, K = Y^-1 N Y^-1 (symmetric): b is K's top
 // eigenvector. Exact data (M singular) give the null vector of M directly.
-bool GeneralisedFit(const std::vector<Eigen::Vector3d>& pts, AlgebraicMethod method, Sphere* out) {
-  const Eigen::Vector3d mean = Mean(pts);
-  double spread = 0.0;
-  for (const auto& p : pts) spread += (p - mean).squaredNorm();
-  const double s = std::sqrt(spread / double(pts.size()));
-  const double inv_s = 1.0 / s;
-  Matrix5d m = Matrix5d::Zero();
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = (p - mean) * inv_s;
-    Vector5d u;
-    u << q.squaredNorm(), q.x(), q.y(), q.z(), 1.0;
-    m.selfadjointView<Eigen::Lower>().rankUpdate(u);
-  }
-  m = m.selfadjointView<Eigen::Lower>();
-  m /= double(pts.size());
+bool GeneralisedFit(const Moments& mo, AlgebraicMethod method, Sphere* out) {
+  // Scale so that mean |q|^2 = 1: M's entries in the scaled frame follow from the moments.
+  const double s = std::sqrt(mo.z);
+  const double s2 = mo.z, s3 = s2 * s, s4 = s2 * s2;
+  Matrix5d m = Matrix5d::Zero();  // mean(u u^T), u = (z, qx, qy, qz, 1) in the scaled frame
+  m(0, 0) = mo.zz / s4;
+  m.block<1, 3>(0, 1) = (mo.qz / s3).transpose();
+  m(0, 4) = mo.z / s2;  // = 1
+  m.block<3, 3>(1, 1) = mo.qq / s2;
+  m(4, 4) = 1.0;
+  m = m.selfadjointView<Eigen::Upper>();
 
   const Eigen::SelfAdjointEigenSolver<Matrix5d> eig(m);
   const Vector5d lambda = eig.eigenvalues();
@@ -94,8 +165,7 @@ bool GeneralisedFit(const std::vector<Eigen::Vector3d>& pts, AlgebraicMethod met
   } else {
     const Vector5d inv_sqrt = lambda.cwiseSqrt().cwiseInverse();
     const Matrix5d y_inv = v * inv_sqrt.asDiagonal() * v.transpose();
-    const Matrix5d n = Constraint(method);
-    const Matrix5d k = y_inv * n * y_inv;
+    const Matrix5d k = y_inv * Constraint(method) * y_inv;
     const Eigen::SelfAdjointEigenSolver<Matrix5d> keig(0.5 * (k + k.transpose()));
     if (!(keig.eigenvalues()[4] > 0)) return false;
     a = y_inv * keig.eigenvectors().col(4);
@@ -107,9 +177,23 @@ bool GeneralisedFit(const std::vector<Eigen::Vector3d>& pts, AlgebraicMethod met
   const Eigen::Vector3d c = -B / (2.0 * A);
   const double r2 = (B.squaredNorm() - 4.0 * A * D) / (4.0 * A * A);
   if (!(r2 > 0)) return false;
-  out->center_mm = c * s + mean;
+  out->center_mm = c * s + mo.mean;
   out->radius_mm = std::sqrt(r2) * s;
   return out->center_mm.allFinite() && std::isfinite(out->radius_mm);
+}
+
+double ParallelRms(const std::vector<Eigen::Vector3d>& pts, const Sphere& sphere) {
+  const auto parts = Slices<double>(pts.size(), [&](std::size_t b, std::size_t e, double* out) {
+    double ss = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      const double r = (pts[i] - sphere.center_mm).norm() - sphere.radius_mm;
+      ss += r * r;
+    }
+    *out = ss;
+  });
+  double ss = 0;
+  for (double p : parts) ss += p;
+  return std::sqrt(ss / double(pts.size()));
 }
 
 }  // namespace
@@ -129,13 +213,21 @@ SphereFitResult FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points_mm
   SphereFitResult r;
   r.method = MethodName(options.method);
   r.points_used = points_mm.size();
-  if (auto reason = DegeneracyReason(points_mm)) {
+  std::optional<std::string> reason;
+  Moments m;
+  if (points_mm.size() < 4) {
+    reason = "need at least 4 points to fit a sphere, got " + std::to_string(points_mm.size());
+  } else {
+    m = ComputeMoments(points_mm);
+    reason = MomentDegeneracy(m);
+  }
+  if (reason) {
     r.message = *reason;
     r.wall_ms = MsSince(t0);
     return r;
   }
-  const bool ok = options.method == AlgebraicMethod::kKasa ? Kasa(points_mm, &r.sphere)
-                                                           : GeneralisedFit(points_mm, options.method, &r.sphere);
+  const bool ok = options.method == AlgebraicMethod::kKasa ? Kasa(m, &r.sphere)
+                                                           : GeneralisedFit(m, options.method, &r.sphere);
   if (!ok) {
     r.message = "the points fit a plane better than any sphere (infinite radius)";
     r.wall_ms = MsSince(t0);
@@ -143,7 +235,7 @@ SphereFitResult FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points_mm
   }
   r.converged = true;
   r.inliers = points_mm.size();
-  r.rms_mm = RmsResidual(points_mm, r.sphere);
+  r.rms_mm = ParallelRms(points_mm, r.sphere);
   r.wall_ms = MsSince(t0);
   return r;
 }

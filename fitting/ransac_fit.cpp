@@ -121,14 +121,17 @@ SphereFitResult FitSphereRansac(const std::vector<Eigen::Vector3d>& points_mm, c
     // PCL refines once, on the consensus set of the best sample. When that sample is off
     // by more than the band, its set is truncated on one side and the refit inherits the
     // bias; so refit and reselect until the set stops changing (a few rounds at most).
-    for (int round = 0; round < 10 && inliers.size() >= 4; ++round) {
+    for (int round = 0; round < 6 && inliers.size() >= 4; ++round) {
       Eigen::VectorXf refined;
       model->optimizeModelCoefficients(inliers, coeffs, refined);
       if (refined.size() != 4 || !refined.allFinite()) break;
       coeffs = refined;
       pcl::Indices again;
       model->selectWithinDistance(coeffs, options.distance_threshold_mm, again);
-      const bool stable = again == inliers;
+      // Stable: the same set, or one that changed by less than 0.1 % (points on the band's edge).
+      const auto change = static_cast<std::size_t>(
+          std::abs(static_cast<long long>(again.size()) - static_cast<long long>(inliers.size())));
+      const bool stable = again == inliers || change * 1000 < inliers.size();
       inliers.swap(again);
       if (stable) break;
     }
