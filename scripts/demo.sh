@@ -12,3 +12,5 @@ echo "== hedgefit info sample_clouds/scene_ground_z2300.pcd"
 echo "== hedgefit pipeline examples/clean.json --metadata build/demo/metadata.json"
 ./build/apps/hedgefit pipeline examples/clean.json --metadata build/demo/metadata.json
 echo "== wrote build/demo/cleaned.pcd and build/demo/metadata.json"
+echo "== hedgefit compare sample_clouds/*.pcd"
+./build/apps/hedgefit compare sample_clouds/*.pcd
