@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/bench_util.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
@@ -46,17 +47,6 @@ std::vector<Eigen::Vector3d> MakeCloud(std::size_t n, std::uint64_t seed) {
   return pts;
 }
 
-double MedianMs(int repeats, const std::function<void()>& fn) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    fn();
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -78,7 +68,7 @@ int main(int argc, char** argv) {
     const auto pts = MakeCloud(n, 1);
     auto row = [&](const std::string& name, const std::function<double()>& fit) {
       double radius = 0;
-      const double ms = MedianMs(repeats, [&] { radius = fit(); });
+      const double ms = hedgefit::bench::MedianMs(repeats, [&] { radius = fit(); });
       std::printf("%-34s %10zu %12.2f %12.2f %12.3f\n", name.c_str(), n, ms, ms / (double(n) / 1e6), radius - 300.0);
     };
     for (AlgebraicMethod m :

@@ -15,24 +15,13 @@
 #include <thread>
 #include <vector>
 
+#include "bench/bench_util.hpp"
 #include "cloud/cloud_io.hpp"
 #include "cloud/filters.hpp"
 #include "cloud/pcl_adapter.hpp"
 #include "cloud/voxel_neighbours.hpp"
 
 namespace {
-
-template <class Fn>
-double MedianMs(int repeats, Fn fn) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    fn();
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
-}
 
 }  // namespace
 
@@ -81,18 +70,18 @@ int main(int argc, char** argv) {
   std::vector<bool> ours, ours_1t, ours_portable;
   if (only_hedgefit) {
     opt.num_threads = 1;
-    const double ms = MedianMs(repeats, [&] { ours = StatisticalInliers(cloud, opt); });
+    const double ms = hedgefit::bench::MedianMs(repeats, [&] { ours = StatisticalInliers(cloud, opt); });
     std::printf("hedgefit StatisticalInliers (1 thread): %.1f ms\n", ms);
     return 0;
   }
-  const double pcl_org_ms = MedianMs(repeats, [&] { kept_org = run_pcl(pcl_organised); });
-  const double pcl_flat_ms = MedianMs(repeats, [&] { kept_flat = run_pcl(pcl_flat); });
-  const double ours_ms = MedianMs(repeats, [&] { ours = StatisticalInliers(cloud, opt); });
+  const double pcl_org_ms = hedgefit::bench::MedianMs(repeats, [&] { kept_org = run_pcl(pcl_organised); });
+  const double pcl_flat_ms = hedgefit::bench::MedianMs(repeats, [&] { kept_flat = run_pcl(pcl_flat); });
+  const double ours_ms = hedgefit::bench::MedianMs(repeats, [&] { ours = StatisticalInliers(cloud, opt); });
   opt.num_threads = 1;
-  const double ours_1t_ms = MedianMs(repeats, [&] { ours_1t = StatisticalInliers(cloud, opt); });
+  const double ours_1t_ms = hedgefit::bench::MedianMs(repeats, [&] { ours_1t = StatisticalInliers(cloud, opt); });
   opt.num_threads = 0;
   hedgefit::cloud::internal::ForcePortableKnn(true);  // what a CPU without AVX-512 runs
-  const double portable_ms = MedianMs(repeats, [&] { ours_portable = StatisticalInliers(cloud, opt); });
+  const double portable_ms = hedgefit::bench::MedianMs(repeats, [&] { ours_portable = StatisticalInliers(cloud, opt); });
   hedgefit::cloud::internal::ForcePortableKnn(false);
 
   // Decisions that differ from PCL's (organised run), on finite points: PCL keeps

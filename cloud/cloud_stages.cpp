@@ -18,17 +18,6 @@ void NoteFilter(Context& ctx, const FilterResult& r) {
   if (r.nonfinite) ctx.Note("nonfinite", static_cast<std::int64_t>(r.nonfinite));
 }
 
-// Reruns a Check() so its message gains the stage name.
-template <class T>
-T Checked(T params, const std::string& stage) {
-  try {
-    params.Check();
-  } catch (const Error& e) {
-    throw Error("stage '" + stage + "', option " + e.what());
-  }
-  return params;
-}
-
 void AddReader(Registry& r, const std::string& name, const std::string& what, std::vector<std::string> exts) {
   StageInfo info{name, "Reads a " + what + " file into the 'cloud' artifact (units mm; scale converts)", {}, {}, {"cloud"}, exts};
   info.options = {StringOption("filename", "", "file to read"),
@@ -129,7 +118,7 @@ void RegisterCloudStages(Registry& r) {
                       p.stddev_mul = o.GetDouble("stddev_mul");
                       p.num_threads = static_cast<int>(o.GetInt("threads"));
                       p.keep_organized = o.GetBool("keep_organized");
-                      return Checked(p, name);
+                      return CheckedParams(p, name);
                     },
                     [](const StatisticalOutlierOptions& p, Context& ctx) {
                       PointCloud& cloud = ctx.Get<PointCloud>("cloud");
@@ -154,7 +143,7 @@ void RegisterCloudStages(Registry& r) {
                       p.min_neighbours = static_cast<int>(o.GetInt("min_neighbours"));
                       p.num_threads = static_cast<int>(o.GetInt("threads"));
                       p.keep_organized = o.GetBool("keep_organized");
-                      return Checked(p, name);
+                      return CheckedParams(p, name);
                     },
                     [](const RadiusOutlierOptions& p, Context& ctx) {
                       PointCloud& cloud = ctx.Get<PointCloud>("cloud");
@@ -174,7 +163,7 @@ void RegisterCloudStages(Registry& r) {
                       VoxelGridOptions p;
                       p.leaf_mm = o.GetDouble("leaf");
                       p.min_points_per_voxel = static_cast<int>(o.GetInt("min_points_per_voxel"));
-                      return Checked(p, name);
+                      return CheckedParams(p, name);
                     },
                     [](const VoxelGridOptions& p, Context& ctx) {
                       PointCloud& cloud = ctx.Get<PointCloud>("cloud");
@@ -200,7 +189,7 @@ void RegisterCloudStages(Registry& r) {
                       p.max_mm = Eigen::Vector3d(hi[0], hi[1], hi[2]).cast<float>();
                       p.negative = o.GetBool("negative");
                       p.keep_organized = o.GetBool("keep_organized");
-                      return Checked(p, name);
+                      return CheckedParams(p, name);
                     },
                     [](const CropBoxOptions& p, Context& ctx) {
                       PointCloud& cloud = ctx.Get<PointCloud>("cloud");
@@ -224,7 +213,7 @@ void RegisterCloudStages(Registry& r) {
       p.min_inliers = static_cast<int>(o.GetInt("min_inliers"));
       p.max_planes = static_cast<int>(o.GetInt("max_planes"));
       p.max_iterations = static_cast<int>(o.GetInt("max_iterations"));
-      p = Checked(p, name);
+      p = CheckedParams(p, name);
       const std::int64_t seed = o.GetInt("seed");
       return std::make_unique<LambdaStage>(o, [p, seed](const Options&, Context& ctx) {
         PlaneRemovalOptions run = p;
@@ -254,7 +243,7 @@ void RegisterCloudStages(Registry& r) {
                       p.max = o.GetDouble("max");
                       p.negative = o.GetBool("negative");
                       p.keep_organized = o.GetBool("keep_organized");
-                      return Checked(p, name);
+                      return CheckedParams(p, name);
                     },
                     [name](const PassThroughOptions& p, Context& ctx) {
                       PointCloud& cloud = ctx.Get<PointCloud>("cloud");

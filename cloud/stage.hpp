@@ -157,6 +157,18 @@ class LambdaStage : public Stage {
   Fn fn_;
 };
 
+/// Calls params.Check() and prefixes its error with the stage name, so a message such as
+/// "mean_k: must be >= 1" becomes "stage 'filters.x', option mean_k: must be >= 1".
+template <class Params>
+Params CheckedParams(Params params, const std::string& stage) {
+  try {
+    params.Check();
+  } catch (const Error& e) {
+    throw Error("stage '" + stage + "', option " + e.what());
+  }
+  return params;
+}
+
 /// A factory for a LambdaStage around `fn`.
 StageFactory MakeFactory(LambdaStage::Fn fn);
 

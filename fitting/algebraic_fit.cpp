@@ -98,20 +98,6 @@ Moments ComputeMoments(const std::vector<Eigen::Vector3d>& pts) {
   return m;
 }
 
-// Why the moments cannot determine a sphere (the same rules as DegeneracyReason).
-std::optional<std::string> MomentDegeneracy(const Moments& m) {
-  if (m.n < 4) return "need at least 4 points to fit a sphere, got " + std::to_string(m.n);
-  if (!m.finite) return std::string("points contain NaN or Inf; remove them first (filters.nonfinite)");
-  const double scale = m.qq.trace();
-  if (!(scale > 1e-24 * (m.mean.squaredNorm() + 1.0))) {
-    return std::string("all points coincide; a sphere is not determined");
-  }
-  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.qq / scale).eigenvalues();
-  if (ev[1] < 1e-12) return std::string("points are collinear; a sphere is not determined");
-  if (ev[0] < 1e-12) return std::string("points are coplanar; a sphere is not determined");
-  return std::nullopt;
-}
-
 // METHOD.md's corrected Kasa equations on centred data q = p - mean (so mean(q) = 0):
 //   Cov(q) c = 1/2 mean(q |q|^2),   r^2 = mean(|q|^2) + |c|^2.
 bool Kasa(const Moments& m, Sphere* out) {
@@ -219,7 +205,7 @@ SphereFitResult FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points_mm
     reason = "need at least 4 points to fit a sphere, got " + std::to_string(points_mm.size());
   } else {
     m = ComputeMoments(points_mm);
-    reason = MomentDegeneracy(m);
+    reason = DegeneracyFromMoments(m.n, m.finite, m.mean, m.qq);
   }
   if (reason) {
     r.message = *reason;

@@ -47,16 +47,6 @@ void Record(Context& ctx, const SphereFitResult& r) {
   }
 }
 
-template <class T>
-T Checked(T params, const std::string& stage) {
-  try {
-    params.Check();
-  } catch (const Error& e) {
-    throw Error("stage '" + stage + "', option " + e.what());
-  }
-  return params;
-}
-
 void AddAlgebraic(cloud::Registry& r, const std::string& name, AlgebraicMethod method, const std::string& what) {
   r.Add(cloud::StageInfo{name, what, {}, {"cloud"}, {"fits"}, {}},
         cloud::MakeFactory([method](const Options&, Context& ctx) {
@@ -103,7 +93,7 @@ void RegisterFittingStages(cloud::Registry& r) {
       p.max_radius_mm = o.GetDouble("max_radius");
       p.optimize = o.GetBool("optimize");
       p.sample_radius_mm = o.GetDouble("sample_radius");
-      p = Checked(p, name);
+      p = CheckedParams(p, name);
       const std::int64_t seed = o.GetInt("seed");
       const bool keep = o.GetBool("keep_inliers");
       return std::make_unique<LambdaStage>(o, [p, seed, keep](const Options&, Context& ctx) {
@@ -158,7 +148,7 @@ void RegisterFittingStages(cloud::Registry& r) {
       p.analytic_derivatives = o.GetString("derivatives") == "analytic";
       p.max_iterations = static_cast<int>(o.GetInt("max_iterations"));
       p.compute_covariance = o.GetBool("covariance");
-      p = Checked(p, name);
+      p = CheckedParams(p, name);
       return std::make_unique<LambdaStage>(o, [p, from_previous, name](const Options&, Context& ctx) {
         const Sphere* start = nullptr;
         Sphere previous;

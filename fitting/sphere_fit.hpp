@@ -34,6 +34,11 @@ struct SphereFitResult {
 /// depend on where the cloud is or its units.
 std::optional<std::string> DegeneracyReason(const std::vector<Eigen::Vector3d>& points_mm);
 
+/// The same rules from summary statistics: point count, whether all were finite, their
+/// mean and covariance (mean of (p - mean)(p - mean)^T).
+std::optional<std::string> DegeneracyFromMoments(std::size_t n, bool finite, const Eigen::Vector3d& mean,
+                                                 const Eigen::Matrix3d& covariance);
+
 /// RMS of the geometric residuals |p - c| - r, mm.
 double RmsResidual(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere);
 
