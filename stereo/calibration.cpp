@@ -1,0 +1,187 @@
+#include "stereo/calibration.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "cloud/error.hpp"
+
+namespace hedgefit::stereo {
+
+void CalibrationOptions::Check() const {
+  if (board.inner_corners.width < 2 || board.inner_corners.height < 2) {
+    throw Error("board: needs at least 2 x 2 inner corners, e.g. 9x6");
+  }
+  if (!(board.square_mm > 0)) throw Error("square: must be > 0");
+  if (!(alpha == -1 || (alpha >= 0 && alpha <= 1))) throw Error("alpha: must be -1 (default) or in [0, 1]");
+  if (reject_factor < 0) throw Error("reject_factor: must be >= 0 (0 keeps every pair)");
+  if (min_pairs < 1) throw Error("min_pairs: must be >= 1");
+}
+
+std::vector<cv::Point3f> BoardCorners(const BoardSpec& board) {
+  std::vector<cv::Point3f> pts;
+  for (int r = 0; r < board.inner_corners.height; ++r) {
+    for (int c = 0; c < board.inner_corners.width; ++c) {
+      pts.emplace_back(static_cast<float>(c * board.square_mm), static_cast<float>(r * board.square_mm), 0.f);
+    }
+  }
+  return pts;
+}
+
+namespace {
+
+bool FindCorners(const cv::Mat& grey, const cv::Size& pattern, std::vector<cv::Point2f>* corners) {
+  // The classic detector with sub-pixel refinement is the most accurate on sharp boards;
+  // the sector-based detector finds boards the classic one misses.
+  if (cv::findChessboardCorners(grey, pattern, *corners,
+                                cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+    // The refinement window must stay inside one square around each corner, or it
+    // converges on a neighbour's edges: half the smallest corner spacing, at most 11 px.
+    double spacing = 1e9;
+    for (int r = 0; r < pattern.height; ++r) {
+      for (int c = 0; c + 1 < pattern.width; ++c) {
+        const auto& a = (*corners)[std::size_t(r * pattern.width + c)];
+        const auto& b = (*corners)[std::size_t(r * pattern.width + c + 1)];
+        spacing = std::min(spacing, double(std::hypot(a.x - b.x, a.y - b.y)));
+      }
+    }
+    const int win = std::clamp(static_cast<int>(spacing * 0.5) - 1, 2, 11);
+    cv::cornerSubPix(grey, *corners, cv::Size(win, win), cv::Size(-1, -1),
+                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
+    return true;
+  }
+  return cv::findChessboardCornersSB(grey, pattern, *corners, cv::CALIB_CB_ACCURACY | cv::CALIB_CB_NORMALIZE_IMAGE);
+}
+
+}  // namespace
+
+std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, std::string>>& pairs,
+                                      const BoardSpec& board, cv::Size* image_size) {
+  std::vector<PairCorners> out;
+  *image_size = cv::Size();
+  for (const auto& [left, right] : pairs) {
+    PairCorners pc;
+    pc.left = left;
+    pc.right = right;
+    const cv::Mat l = cv::imread(left, cv::IMREAD_GRAYSCALE), r = cv::imread(right, cv::IMREAD_GRAYSCALE);
+    if (l.empty()) {
+      pc.status = "cannot read left image " + left;
+    } else if (r.empty()) {
+      pc.status = "cannot read right image " + right;
+    } else if (l.size() != r.size()) {
+      pc.status = "left is " + std::to_string(l.cols) + "x" + std::to_string(l.rows) + " but right is " +
+                  std::to_string(r.cols) + "x" + std::to_string(r.rows);
+    } else if (!image_size->empty() && l.size() != *image_size) {
+      pc.status = "images are " + std::to_string(l.cols) + "x" + std::to_string(l.rows) + ", the first pair's are " +
+                  std::to_string(image_size->width) + "x" + std::to_string(image_size->height);
+    } else {
+      if (image_size->empty()) *image_size = l.size();
+      const bool found_l = FindCorners(l, board.inner_corners, &pc.left_px);
+      const bool found_r = found_l && FindCorners(r, board.inner_corners, &pc.right_px);
+      if (!found_l || !found_r) {
+        pc.status = std::string("board (") + std::to_string(board.inner_corners.width) + "x" +
+                    std::to_string(board.inner_corners.height) + " inner corners) not found in " +
+                    (found_l ? "right" : "left") + " image";
+        pc.left_px.clear();
+        pc.right_px.clear();
+      }
+    }
+    out.push_back(std::move(pc));
+  }
+  return out;
+}
+
+StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size image_size,
+                               const CalibrationOptions& options) {
+  options.Check();
+  StereoRig rig;
+  rig.image_size = image_size;
+  for (const auto& p : pairs) {
+    PairReport rep;
+    rep.left = p.left;
+    rep.right = p.right;
+    rep.status = p.status.empty() ? "used" : p.status;
+    rep.used = p.status.empty() && !p.left_px.empty();
+    rig.pairs.push_back(rep);
+  }
+  int flags = 0;
+  switch (options.model) {
+    case DistortionModel::kK1K2P1P2: flags |= cv::CALIB_FIX_K3; break;
+    case DistortionModel::kK1K2P1P2K3: break;
+    case DistortionModel::kRational: flags |= cv::CALIB_RATIONAL_MODEL; break;
+  }
+  if (options.fix_principal_point) flags |= cv::CALIB_FIX_PRINCIPAL_POINT;
+  if (options.fix_aspect_ratio) flags |= cv::CALIB_FIX_ASPECT_RATIO;
+  const std::vector<cv::Point3f> board = BoardCorners(options.board);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
+
+  for (int round = 0;; ++round) {
+    std::vector<std::vector<cv::Point3f>> object;
+    std::vector<std::vector<cv::Point2f>> left, right;
+    std::vector<std::size_t> index;
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      if (!rig.pairs[i].used) continue;
+      object.push_back(board);
+      left.push_back(pairs[i].left_px);
+      right.push_back(pairs[i].right_px);
+      index.push_back(i);
+    }
+    if (static_cast<int>(object.size()) < options.min_pairs) {
+      throw Error("only " + std::to_string(object.size()) + " of " + std::to_string(pairs.size()) +
+                  " pairs are usable (need " + std::to_string(options.min_pairs) +
+                  "); check --board (inner corners, e.g. 9x6) and the images");
+    }
+    // Zhang's method per camera (fx = fy fixed at 1 ratio only when asked).
+    cv::Mat K1 = cv::Mat::eye(3, 3, CV_64F), K2 = cv::Mat::eye(3, 3, CV_64F), D1, D2;
+    std::vector<cv::Mat> rv, tv;
+    rig.rms_left_px = cv::calibrateCamera(object, left, image_size, K1, D1, rv, tv, flags, criteria);
+    rig.rms_right_px = cv::calibrateCamera(object, right, image_size, K2, D2, rv, tv, flags, criteria);
+    // Joint stereo refinement; per-view errors come back with it.
+    int stereo_flags = flags | (options.refine_intrinsics ? cv::CALIB_USE_INTRINSIC_GUESS : cv::CALIB_FIX_INTRINSIC);
+    cv::Mat R, T, E, F, per_view;
+    rig.rms_stereo_px = cv::stereoCalibrate(object, left, right, K1, D1, K2, D2, image_size, R, T, E, F, per_view,
+                                            stereo_flags, criteria);
+    rig.K1 = K1;
+    rig.D1 = D1;
+    rig.K2 = K2;
+    rig.D2 = D2;
+    rig.R = R;
+    rig.T = T;
+    rig.E = E;
+    rig.F = F;
+    std::vector<double> worst(index.size());
+    for (std::size_t k = 0; k < index.size(); ++k) {
+      PairReport& rep = rig.pairs[index[k]];
+      rep.rms_left_px = per_view.at<double>(static_cast<int>(k), 0);
+      rep.rms_right_px = per_view.at<double>(static_cast<int>(k), 1);
+      rep.rms_stereo_px = std::sqrt(0.5 * (rep.rms_left_px * rep.rms_left_px + rep.rms_right_px * rep.rms_right_px));
+      worst[k] = rep.rms_stereo_px;
+    }
+    if (options.reject_factor <= 0 || round >= 3) break;
+    std::vector<double> sorted = worst;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double limit = options.reject_factor * sorted[sorted.size() / 2];
+    bool rejected = false;
+    for (std::size_t k = 0; k < index.size(); ++k) {
+      if (worst[k] > limit && static_cast<int>(index.size()) > options.min_pairs) {
+        PairReport& rep = rig.pairs[index[k]];
+        rep.used = false;
+        char buf[128];
+        std::snprintf(buf, sizeof(buf), "rejected: RMS %.3f px > %.1f x median %.3f px", worst[k],
+                      options.reject_factor, sorted[sorted.size() / 2]);
+        rep.status = buf;
+        rejected = true;
+      }
+    }
+    if (!rejected) break;
+  }
+  rig.baseline_mm = cv::norm(rig.T);
+  cv::stereoRectify(rig.K1, rig.D1, rig.K2, rig.D2, image_size, rig.R, rig.T, rig.R1, rig.R2, rig.P1, rig.P2, rig.Q,
+                    cv::CALIB_ZERO_DISPARITY, options.alpha);
+  return rig;
+}
+
+}  // namespace hedgefit::stereo

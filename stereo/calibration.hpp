@@ -1,0 +1,61 @@
+#pragma once
+/// Stereo calibration from chessboard pairs: Zhang's method per camera, then a joint
+/// stereo calibration, optional rejection of outlier pairs, then Bouguet rectification.
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "stereo/rig.hpp"
+
+namespace hedgefit::stereo {
+
+enum class DistortionModel {
+  kK1K2P1P2,    ///< k1 k2 p1 p2
+  kK1K2P1P2K3,  ///< k1 k2 p1 p2 k3 (OpenCV's default)
+  kRational,    ///< k1..k6 p1 p2 (wide-angle lenses)
+};
+
+struct BoardSpec {
+  cv::Size inner_corners{9, 6};  ///< inner corners per row x per column
+  double square_mm = 1.0;        ///< square edge (mm, or any unit the rig should use)
+};
+
+struct CalibrationOptions {
+  BoardSpec board;
+  DistortionModel model = DistortionModel::kK1K2P1P2K3;
+  bool fix_principal_point = false;  ///< keep cx, cy at the image centre
+  bool fix_aspect_ratio = false;     ///< fx = fy
+  double alpha = -1;                 ///< stereoRectify free scaling: -1 OpenCV default, 0 crop, 1 keep all
+  /// Reject pairs whose reprojection RMS exceeds this many times the median, then
+  /// recalibrate (0 = keep every pair).
+  double reject_factor = 3.0;
+  int min_pairs = 3;                 ///< fewer usable pairs is an error
+  /// Refine both cameras' intrinsics in the stereo step (false: keep the per-camera ones,
+  /// OpenCV's stereoCalibrate default).
+  bool refine_intrinsics = true;
+  void Check() const;  ///< throws hedgefit::Error naming the field
+};
+
+/// Corners of one pair, as found in the images (or made by a simulator).
+struct PairCorners {
+  std::string left, right;                 ///< names for reports
+  std::vector<cv::Point2f> left_px, right_px;  ///< empty when the board was not found
+  std::string status;                      ///< empty, or why the pair cannot be used
+};
+
+/// Finds the board in every pair (sub-pixel). Unreadable images, size mismatches and
+/// boards not found are recorded in `status`, not thrown. `image_size` gets the size of
+/// the first readable pair.
+std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, std::string>>& pairs,
+                                      const BoardSpec& board, cv::Size* image_size);
+
+/// Calibrates from detected corners. Throws hedgefit::Error if fewer than min_pairs remain.
+StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size image_size,
+                               const CalibrationOptions& options);
+
+/// The board's inner corners in its own frame (z = 0), row-major as OpenCV orders them.
+std::vector<cv::Point3f> BoardCorners(const BoardSpec& board);
+
+}  // namespace hedgefit::stereo

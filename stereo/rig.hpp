@@ -1,0 +1,41 @@
+#pragma once
+/// A calibrated stereo rig and its rectification, stored as OpenCV FileStorage YAML
+/// (readable by cv::FileStorage and by hedgefit). Frames: R, T map the left camera's
+/// frame to the right's (x_right = R x_left + T), mm; R1/R2 rotate each camera's frame
+/// into its rectified frame; P1, P2, Q as from cv::stereoRectify.
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace hedgefit::stereo {
+
+/// What happened to one image pair during calibration.
+struct PairReport {
+  std::string left, right;   ///< image files
+  bool used = false;         ///< part of the final calibration
+  std::string status;        ///< "used", or why not ("board not found in right image", ...)
+  double rms_left_px = 0;    ///< reprojection RMS of this pair's corners, left camera
+  double rms_right_px = 0;   ///< right camera
+  double rms_stereo_px = 0;  ///< both views, with the final stereo parameters
+};
+
+struct StereoRig {
+  cv::Size image_size;                  ///< px
+  cv::Mat K1, D1, K2, D2;               ///< intrinsics (px) and distortion (OpenCV order)
+  cv::Mat R, T;                         ///< right_from_left rotation and translation (mm)
+  cv::Mat E, F;                         ///< essential and fundamental matrices
+  cv::Mat R1, R2, P1, P2, Q;            ///< Bouguet rectification (cv::stereoRectify)
+  double baseline_mm = 0;               ///< |T|
+  double rms_left_px = 0, rms_right_px = 0, rms_stereo_px = 0;  ///< calibration RMS
+  std::vector<PairReport> pairs;        ///< per-pair results, rejected pairs included
+};
+
+/// Writes `rig` as OpenCV FileStorage YAML, atomically; throws hedgefit::Error naming the file.
+void WriteRig(const std::string& path, const StereoRig& rig);
+
+/// Reads a rig written by WriteRig (or by hand with the same keys); throws hedgefit::Error
+/// naming the file and the missing or malformed key.
+StereoRig ReadRig(const std::string& path);
+
+}  // namespace hedgefit::stereo

@@ -1,0 +1,360 @@
+#include "stereo/simulator.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "cloud/cloud_io.hpp"
+#include "cloud/error.hpp"
+
+namespace hedgefit::stereo {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Undistorted ray directions (x, y, 1) for every sub-pixel of a camera, cached: the
+// iterative undistortion is the expensive part and the same rig renders many scenes.
+std::shared_ptr<const std::vector<cv::Point2f>> Rays(const SimCamera& cam, int ss) {
+  static std::mutex mutex;
+  static std::map<std::vector<double>, std::shared_ptr<const std::vector<cv::Point2f>>> cache;
+  std::vector<double> key = {double(cam.size.width), double(cam.size.height), double(ss)};
+  for (int i = 0; i < 9; ++i) key.push_back(cam.K.val[i]);
+  for (int i = 0; i < 5; ++i) key.push_back(cam.dist[i]);
+  std::lock_guard<std::mutex> lock(mutex);
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  std::vector<cv::Point2f> px;
+  px.reserve(std::size_t(cam.size.area()) * ss * ss);
+  for (int v = 0; v < cam.size.height; ++v) {
+    for (int sy = 0; sy < ss; ++sy) {
+      for (int u = 0; u < cam.size.width; ++u) {
+        for (int sx = 0; sx < ss; ++sx) {
+          // Sub-pixel centres; pixel (u, v) covers [u - 0.5, u + 0.5] as in OpenCV.
+          px.emplace_back(float(u - 0.5 + (sx + 0.5) / ss), float(v - 0.5 + (sy + 0.5) / ss));
+        }
+      }
+    }
+  }
+  auto rays = std::make_shared<std::vector<cv::Point2f>>(px.size());
+  const std::size_t n = px.size();
+  const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> pool;
+  const std::size_t chunk = (n + threads - 1) / threads;
+  for (unsigned t = 0; t < threads; ++t) {
+    const std::size_t b = t * chunk, e = std::min(n, b + chunk);
+    if (b >= e) continue;
+    pool.emplace_back([&, b, e] {
+      std::vector<cv::Point2f> src(px.begin() + std::ptrdiff_t(b), px.begin() + std::ptrdiff_t(e)), dst;
+      cv::undistortPoints(src, dst, cv::Mat(cam.K), cv::Mat(cam.dist), cv::noArray(), cv::noArray(),
+                          cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-12));
+      std::copy(dst.begin(), dst.end(), rays->begin() + std::ptrdiff_t(b));
+    });
+  }
+  for (auto& th : pool) th.join();
+  cache[key] = rays;
+  return rays;
+}
+
+// Smooth 3-D value noise in [0, 1]: the same texture wherever a surface point is seen from.
+double Hash(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t seed) {
+  std::uint64_t h = seed * 0x9E3779B97F4A7C15ull;
+  h ^= static_cast<std::uint64_t>(x) * 0xC2B2AE3D27D4EB4Full;
+  h = (h ^ (h >> 29)) * 0xBF58476D1CE4E5B9ull;
+  h ^= static_cast<std::uint64_t>(y) * 0x165667B19E3779F9ull;
+  h = (h ^ (h >> 32)) * 0x94D049BB133111EBull;
+  h ^= static_cast<std::uint64_t>(z) * 0x27D4EB2F165667C5ull;
+  h ^= h >> 31;
+  return double(h >> 11) * (1.0 / 9007199254740992.0);
+}
+
+double ValueNoise(const cv::Vec3d& p, std::uint64_t seed) {
+  const double fx = std::floor(p[0]), fy = std::floor(p[1]), fz = std::floor(p[2]);
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy), iz = static_cast<std::int64_t>(fz);
+  auto smooth = [](double t) { return t * t * (3 - 2 * t); };
+  const double tx = smooth(p[0] - fx), ty = smooth(p[1] - fy), tz = smooth(p[2] - fz);
+  double v = 0;
+  for (int dz = 0; dz < 2; ++dz)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        const double w = (dx ? tx : 1 - tx) * (dy ? ty : 1 - ty) * (dz ? tz : 1 - tz);
+        v += w * Hash(ix + dx, iy + dy, iz + dz, seed);
+      }
+  return v;
+}
+
+double Fractal(const cv::Vec3d& p_mm, double scale_mm, int octaves, std::uint64_t seed) {
+  double v = 0, amp = 0.5, total = 0, f = 1.0 / scale_mm;
+  for (int o = 0; o < octaves; ++o) {
+    v += amp * ValueNoise(p_mm * f, seed + std::uint64_t(o));
+    total += amp;
+    amp *= 0.5;
+    f *= 2.3;
+  }
+  return v / total;
+}
+
+struct CameraPose {
+  cv::Vec3d origin;  // camera centre in the world
+  cv::Matx33d world_from_camera;
+};
+
+CameraPose Pose(const SimRig& rig, bool right) {
+  if (!right) return {cv::Vec3d(0, 0, 0), cv::Matx33d::eye()};
+  return {-(rig.R.t() * rig.T), rig.R.t()};
+}
+
+// Renders with `shade(origin, direction)` returning BGR in [0, 255] (or a label in [0]).
+template <class Shade>
+cv::Mat Render(const SimRig& rig, bool right, const RenderOptions& options, Shade shade) {
+  const SimCamera& cam = right ? rig.right : rig.left;
+  const int ss = options.labels ? 1 : std::max(1, options.supersample);
+  const auto rays = Rays(cam, ss);
+  const CameraPose pose = Pose(rig, right);
+  cv::Mat out(cam.size, options.labels ? CV_8UC1 : CV_8UC3);
+  const int h = cam.size.height, w = cam.size.width;
+  auto rows = [&](int r0, int r1) {
+    for (int v = r0; v < r1; ++v) {
+      for (int u = 0; u < w; ++u) {
+        cv::Vec3d acc(0, 0, 0);
+        for (int sy = 0; sy < ss; ++sy) {
+          for (int sx = 0; sx < ss; ++sx) {
+            const cv::Point2f& r = (*rays)[((std::size_t(v) * ss + sy) * w + u) * ss + sx];
+            const cv::Vec3d d = pose.world_from_camera * cv::Vec3d(r.x, r.y, 1.0);
+            acc += shade(pose.origin, d);
+          }
+        }
+        acc *= 1.0 / (ss * ss);
+        if (options.labels) {
+          out.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(acc[0]);
+        } else {
+          out.at<cv::Vec3b>(v, u) = cv::Vec3b(cv::saturate_cast<std::uint8_t>(acc[0]),
+                                              cv::saturate_cast<std::uint8_t>(acc[1]),
+                                              cv::saturate_cast<std::uint8_t>(acc[2]));
+        }
+      }
+    }
+  };
+  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(rows, h * t / threads, h * (t + 1) / threads);
+  rows(0, h / threads);
+  for (auto& th : pool) th.join();
+  if (!options.labels) {
+    if (options.blur_sigma_px > 0) cv::GaussianBlur(out, out, cv::Size(0, 0), options.blur_sigma_px);
+    if (options.noise_sigma > 0) {
+      cv::Mat noise(out.size(), CV_32FC3);
+      cv::RNG rng(options.seed);
+      rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_sigma);
+      cv::Mat f;
+      out.convertTo(f, CV_32FC3);
+      f += noise;
+      f.convertTo(out, CV_8UC3);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+SimRig PaperRig(double scale) {
+  SimRig rig;
+  const cv::Size size(static_cast<int>(std::lround(1920 * scale)), static_cast<int>(std::lround(1200 * scale)));
+  const double f = 933.3 * scale;
+  for (SimCamera* c : {&rig.left, &rig.right}) {
+    c->size = size;
+    c->K = cv::Matx33d(f, 0, (size.width - 1) / 2.0, 0, f, (size.height - 1) / 2.0, 0, 0, 1);
+    c->dist = cv::Vec<double, 5>(-0.05, 0.01, 0, 0, 0);  // mild barrel distortion
+  }
+  rig.right.K(0, 2) += 3 * scale;  // the two cameras are not identical
+  rig.right.dist[0] = -0.045;
+  // About 1 degree between the cameras, as the paper's calibration found.
+  cv::Matx31d rvec(0.003, -0.015, 0.004);
+  cv::Matx33d R;
+  cv::Rodrigues(rvec, R);
+  rig.R = R;
+  rig.T = cv::Vec3d(-140, 0.3, 1.5);
+  return rig;
+}
+
+std::vector<cv::Point3d> BoardInnerCornersWorld(const BoardScene& b) {
+  std::vector<cv::Point3d> out;
+  for (int r = 0; r < b.squares.height - 1; ++r) {
+    for (int c = 0; c < b.squares.width - 1; ++c) {
+      const cv::Vec3d p = b.rotation * cv::Vec3d(c * b.square_mm, r * b.square_mm, 0) + b.translation;
+      out.emplace_back(p[0], p[1], p[2]);
+    }
+  }
+  return out;
+}
+
+cv::Mat RenderBoard(const SimRig& rig, bool right, const BoardScene& b, const RenderOptions& options) {
+  const cv::Vec3d n = b.rotation * cv::Vec3d(0, 0, 1);
+  const double s = b.square_mm;
+  const double x_lo = -s - b.margin_mm, x_hi = (b.squares.width - 1) * s + b.margin_mm;
+  const double y_lo = -s - b.margin_mm, y_hi = (b.squares.height - 1) * s + b.margin_mm;
+  return Render(rig, right, options, [&](const cv::Vec3d& o, const cv::Vec3d& d) -> cv::Vec3d {
+    const double denom = n.dot(d);
+    if (std::abs(denom) > 1e-12) {
+      const double t = n.dot(b.translation - o) / denom;
+      if (t > 0) {
+        const cv::Vec3d q = b.rotation.t() * (o + t * d - b.translation);
+        if (q[0] >= x_lo && q[0] <= x_hi && q[1] >= y_lo && q[1] <= y_hi) {
+          if (options.labels) return cv::Vec3d(kLabelBoard, 0, 0);
+          const bool inside = q[0] >= -s && q[0] < (b.squares.width - 1) * s && q[1] >= -s &&
+                              q[1] < (b.squares.height - 1) * s;
+          if (!inside) return cv::Vec3d(235, 235, 235);
+          const int ix = static_cast<int>(std::floor(q[0] / s)) + 1, iy = static_cast<int>(std::floor(q[1] / s)) + 1;
+          return (ix + iy) % 2 == 0 ? cv::Vec3d(20, 20, 20) : cv::Vec3d(235, 235, 235);
+        }
+      }
+    }
+    return options.labels ? cv::Vec3d(kLabelNone, 0, 0) : cv::Vec3d(110, 105, 100);
+  });
+}
+
+cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& sc, const RenderOptions& options) {
+  const double ground_y = sc.ground_y != 0 ? sc.ground_y : sc.center[1] + sc.radius;
+  const double wall_z = sc.wall_z != 0 ? sc.wall_z : sc.center[2] + 2000;
+  const cv::Vec3d light = cv::normalize(cv::Vec3d(-0.4, -0.7, -0.6));  // from above, front-left
+  return Render(rig, right, options, [&](const cv::Vec3d& o, const cv::Vec3d& d) -> cv::Vec3d {
+    double best = 1e18;
+    int what = kLabelNone;
+    // Sphere: |o + t d - c|^2 = r^2, nearest positive root.
+    const cv::Vec3d oc = o - sc.center;
+    const double a = d.dot(d), bq = 2 * oc.dot(d), cq = oc.dot(oc) - sc.radius * sc.radius;
+    const double disc = bq * bq - 4 * a * cq;
+    if (disc >= 0) {
+      const double t = (-bq - std::sqrt(disc)) / (2 * a);
+      if (t > 0) {
+        best = t;
+        what = kLabelSphere;
+      }
+    }
+    if (d[1] > 1e-12) {
+      const double t = (ground_y - o[1]) / d[1];
+      if (t > 0 && t < best) {
+        best = t;
+        what = kLabelGround;
+      }
+    }
+    if (d[2] > 1e-12) {
+      const double t = (wall_z - o[2]) / d[2];
+      if (t > 0 && t < best) {
+        best = t;
+        what = kLabelWall;
+      }
+    }
+    if (options.labels) return cv::Vec3d(what, 0, 0);
+    const cv::Vec3d p = o + best * d;
+    switch (what) {
+      case kLabelSphere: {
+        const cv::Vec3d nrm = (p - sc.center) * (1.0 / sc.radius);
+        const double lambert = 0.35 + 0.65 * std::max(0.0, nrm.dot(-light));
+        const double leaf = Fractal(p, 35.0, 4, sc.texture_seed);
+        const double gap = leaf < 0.35 ? 0.35 : 1.0;  // dark gaps between leaves
+        const double k = lambert * gap * (0.55 + 0.9 * leaf);
+        return cv::Vec3d(45 * k, 150 * k + 40 * Fractal(p, 9.0, 2, sc.texture_seed + 9), 60 * k);
+      }
+      case kLabelGround: {
+        const double g = Fractal(p, 60.0, 4, sc.texture_seed + 20);
+        return cv::Vec3d(70 + 60 * g, 95 + 70 * g, 110 + 80 * g);
+      }
+      case kLabelWall: {
+        const double g = Fractal(p, 90.0, 4, sc.texture_seed + 40);
+        return cv::Vec3d(150 + 70 * g, 140 + 60 * g, 120 + 50 * g);
+      }
+      default: return cv::Vec3d(200, 180, 160);
+    }
+  });
+}
+
+std::string RigJson(const SimRig& rig) {
+  auto mat = [](const cv::Matx33d& m) {
+    char buf[512];
+    std::snprintf(buf, sizeof(buf), "[[%.10g, %.10g, %.10g], [%.10g, %.10g, %.10g], [%.10g, %.10g, %.10g]]", m(0, 0),
+                  m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2));
+    return std::string(buf);
+  };
+  auto cam = [&](const SimCamera& c) {
+    char buf[256];
+    std::snprintf(buf, sizeof(buf), "\"dist\": [%.10g, %.10g, %.10g, %.10g, %.10g]", c.dist[0], c.dist[1], c.dist[2],
+                  c.dist[3], c.dist[4]);
+    return "{\"K\": " + mat(c.K) + ", " + buf + "}";
+  };
+  char t[160];
+  std::snprintf(t, sizeof(t), "[%.10g, %.10g, %.10g]", rig.T[0], rig.T[1], rig.T[2]);
+  return "{\"image_size\": [" + std::to_string(rig.left.size.width) + ", " + std::to_string(rig.left.size.height) +
+         "], \"left\": " + cam(rig.left) + ", \"right\": " + cam(rig.right) + ", \"R\": " + mat(rig.R) +
+         ", \"T\": " + t + ", \"frame\": \"right_from_left, mm\"}";
+}
+
+std::vector<std::string> WritePaperLab(const std::string& dir, double scale, const RenderOptions& options) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
+  const SimRig rig = PaperRig(scale);
+  std::vector<std::string> written;
+  auto save = [&](const std::string& name, const cv::Mat& img) {
+    const std::string path = (fs::path(dir) / name).string();
+    const fs::path tmp = fs::path(dir) / ("." + name + ".tmp.png");
+    if (!cv::imwrite(tmp.string(), img)) throw Error(path + ": cannot write the image");
+    fs::rename(tmp, path);
+    written.push_back(path);
+  };
+  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
+  written.push_back((fs::path(dir) / "rig_truth.json").string());
+  // 16 board poses: 1.0-1.6 m away, tilted up to 30 degrees, spread over the view.
+  for (int i = 0; i < 16; ++i) {
+    BoardScene b;
+    const double tilt_x = (std::vector<double>{-25, -10, 10, 25})[std::size_t(i % 4)] * kPi / 180;
+    const double tilt_y = (std::vector<double>{-30, -12, 12, 30})[std::size_t((i / 4) % 4)] * kPi / 180;
+    const double roll = (i % 3 - 1) * 8 * kPi / 180;
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Matx31d(tilt_x, tilt_y, roll), R);
+    b.rotation = R;
+    const double z = 1000 + 150 * ((i * 7) % 5);
+    const cv::Vec3d centre_world((i % 4 - 1.5) * 0.18 * z + 70, ((i / 4) % 4 - 1.5) * 0.13 * z, z);
+    const cv::Vec3d centre_board((b.squares.width - 2) * b.square_mm / 2, (b.squares.height - 2) * b.square_mm / 2, 0);
+    b.translation = centre_world - R * centre_board;
+    char name[64];
+    std::snprintf(name, sizeof(name), "board_%02d", i + 1);
+    save(std::string(name) + "_left.png", RenderBoard(rig, false, b, options));
+    save(std::string(name) + "_right.png", RenderBoard(rig, true, b, options));
+    char truth[512];
+    std::snprintf(truth, sizeof(truth),
+                  "{\"squares\": [%d, %d], \"square_mm\": %.3f, \"inner_corners\": [%d, %d], \"rotation\": "
+                  "[[%.9f, %.9f, %.9f], [%.9f, %.9f, %.9f], [%.9f, %.9f, %.9f]], \"translation_mm\": [%.6f, %.6f, %.6f], "
+                  "\"frame\": \"left_camera_from_board; board origin at the first inner corner\"}\n",
+                  b.squares.width, b.squares.height, b.square_mm, b.squares.width - 1, b.squares.height - 1, R(0, 0),
+                  R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2), b.translation[0],
+                  b.translation[1], b.translation[2]);
+    cloud::WriteTextFileAtomic((fs::path(dir) / (std::string(name) + ".truth.json")).string(), truth);
+  }
+  for (int z = 2000; z <= 2600; z += 100) {
+    SphereScene sc;
+    sc.center = cv::Vec3d(70, 50, z);  // between the cameras, slightly below the optical axis
+    char name[64];
+    std::snprintf(name, sizeof(name), "sphere_%04d", z);
+    save(std::string(name) + "_left.png", RenderSphere(rig, false, sc, options));
+    save(std::string(name) + "_right.png", RenderSphere(rig, true, sc, options));
+    char truth[256];
+    std::snprintf(truth, sizeof(truth),
+                  "{\"center_mm\": [%.3f, %.3f, %.3f], \"radius_mm\": %.3f, \"frame\": \"unrectified left camera, x "
+                  "right, y down, z forward\"}\n",
+                  sc.center[0], sc.center[1], sc.center[2], sc.radius);
+    cloud::WriteTextFileAtomic((fs::path(dir) / (std::string(name) + ".truth.json")).string(), truth);
+    written.push_back((fs::path(dir) / (std::string(name) + ".truth.json")).string());
+  }
+  return written;
+}
+
+}  // namespace hedgefit::stereo
