@@ -5,6 +5,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cloud/error.hpp"
+
 #include <functional>
 #include <string>
 
@@ -21,6 +23,8 @@ void AddInfoCommand(CLI::App& app, CommandFn* run);
 void AddPipelineCommand(CLI::App& app, CommandFn* run);
 void AddPluginsCommand(CLI::App& app, CommandFn* run);
 void AddCompareCommand(CLI::App& app, CommandFn* run);
+void AddCalibrateCommand(CLI::App& app, CommandFn* run);
+void AddSimulateCommand(CLI::App& app, CommandFn* run);
 
 /// The global registry with every built-in stage and the plugins on the search path.
 void PrepareRegistry(bool load_plugins);

@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   AddPipelineCommand(app, &run);
   AddPluginsCommand(app, &run);
   AddCompareCommand(app, &run);
+  AddCalibrateCommand(app, &run);
+  AddSimulateCommand(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

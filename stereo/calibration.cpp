@@ -81,6 +81,18 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
       if (image_size->empty()) *image_size = l.size();
       const bool found_l = FindCorners(l, board.inner_corners, &pc.left_px);
       const bool found_r = found_l && FindCorners(r, board.inner_corners, &pc.right_px);
+      if (found_l && found_r) {
+        // The detector may start from either end of the board, independently per image; a
+        // stereo pair needs the same corner at the same index. The cameras look roughly the
+        // same way, so the matching order is the one whose corners share rows best.
+        double same = 0, reversed = 0;
+        const std::size_t n = pc.left_px.size();
+        for (std::size_t i = 0; i < n; ++i) {
+          same += std::abs(pc.left_px[i].y - pc.right_px[i].y);
+          reversed += std::abs(pc.left_px[i].y - pc.right_px[n - 1 - i].y);
+        }
+        if (reversed < same) std::reverse(pc.right_px.begin(), pc.right_px.end());
+      }
       if (!found_l || !found_r) {
         pc.status = std::string("board (") + std::to_string(board.inner_corners.width) + "x" +
                     std::to_string(board.inner_corners.height) + " inner corners) not found in " +

@@ -1,0 +1,183 @@
+// hedgefit calibrate: stereo calibration from chessboard pairs -> rig YAML.
+
+#include <glob.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <opencv2/calib3d.hpp>
+#include <sstream>
+
+#include "apps/commands.hpp"
+#include "stereo/calibration.hpp"
+
+namespace hedgefit::apps {
+
+namespace {
+
+std::vector<std::string> Glob(const std::string& pattern, const char* option) {
+  glob_t g{};
+  std::vector<std::string> out;
+  if (glob(pattern.c_str(), 0, nullptr, &g) == 0) {
+    for (std::size_t i = 0; i < g.gl_pathc; ++i) out.emplace_back(g.gl_pathv[i]);
+  }
+  globfree(&g);
+  if (out.empty()) throw Error(std::string(option) + " '" + pattern + "': no file matches; check the pattern (quote it)");
+  return out;  // glob() sorts
+}
+
+cv::Size ParseBoard(const std::string& text) {
+  int w = 0, h = 0;
+  char x = 0;
+  std::istringstream ss(text);
+  if (!(ss >> w >> x >> h) || (x != 'x' && x != 'X') || w < 2 || h < 2 || !ss.eof()) {
+    throw Error("--board '" + text + "': give inner corners as COLSxROWS, e.g. 9x6");
+  }
+  return {w, h};
+}
+
+}  // namespace
+
+void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
+  auto* cmd = app.add_subcommand("calibrate", "Stereo calibration from chessboard pairs: Zhang per camera, stereo, Bouguet rectification");
+  cmd->footer(
+      "Examples:\n"
+      "  hedgefit calibrate --left '../shared/data/calib_chessboard/left*.jpg' \\\n"
+      "      --right '../shared/data/calib_chessboard/right*.jpg' --board 9x6 --square 1 -o build/opencv_rig.yaml\n"
+      "  hedgefit calibrate --list pairs.txt --board 12x11 --square 30 --model rational -o rig.yaml --json\n"
+      "Pairs are matched by sorted order; a list file has one 'LEFT RIGHT' pair per line.\n");
+  struct Args {
+    std::string left, right, list, board = "9x6", model = "k1k2p1p2k3", output = "rig.yaml";
+    double square = 1.0, alpha = -1, reject = 3.0;
+    bool fix_pp = false, fix_aspect = false, json = false, keep_intrinsics = false;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("--left", a->left, "glob of left images (quote it)");
+  cmd->add_option("--right", a->right, "glob of right images");
+  cmd->add_option("--list", a->list, "file of 'LEFT RIGHT' lines instead of --left/--right");
+  cmd->add_option("--board", a->board, "inner corners COLSxROWS")->capture_default_str();
+  cmd->add_option("--square", a->square, "square size (mm, or the unit the rig should use)")->capture_default_str();
+  cmd->add_option("--model", a->model, "distortion: k1k2p1p2, k1k2p1p2k3 or rational")
+      ->check(CLI::IsMember({"k1k2p1p2", "k1k2p1p2k3", "rational"}))
+      ->capture_default_str();
+  cmd->add_flag("--fix-principal-point", a->fix_pp, "keep cx, cy at the image centre");
+  cmd->add_flag("--fix-aspect", a->fix_aspect, "fx = fy");
+  cmd->add_option("--alpha", a->alpha, "rectification scaling: -1 default, 0 crop to valid, 1 keep all")->capture_default_str();
+  cmd->add_option("--reject-factor", a->reject, "reject pairs above this many times the median RMS, then recalibrate (0 = never)")
+      ->capture_default_str();
+  cmd->add_flag("--keep-intrinsics", a->keep_intrinsics, "do not refine per-camera intrinsics in the stereo step");
+  cmd->add_option("-o,--output", a->output, "rig file to write (OpenCV YAML)")->capture_default_str();
+  cmd->add_flag("--json", a->json, "print the result as JSON");
+  cmd->callback([=]() {
+    *run = [=]() {
+      std::vector<std::pair<std::string, std::string>> pairs;
+      if (!a->list.empty()) {
+        std::ifstream in(a->list);
+        if (!in) throw Error(a->list + ": cannot open the pair list");
+        std::string line;
+        int n = 0;
+        while (std::getline(in, line)) {
+          ++n;
+          std::istringstream ss(line);
+          std::string l, r;
+          if (!(ss >> l)) continue;
+          if (l[0] == '#') continue;
+          if (!(ss >> r)) throw Error(a->list + ":" + std::to_string(n) + ": expected 'LEFT RIGHT'");
+          pairs.emplace_back(l, r);
+        }
+      } else {
+        if (a->left.empty() || a->right.empty()) throw Error("give --left and --right globs, or --list FILE");
+        const auto l = Glob(a->left, "--left"), r = Glob(a->right, "--right");
+        if (l.size() != r.size()) {
+          throw Error("--left matches " + std::to_string(l.size()) + " files but --right matches " +
+                      std::to_string(r.size()) + "; pairs are matched by sorted order");
+        }
+        for (std::size_t i = 0; i < l.size(); ++i) pairs.emplace_back(l[i], r[i]);
+      }
+      stereo::CalibrationOptions o;
+      o.board.inner_corners = ParseBoard(a->board);
+      o.board.square_mm = a->square;
+      o.model = a->model == "k1k2p1p2"     ? stereo::DistortionModel::kK1K2P1P2
+                : a->model == "rational" ? stereo::DistortionModel::kRational
+                                         : stereo::DistortionModel::kK1K2P1P2K3;
+      o.fix_principal_point = a->fix_pp;
+      o.fix_aspect_ratio = a->fix_aspect;
+      o.alpha = a->alpha;
+      o.reject_factor = a->reject;
+      o.refine_intrinsics = !a->keep_intrinsics;
+      try {
+        o.Check();
+      } catch (const Error& e) {
+        throw Error(std::string("--") + e.what());
+      }
+      cv::Size size;
+      const auto corners = stereo::DetectBoards(pairs, o.board, &size);
+      const stereo::StereoRig rig = stereo::CalibrateFromCorners(corners, size, o);
+      stereo::WriteRig(a->output, rig);
+      cv::Mat rvec;
+      cv::Rodrigues(rig.R, rvec);
+      const double angle_deg = cv::norm(rvec) * 180.0 / CV_PI;
+      int used = 0;
+      for (const auto& p : rig.pairs) used += p.used;
+      if (a->json) {
+        nlohmann::json j;
+        j["rig_file"] = a->output;
+        j["image_size"] = {rig.image_size.width, rig.image_size.height};
+        j["pairs_used"] = used;
+        j["pairs_total"] = rig.pairs.size();
+        j["rms_left_px"] = rig.rms_left_px;
+        j["rms_right_px"] = rig.rms_right_px;
+        j["rms_stereo_px"] = rig.rms_stereo_px;
+        j["baseline"] = rig.baseline_mm;
+        j["rotation_deg"] = angle_deg;
+        auto vec = [](const cv::Mat& m) {
+          std::vector<double> v;
+          for (int i = 0; i < static_cast<int>(m.total()); ++i) v.push_back(m.at<double>(i));
+          return v;
+        };
+        j["K1"] = vec(rig.K1);
+        j["D1"] = vec(rig.D1);
+        j["K2"] = vec(rig.K2);
+        j["D2"] = vec(rig.D2);
+        j["R"] = vec(rig.R);
+        j["T"] = vec(rig.T);
+        for (const auto& p : rig.pairs) {
+          j["pairs"].push_back({{"left", p.left}, {"right", p.right}, {"used", p.used}, {"status", p.status},
+                                {"rms_left_px", p.rms_left_px}, {"rms_right_px", p.rms_right_px},
+                                {"rms_stereo_px", p.rms_stereo_px}});
+        }
+        std::cout << j.dump(2) << "\n";
+        return kExitOk;
+      }
+      std::printf("calibrated from %d of %zu pairs (%dx%d images)\n", used, rig.pairs.size(), rig.image_size.width,
+                  rig.image_size.height);
+      std::printf("  RMS reprojection: left %.3f px, right %.3f px, stereo %.3f px\n", rig.rms_left_px,
+                  rig.rms_right_px, rig.rms_stereo_px);
+      std::printf("  baseline %.4f (units of --square), rotation between cameras %.3f deg\n", rig.baseline_mm,
+                  angle_deg);
+      auto cam = [](const char* name, const cv::Mat& K, const cv::Mat& D) {
+        std::printf("  %-5s fx %.2f fy %.2f cx %.2f cy %.2f  dist", name, K.at<double>(0, 0), K.at<double>(1, 1),
+                    K.at<double>(0, 2), K.at<double>(1, 2));
+        for (int i = 0; i < static_cast<int>(D.total()); ++i) std::printf(" %.4f", D.at<double>(i));
+        std::printf("\n");
+      };
+      cam("left", rig.K1, rig.D1);
+      cam("right", rig.K2, rig.D2);
+      std::printf("  T [%.4f, %.4f, %.4f]\npairs:\n", rig.T.at<double>(0), rig.T.at<double>(1), rig.T.at<double>(2));
+      for (const auto& p : rig.pairs) {
+        if (p.used || p.rms_stereo_px > 0) {
+          std::printf("  %-40s %-40s L %.3f R %.3f px  %s\n", p.left.c_str(), p.right.c_str(), p.rms_left_px,
+                      p.rms_right_px, p.status.c_str());
+        } else {
+          std::printf("  %-40s %-40s %s\n", p.left.c_str(), p.right.c_str(), p.status.c_str());
+        }
+      }
+      std::printf("wrote %s\n", a->output.c_str());
+      return kExitOk;
+    };
+  });
+}
+
+}  // namespace hedgefit::apps
