@@ -72,6 +72,23 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_flag("--json", a->json, "print the result as JSON");
   cmd->callback([=]() {
     *run = [=]() {
+      // Options first: a bad --board fails before any file is touched.
+      stereo::CalibrationOptions o;
+      o.board.inner_corners = ParseBoard(a->board);
+      o.board.square_mm = a->square;
+      o.model = a->model == "k1k2p1p2"     ? stereo::DistortionModel::kK1K2P1P2
+                : a->model == "rational" ? stereo::DistortionModel::kRational
+                                         : stereo::DistortionModel::kK1K2P1P2K3;
+      o.fix_principal_point = a->fix_pp;
+      o.fix_aspect_ratio = a->fix_aspect;
+      o.alpha = a->alpha;
+      o.reject_factor = a->reject;
+      o.refine_intrinsics = !a->keep_intrinsics;
+      try {
+        o.Check();
+      } catch (const Error& e) {
+        throw Error(std::string("--") + e.what());
+      }
       std::vector<std::pair<std::string, std::string>> pairs;
       if (!a->list.empty()) {
         std::ifstream in(a->list);
@@ -95,22 +112,6 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
                       std::to_string(r.size()) + "; pairs are matched by sorted order");
         }
         for (std::size_t i = 0; i < l.size(); ++i) pairs.emplace_back(l[i], r[i]);
-      }
-      stereo::CalibrationOptions o;
-      o.board.inner_corners = ParseBoard(a->board);
-      o.board.square_mm = a->square;
-      o.model = a->model == "k1k2p1p2"     ? stereo::DistortionModel::kK1K2P1P2
-                : a->model == "rational" ? stereo::DistortionModel::kRational
-                                         : stereo::DistortionModel::kK1K2P1P2K3;
-      o.fix_principal_point = a->fix_pp;
-      o.fix_aspect_ratio = a->fix_aspect;
-      o.alpha = a->alpha;
-      o.reject_factor = a->reject;
-      o.refine_intrinsics = !a->keep_intrinsics;
-      try {
-        o.Check();
-      } catch (const Error& e) {
-        throw Error(std::string("--") + e.what());
       }
       cv::Size size;
       const auto corners = stereo::DetectBoards(pairs, o.board, &size);
