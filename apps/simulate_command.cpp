@@ -50,7 +50,8 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit simulate --board 0.3,0.2,0,-150,-150,1200 -o build/board   # rotation vector (rad), translation (mm)\n"
       "The rig is the paper's (1920x1200, f 933.3 px, baseline 140 mm); --scale shrinks it.\n");
   struct Args {
-    std::string preset, sphere, board, out = "simulated";
+    std::string preset, sphere, board, out = "simulated", squares = "13x12";
+    double square = 30.0;
     double scale = 1.0, blur = 0.5, noise = 0.0;
     int supersample = 3;
     std::uint64_t seed = 1;
@@ -58,7 +59,10 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   auto a = std::make_shared<Args>();
   cmd->add_option("--preset", a->preset, "paper-lab")->check(CLI::IsMember({"paper-lab"}));
   cmd->add_option("--sphere", a->sphere, "render a sphere: X,Y,Z,R in mm (left camera frame)");
-  cmd->add_option("--board", a->board, "render a 13x12-square 30 mm board: RX,RY,RZ (rad),TX,TY,TZ (mm)");
+  cmd->add_option("--board", a->board, "render a board (see --squares, --square): RX,RY,RZ (rad),TX,TY,TZ (mm)");
+  cmd->add_option("--squares", a->squares, "board squares COLSxROWS (inner corners are one fewer each way)")
+      ->capture_default_str();
+  cmd->add_option("--square", a->square, "board square size, mm")->check(CLI::Range(1.0, 1000.0))->capture_default_str();
   cmd->add_option("-o,--output", a->out, "output directory")->capture_default_str();
   cmd->add_option("--scale", a->scale, "image scale (0.25 renders 480x300)")->check(CLI::Range(0.05, 4.0))->capture_default_str();
   cmd->add_option("--supersample", a->supersample, "rays per pixel per axis")->check(CLI::Range(1, 8))->capture_default_str();
@@ -108,8 +112,23 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         cv::Rodrigues(cv::Vec3d(v[0], v[1], v[2]), R);
         b.rotation = R;
         b.translation = cv::Vec3d(v[3], v[4], v[5]);
+        int cols = 0, rows = 0;
+        char x = 0;
+        std::istringstream sq(a->squares);
+        if (!(sq >> cols >> x >> rows) || x != 'x' || cols < 3 || rows < 3) {
+          throw Error("--squares '" + a->squares + "': give squares as COLSxROWS, at least 3x3, e.g. 13x12");
+        }
+        b.squares = cv::Size(cols, rows);
+        b.square_mm = a->square;
         SaveImage(fs::path(a->out) / "board_left.png", stereo::RenderBoard(rig, false, b, ro));
         SaveImage(fs::path(a->out) / "board_right.png", stereo::RenderBoard(rig, true, b, ro));
+        char truth[512];
+        std::snprintf(truth, sizeof(truth),
+                      "{\"squares\": [%d, %d], \"square_mm\": %.3f, \"inner_corners\": [%d, %d], \"rotation_vector\": "
+                      "[%.9f, %.9f, %.9f], \"translation_mm\": [%.6f, %.6f, %.6f], \"frame\": "
+                      "\"left_camera_from_board; board origin at the first inner corner\"}\n",
+                      cols, rows, a->square, cols - 1, rows - 1, v[0], v[1], v[2], v[3], v[4], v[5]);
+        cloud::WriteTextFileAtomic((fs::path(a->out) / "board.truth.json").string(), truth);
       }
       std::printf("wrote a %dx%d pair to %s in %.2f s\n", rig.left.size.width, rig.left.size.height, a->out.c_str(),
                   seconds());
