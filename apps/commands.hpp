@@ -25,6 +25,7 @@ void AddPluginsCommand(CLI::App& app, CommandFn* run);
 void AddCompareCommand(CLI::App& app, CommandFn* run);
 void AddCalibrateCommand(CLI::App& app, CommandFn* run);
 void AddSimulateCommand(CLI::App& app, CommandFn* run);
+void AddRenderCommand(CLI::App& app, CommandFn* run);
 
 /// The global registry with every built-in stage and the plugins on the search path.
 void PrepareRegistry(bool load_plugins);

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   AddCompareCommand(app, &run);
   AddCalibrateCommand(app, &run);
   AddSimulateCommand(app, &run);
+  AddRenderCommand(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

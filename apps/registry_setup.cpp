@@ -1,6 +1,7 @@
 #include "apps/commands.hpp"
 #include "cloud/plugin.hpp"
 #include "fitting/fitting_stages.hpp"
+#include "render/render_stages.hpp"
 
 namespace hedgefit::apps {
 
@@ -8,6 +9,7 @@ void PrepareRegistry(bool load_plugins) {
   cloud::Registry& registry = cloud::Registry::Global();
   static const bool builtins = [&] {
     fitting::RegisterFittingStages(registry);
+    render::RegisterRenderStages(registry);
     return true;
   }();
   (void)builtins;

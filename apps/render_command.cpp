@@ -1,0 +1,167 @@
+// hedgefit render CLOUD: an off-screen VTK picture of a cloud and its fitted spheres.
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "apps/commands.hpp"
+#include "cloud/cloud_io.hpp"
+#include "fitting/evaluation.hpp"
+#include "render/render.hpp"
+
+namespace hedgefit::apps {
+
+namespace {
+
+using nlohmann::json;
+
+// Fits (and truth) for `cloud_path` from `hedgefit compare --format json` output.
+std::vector<render::SphereOverlay> ReadFits(const std::string& path, const std::string& cloud_path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": cannot open the fits file; write one with `hedgefit compare CLOUD --format json > FILE`");
+  json j;
+  try {
+    in >> j;
+  } catch (const json::exception&) {
+    throw Error(path + ": invalid JSON; expected the output of `hedgefit compare --format json`");
+  }
+  if (!j.is_object() || !j.contains("clouds") || !j["clouds"].is_array() || j["clouds"].empty()) {
+    throw Error(path + ": has no \"clouds\"; expected the output of `hedgefit compare --format json`");
+  }
+  const json* entry = &j["clouds"][0];
+  for (const auto& c : j["clouds"]) {
+    if (c.value("file", "") == cloud_path ||
+        std::filesystem::path(c.value("file", "")).filename() == std::filesystem::path(cloud_path).filename()) {
+      entry = &c;
+      break;
+    }
+  }
+  std::vector<render::SphereOverlay> out;
+  try {
+    for (const auto& f : (*entry)["fits"]) {
+      if (!f.value("converged", false)) continue;
+      render::SphereOverlay o;
+      o.label = f.at("method").get<std::string>();
+      o.sphere.center_mm = Eigen::Vector3d(f.at("center_mm")[0], f.at("center_mm")[1], f.at("center_mm")[2]);
+      o.sphere.radius_mm = f.at("radius_mm").get<double>();
+      out.push_back(o);
+    }
+    if (entry->contains("truth") && !(*entry)["truth"].is_null()) {
+      const auto& t = (*entry)["truth"];
+      render::SphereOverlay o;
+      o.label = "truth";
+      o.truth = true;
+      o.sphere.center_mm = Eigen::Vector3d(t.at("center_mm")[0], t.at("center_mm")[1], t.at("center_mm")[2]);
+      o.sphere.radius_mm = t.at("radius_mm").get<double>();
+      out.push_back(o);
+    }
+  } catch (const json::exception&) {
+    throw Error(path + ": a fit lacks center_mm or radius_mm; expected the output of `hedgefit compare --format json`");
+  }
+  return out;
+}
+
+}  // namespace
+
+void AddRenderCommand(CLI::App& app, CommandFn* run) {
+  auto* cmd = app.add_subcommand("render", "Render a cloud and its fitted spheres to PNG, off-screen (VTK)");
+  cmd->footer(
+      "Examples:\n"
+      "  hedgefit compare sample_clouds/cap_z2300_a60_o30.pcd --format json > build/fits.json\n"
+      "  hedgefit render sample_clouds/cap_z2300_a60_o30.pcd --fits build/fits.json -o build/cap.png\n"
+      "  hedgefit render sample_clouds/cap_z2300_a60_o30.pcd --fits build/fits.json --color distance --view all\n"
+      "No display is needed: without DISPLAY, hedgefit runs its own virtual X server (Xvfb).\n");
+  struct Args {
+    std::string cloud, fits, truth, output = "render.png", color = "own", view = "front", size = "1024x768",
+                background = "255,255,255";
+    double point_size = 2.0, scale = 1.0, range = 0.0;
+    bool wireframe = false;
+    std::vector<std::string> methods;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("CLOUD", a->cloud, "cloud file (.pcd, .ply, .xyz)")->required();
+  cmd->add_option("--fits", a->fits, "fits to draw: the output of `hedgefit compare --format json`");
+  cmd->add_option("--truth", a->truth, "true sphere JSON to draw (black wireframe)");
+  cmd->add_option("-o,--output", a->output, "PNG to write")->capture_default_str();
+  cmd->add_option("--color", a->color, "own, distance (signed, to the best fit drawn) or depth")
+      ->check(CLI::IsMember({"own", "distance", "depth"}))
+      ->capture_default_str();
+  cmd->add_option("--view", a->view, "front (the left camera's view), side, top, iso, a comma list, or all (tiled)")
+      ->capture_default_str();
+  cmd->add_option("--size", a->size, "WxH of each view, px")->capture_default_str();
+  cmd->add_option("--background", a->background, "R,G,B in 0..255")->capture_default_str();
+  cmd->add_option("--point-size", a->point_size, "px")->capture_default_str();
+  cmd->add_option("--distance-range", a->range, "colour-map half range for --color distance, mm (0 = automatic)")
+      ->capture_default_str();
+  cmd->add_option("--methods", a->methods, "draw only these fits (comma-separated)")->delimiter(',');
+  cmd->add_flag("--wireframe", a->wireframe, "draw fitted spheres as wireframes");
+  cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
+  cmd->callback([=]() {
+    *run = [=]() {
+      render::RenderOptions o;
+      o.color = render::ParseColorMode(a->color);
+      o.views.clear();
+      std::stringstream vs(a->view == "all" ? std::string("front,side,top,iso") : a->view);
+      for (std::string v; std::getline(vs, v, ',');) o.views.push_back(render::ParseView(v));
+      int w = 0, h = 0;
+      char x = 0;
+      std::istringstream ss(a->size);
+      if (!(ss >> w >> x >> h) || x != 'x') throw Error("--size '" + a->size + "': give WxH, e.g. 1024x768");
+      o.width = w;
+      o.height = h;
+      int r = -1, g = -1, b = -1;
+      char c1 = 0, c2 = 0;
+      std::istringstream bs(a->background);
+      if (!(bs >> r >> c1 >> g >> c2 >> b) || c1 != ',' || c2 != ',' || r < 0 || r > 255 || g < 0 || g > 255 ||
+          b < 0 || b > 255) {
+        throw Error("--background '" + a->background + "': give R,G,B in 0..255, e.g. 255,255,255");
+      }
+      o.background = {r / 255.0, g / 255.0, b / 255.0};
+      o.point_size = a->point_size;
+      o.wireframe = a->wireframe;
+      o.distance_range_mm = a->range;
+      try {
+        o.Check();
+      } catch (const Error& e) {
+        throw Error(std::string("--") + e.what());
+      }
+      cloud::ReadOptions ro;
+      ro.scale = a->scale;
+      const cloud::PointCloud cloud = cloud::ReadCloud(a->cloud, ro);
+      std::vector<render::SphereOverlay> spheres;
+      if (!a->fits.empty()) spheres = ReadFits(a->fits, a->cloud);
+      if (!a->methods.empty()) {
+        std::vector<render::SphereOverlay> kept;
+        for (const auto& s : spheres) {
+          if (s.truth || std::find(a->methods.begin(), a->methods.end(), s.label) != a->methods.end()) kept.push_back(s);
+        }
+        spheres = kept;
+      }
+      if (!a->truth.empty()) {
+        render::SphereOverlay t;
+        t.label = "truth";
+        t.truth = true;
+        t.sphere = fitting::ReadTruthFile(a->truth);
+        spheres.push_back(t);
+      }
+      // Signed distances to the most trustworthy fit drawn: the robust geometric one first.
+      for (const char* preferred : {"ransac_geometric", "geometric", "ransac", "hyper", ""}) {
+        for (const auto& s : spheres) {
+          if (!s.truth && (s.label == preferred || *preferred == '\0')) {
+            o.distance_sphere = s.sphere;
+            break;
+          }
+        }
+        if (o.distance_sphere) break;
+      }
+      render::RenderToPng(cloud, spheres, o, a->output);
+      std::printf("wrote %s\n", a->output.c_str());
+      return kExitOk;
+    };
+  });
+}
+
+}  // namespace hedgefit::apps

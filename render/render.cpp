@@ -1,0 +1,331 @@
+#include "render/render.hpp"
+
+#include <vtkActor.h>
+#include <vtkCamera.h>
+#include <vtkCellArray.h>
+#include <vtkColorTransferFunction.h>
+#include <vtkFloatArray.h>
+#include <vtkLegendBoxActor.h>
+#include <vtkNew.h>
+#include <vtkObject.h>
+#include <vtkPNGWriter.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataMapper.h>
+#include <vtkProperty.h>
+#include <vtkRenderWindow.h>
+#include <vtkRenderer.h>
+#include <vtkScalarBarActor.h>
+#include <vtkSphereSource.h>
+#include <vtkTextProperty.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkWindowToImageFilter.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <unistd.h>
+
+#include "cloud/error.hpp"
+#include "render/virtual_display.hpp"
+
+namespace hedgefit::render {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::array<double, 3> Normalized(std::array<double, 3> v) {
+  const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  return {v[0] / n, v[1] / n, v[2] / n};
+}
+
+}  // namespace
+
+ColorMode ParseColorMode(const std::string& name) {
+  if (name == "own") return ColorMode::kOwn;
+  if (name == "distance") return ColorMode::kDistance;
+  if (name == "depth") return ColorMode::kDepth;
+  throw Error("color: '" + name + "' is not one of own, distance, depth");
+}
+
+View ParseView(const std::string& name) {
+  if (name == "front") return View::kFront;
+  if (name == "side") return View::kSide;
+  if (name == "top") return View::kTop;
+  if (name == "iso") return View::kIso;
+  throw Error("view: '" + name + "' is not one of front, side, top, iso");
+}
+
+void RenderOptions::Check() const {
+  if (width < 16 || height < 16 || width > 8192 || height > 8192) throw Error("size: each side must be 16..8192 px");
+  if (views.empty()) throw Error("view: give at least one view");
+  for (double c : background) {
+    if (!(c >= 0 && c <= 1)) throw Error("background: components must be in [0, 1]");
+  }
+  if (!(point_size > 0 && point_size <= 50)) throw Error("point_size: must be in (0, 50] px");
+  if (!(sphere_opacity > 0 && sphere_opacity <= 1)) throw Error("sphere_opacity: must be in (0, 1]");
+  if (distance_range_mm < 0) throw Error("distance_range: must be >= 0 mm (0 = automatic)");
+}
+
+std::array<double, 3> OverlayColor(std::size_t index) {
+  static const std::array<std::array<double, 3>, 8> palette = {{{0.89, 0.10, 0.11},
+                                                                 {0.22, 0.49, 0.72},
+                                                                 {0.30, 0.69, 0.29},
+                                                                 {0.60, 0.31, 0.64},
+                                                                 {1.00, 0.50, 0.00},
+                                                                 {0.65, 0.34, 0.16},
+                                                                 {0.97, 0.51, 0.75},
+                                                                 {0.40, 0.40, 0.40}}};
+  return palette[index % palette.size()];
+}
+
+CameraSetup CameraFor(View view, const std::array<double, 6>& b) {
+  const std::array<double, 3> c = {(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2};
+  const double s = std::max(1.0, 0.5 * std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) +
+                                                  (b[5] - b[4]) * (b[5] - b[4])));
+  CameraSetup cam;
+  cam.focal_point = c;
+  const double dist = 3.0 * s;
+  cam.view_angle_deg = 2 * std::atan(1.1 / 3.0) * 180 / kPi;
+  switch (view) {
+    case View::kFront: {
+      // The left camera's own view: from the origin, y down on screen as in the image.
+      const double d = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+      if (d > 1.5 * s) {
+        cam.position = {0, 0, 0};
+        cam.view_angle_deg = std::clamp(2 * std::atan(1.1 * s / d) * 180 / kPi, 1.0, 120.0);
+      } else {
+        cam.position = {c[0], c[1], c[2] - dist};
+      }
+      cam.view_up = {0, -1, 0};
+      break;
+    }
+    case View::kSide:
+      cam.position = {c[0] + dist, c[1], c[2]};
+      cam.view_up = {0, -1, 0};
+      break;
+    case View::kTop:
+      cam.position = {c[0], c[1] - dist, c[2]};
+      cam.view_up = {0, 0, 1};
+      break;
+    case View::kIso: {
+      const auto d = Normalized({1, -1, -1});
+      cam.position = {c[0] + dist * d[0], c[1] + dist * d[1], c[2] + dist * d[2]};
+      cam.view_up = {0, -1, 0};
+      break;
+    }
+  }
+  return cam;
+}
+
+void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
+                 const RenderOptions& options, const std::string& png_path) {
+  options.Check();
+  namespace fs = std::filesystem;
+  const fs::path target(png_path);
+  std::error_code ec;
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  if (!fs::is_directory(dir, ec)) throw Error(png_path + ": directory '" + dir.string() + "' does not exist; create it first");
+  EnsureDisplay();
+  vtkObject::GlobalWarningDisplayOff();
+
+  // Points, and what colours them.
+  vtkNew<vtkPoints> points;
+  vtkNew<vtkCellArray> verts;
+  vtkNew<vtkUnsignedCharArray> rgb;
+  rgb->SetNumberOfComponents(3);
+  vtkNew<vtkFloatArray> scalar;
+  if (options.color == ColorMode::kDistance && !options.distance_sphere && spheres.empty()) {
+    throw Error("color: 'distance' needs a fitted sphere; give --fits (or --truth)");
+  }
+  // Sphere for signed distances (unused unless colouring by distance).
+  const fitting::Sphere ref = options.distance_sphere ? *options.distance_sphere
+                              : spheres.empty()       ? fitting::Sphere{}
+                                                      : spheres.front().sphere;
+  std::array<double, 6> bounds = {1e300, -1e300, 1e300, -1e300, 1e300, -1e300};
+  auto grow = [&](double x, double y, double z) {
+    bounds[0] = std::min(bounds[0], x), bounds[1] = std::max(bounds[1], x);
+    bounds[2] = std::min(bounds[2], y), bounds[3] = std::max(bounds[3], y);
+    bounds[4] = std::min(bounds[4], z), bounds[5] = std::max(bounds[5], z);
+  };
+  std::vector<float> magnitudes;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f& p = cloud.points_mm[i];
+    if (!cloud::IsFinite(p)) continue;
+    const vtkIdType id = points->InsertNextPoint(p.x(), p.y(), p.z());
+    verts->InsertNextCell(1, &id);
+    grow(p.x(), p.y(), p.z());
+    if (options.color == ColorMode::kOwn) {
+      const cloud::Rgb c = cloud.HasColor() ? cloud.colors[i] : cloud::Rgb{90, 90, 90};
+      rgb->InsertNextTuple3(c[0], c[1], c[2]);
+    } else if (options.color == ColorMode::kDistance) {
+      const double d = (p.cast<double>() - ref.center_mm).norm() - ref.radius_mm;
+      scalar->InsertNextValue(static_cast<float>(d));
+      magnitudes.push_back(static_cast<float>(std::abs(d)));
+    } else {
+      scalar->InsertNextValue(p.z());
+    }
+  }
+  if (points->GetNumberOfPoints() == 0) throw Error(png_path + ": the cloud has no finite points to render");
+  for (const auto& s : spheres) {
+    const auto& c = s.sphere.center_mm;
+    grow(c.x() - s.sphere.radius_mm, c.y() - s.sphere.radius_mm, c.z() - s.sphere.radius_mm);
+    grow(c.x() + s.sphere.radius_mm, c.y() + s.sphere.radius_mm, c.z() + s.sphere.radius_mm);
+  }
+  vtkNew<vtkPolyData> poly;
+  poly->SetPoints(points);
+  poly->SetVerts(verts);
+  vtkNew<vtkPolyDataMapper> mapper;
+  mapper->SetInputData(poly);
+  vtkNew<vtkColorTransferFunction> lut;
+  std::string bar_title;
+  if (options.color == ColorMode::kOwn) {
+    poly->GetPointData()->SetScalars(rgb);
+    mapper->SetColorModeToDirectScalars();
+  } else {
+    poly->GetPointData()->SetScalars(scalar);
+    double lo, hi;
+    if (options.color == ColorMode::kDistance) {
+      double range = options.distance_range_mm;
+      if (range <= 0) {
+        // 3 robust sigmas of the residuals (1.4826 x median |d|): the sphere's own noise
+        // spans the map, and outliers saturate instead of washing it out.
+        std::nth_element(magnitudes.begin(), magnitudes.begin() + std::ptrdiff_t(magnitudes.size() / 2), magnitudes.end());
+        range = std::max(1.0, 3.0 * 1.4826 * double(magnitudes[magnitudes.size() / 2]));
+      }
+      lo = -range, hi = range;
+      // Cool-warm diverging map: inside blue, on the sphere white, outside red.
+      lut->AddRGBPoint(lo, 0.23, 0.30, 0.75);
+      lut->AddRGBPoint(0.0, 0.87, 0.87, 0.87);
+      lut->AddRGBPoint(hi, 0.71, 0.02, 0.15);
+      bar_title = "signed distance (mm)";
+    } else {
+      lo = bounds[4], hi = std::max(bounds[4] + 1, bounds[5]);
+      const double pts[5][3] = {{0.27, 0.00, 0.33}, {0.23, 0.32, 0.55}, {0.13, 0.57, 0.55}, {0.37, 0.79, 0.38},
+                                {0.99, 0.91, 0.15}};  // viridis
+      for (int k = 0; k < 5; ++k) lut->AddRGBPoint(lo + (hi - lo) * k / 4.0, pts[k][0], pts[k][1], pts[k][2]);
+      bar_title = "depth z (mm)";
+    }
+    lut->ClampingOn();
+    mapper->SetLookupTable(lut);
+    mapper->SetScalarRange(lo, hi);
+    mapper->SetColorModeToMapScalars();
+  }
+  mapper->ScalarVisibilityOn();
+  vtkNew<vtkActor> cloud_actor;
+  cloud_actor->SetMapper(mapper);
+  cloud_actor->GetProperty()->SetPointSize(static_cast<float>(options.point_size));
+  cloud_actor->GetProperty()->LightingOff();
+
+  // Spheres and their legend.
+  std::vector<vtkSmartPointer<vtkActor>> sphere_actors;
+  vtkNew<vtkLegendBoxActor> legend;
+  legend->SetNumberOfEntries(static_cast<int>(spheres.size()));
+  std::size_t fitted = 0;
+  for (std::size_t i = 0; i < spheres.size(); ++i) {
+    const auto& s = spheres[i];
+    vtkNew<vtkSphereSource> src;
+    src->SetCenter(s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+    src->SetRadius(s.sphere.radius_mm);
+    const bool lines = s.truth || options.wireframe;
+    src->SetThetaResolution(lines ? 24 : 64);  // wireframes: few enough lines to see through
+    src->SetPhiResolution(lines ? 12 : 48);
+    src->Update();
+    vtkNew<vtkPolyDataMapper> m;
+    m->SetInputConnection(src->GetOutputPort());
+    m->ScalarVisibilityOff();
+    auto actor = vtkSmartPointer<vtkActor>::New();
+    actor->SetMapper(m);
+    const std::array<double, 3> color = s.truth ? std::array<double, 3>{0, 0, 0} : OverlayColor(fitted++);
+    actor->GetProperty()->SetColor(color[0], color[1], color[2]);
+    if (s.truth || options.wireframe) {
+      actor->GetProperty()->SetRepresentationToWireframe();
+      actor->GetProperty()->SetOpacity(s.truth ? 0.35 : 0.8);
+      actor->GetProperty()->LightingOff();
+    } else {
+      actor->GetProperty()->SetOpacity(options.sphere_opacity);
+    }
+    sphere_actors.push_back(actor);
+    char text[200];
+    std::snprintf(text, sizeof(text), "%s  r %.1f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.sphere.radius_mm,
+                  s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+    vtkNew<vtkSphereSource> symbol;
+    symbol->Update();
+    double col[3] = {color[0], color[1], color[2]};
+    legend->SetEntry(static_cast<int>(i), symbol->GetOutput(), text, col);
+  }
+  legend->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+  legend->GetPositionCoordinate()->SetValue(0.01, 0.99 - 0.045 * double(spheres.size()));
+  legend->GetPosition2Coordinate()->SetCoordinateSystemToNormalizedViewport();
+  legend->GetPosition2Coordinate()->SetValue(0.55, 0.045 * double(spheres.size()));
+  legend->BorderOff();
+  legend->GetEntryTextProperty()->SetColor(1 - options.background[0], 1 - options.background[1], 1 - options.background[2]);
+
+  vtkNew<vtkScalarBarActor> bar;
+  if (options.color != ColorMode::kOwn) {
+    bar->SetLookupTable(lut);
+    bar->SetTitle(bar_title.c_str());
+    bar->SetNumberOfLabels(5);
+    bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+    bar->GetPositionCoordinate()->SetValue(0.87, 0.1);
+    bar->SetWidth(0.11);
+    bar->SetHeight(0.8);
+    const double tc = options.background[0] + options.background[1] + options.background[2] > 1.5 ? 0.0 : 1.0;
+    bar->GetTitleTextProperty()->SetColor(tc, tc, tc);
+    bar->GetLabelTextProperty()->SetColor(tc, tc, tc);
+  }
+
+  // One renderer per view, tiled.
+  const int n = static_cast<int>(options.views.size());
+  const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
+  const int rows = (n + cols - 1) / cols;
+  vtkNew<vtkRenderWindow> window;
+  window->SetOffScreenRendering(1);
+  window->SetMultiSamples(0);
+  window->SetSize(options.width * cols, options.height * rows);
+  for (int k = 0; k < n; ++k) {
+    vtkNew<vtkRenderer> ren;
+    const int c = k % cols, r = k / cols;
+    ren->SetViewport(double(c) / cols, 1.0 - double(r + 1) / rows, double(c + 1) / cols, 1.0 - double(r) / rows);
+    ren->SetBackground(options.background[0], options.background[1], options.background[2]);
+    ren->AddActor(cloud_actor);
+    for (auto& a : sphere_actors) ren->AddActor(a);
+    if (k == 0) {
+      if (!spheres.empty()) ren->AddViewProp(legend);
+      if (options.color != ColorMode::kOwn) ren->AddViewProp(bar);
+    }
+    const CameraSetup cam = CameraFor(options.views[std::size_t(k)], bounds);
+    vtkCamera* camera = ren->GetActiveCamera();
+    camera->SetPosition(cam.position.data());
+    camera->SetFocalPoint(cam.focal_point.data());
+    camera->SetViewUp(cam.view_up.data());
+    camera->SetViewAngle(cam.view_angle_deg);
+    ren->ResetCameraClippingRange();
+    window->AddRenderer(ren);
+  }
+  window->Render();
+  vtkNew<vtkWindowToImageFilter> grab;
+  grab->SetInput(window);
+  grab->SetInputBufferTypeToRGB();
+  grab->ReadFrontBufferOff();
+  grab->Update();
+  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ".png");
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetFileName(tmp.string().c_str());
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->Write();
+  if (writer->GetErrorCode() != 0 || !fs::exists(tmp, ec)) {
+    fs::remove(tmp, ec);
+    throw Error(png_path + ": cannot write the PNG; check free space and permissions");
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw Error(png_path + ": cannot be replaced: " + ec.message());
+  }
+}
+
+}  // namespace hedgefit::render

@@ -1,0 +1,59 @@
+#pragma once
+/// Off-screen VTK pictures of clouds and fitted spheres, written to PNG. Works without a
+/// display (see virtual_display.hpp). The same input gives the same image.
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cloud/point_cloud.hpp"
+#include "fitting/sphere_fit.hpp"
+
+namespace hedgefit::render {
+
+enum class ColorMode { kOwn, kDistance, kDepth };
+enum class View { kFront, kSide, kTop, kIso };
+
+/// "own", "distance", "depth" / "front", "side", "top", "iso"; parsers throw hedgefit::Error.
+ColorMode ParseColorMode(const std::string& name);
+View ParseView(const std::string& name);
+
+/// A sphere to draw, with its legend text.
+struct SphereOverlay {
+  std::string label;          ///< "hyper", "truth", ...
+  fitting::Sphere sphere;     ///< mm
+  bool truth = false;         ///< drawn as a black wireframe
+};
+
+struct RenderOptions {
+  int width = 1024;                    ///< px (of each view when tiled)
+  int height = 768;                    ///< px
+  ColorMode color = ColorMode::kOwn;   ///< point colours
+  /// Sphere for ColorMode::kDistance (signed distance |p - c| - r); default: the first overlay.
+  std::optional<fitting::Sphere> distance_sphere;
+  double distance_range_mm = 0;        ///< colour-map half range; 0 = 98th percentile of |d|
+  std::vector<View> views{View::kFront};  ///< several are tiled into one image
+  std::array<double, 3> background{1, 1, 1};  ///< RGB in [0, 1]
+  double point_size = 2.0;             ///< px
+  bool wireframe = false;              ///< fitted spheres as wireframes (else translucent)
+  double sphere_opacity = 0.25;        ///< translucent spheres
+  void Check() const;                  ///< throws hedgefit::Error naming the field
+};
+
+/// The colour used for the i-th fitted sphere (RGB in [0, 1]).
+std::array<double, 3> OverlayColor(std::size_t index);
+
+/// Renders and writes `png_path` atomically; throws hedgefit::Error on bad input.
+void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
+                 const RenderOptions& options, const std::string& png_path);
+
+/// Camera of a view preset for a scene: position, focal point, view-up, view angle (deg).
+/// Exposed so tests can project known points exactly as the renderer does.
+struct CameraSetup {
+  std::array<double, 3> position, focal_point, view_up;
+  double view_angle_deg = 30;
+};
+CameraSetup CameraFor(View view, const std::array<double, 6>& bounds);
+
+}  // namespace hedgefit::render
