@@ -3,7 +3,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -16,6 +18,7 @@
 #include "fitting/evaluation.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
+#include "render/plot.hpp"
 
 namespace hedgefit::apps {
 
@@ -40,6 +43,7 @@ struct CompareArgs {
   double max_radius_mm = 5000.0;
   double sample_radius_mm = 0.0;
   std::uint64_t seed = 42;
+  std::string plot;
 };
 
 struct CloudReport {
@@ -187,6 +191,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
                   "RANSAC draws each sample within this distance, mm (0 = anywhere; use ~2 r in large scenes)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "RANSAC sampler seed")->capture_default_str();
+  cmd->add_option("--plot", a->plot, "also draw |AER| and LD per method (against distance when several clouds have truth) to this PNG");
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
@@ -245,6 +250,38 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       }
       const auto stats = summary.Finish();
 
+      if (!a->plot.empty()) {
+        // Against the true distance when the clouds' truths differ in Z, else by cloud.
+        std::vector<double> zs;
+        for (const auto& r : reports) {
+          if (r.truth) zs.push_back(r.truth->center_mm.z());
+        }
+        std::sort(zs.begin(), zs.end());
+        const bool by_distance = zs.size() >= 2 && std::unique(zs.begin(), zs.end()) - zs.begin() == long(zs.size());
+        std::vector<render::ErrorSeries> series;
+        for (const auto& m : methods) {
+          render::ErrorSeries s;
+          s.method = m;
+          std::vector<std::tuple<double, double, double>> points;
+          for (std::size_t i = 0; i < reports.size(); ++i) {
+            const auto& r = reports[i];
+            if (!r.truth) continue;
+            for (const auto& f : r.fits) {
+              if (f.method != m || !f.converged) continue;
+              const auto e = fitting::Evaluate(f.sphere, *r.truth);
+              points.emplace_back(by_distance ? r.truth->center_mm.z() : double(i + 1), std::abs(e.aer_mm), e.ld_mm);
+            }
+          }
+          std::sort(points.begin(), points.end());
+          for (const auto& [x, aer, ld] : points) {
+            s.x.push_back(x);
+            s.abs_aer_mm.push_back(aer);
+            s.ld_mm.push_back(ld);
+          }
+          if (!s.x.empty()) series.push_back(s);
+        }
+        render::PlotErrors(series, by_distance ? "true distance Z (mm)" : "cloud", 1200, 500, a->plot);
+      }
       if (a->format == "json") {
         json out;
         out["clouds"] = json::array();
