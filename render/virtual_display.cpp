@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -15,16 +16,6 @@
 namespace hedgefit::render {
 
 namespace {
-
-pid_t g_xvfb = -1;
-
-void StopXvfb() {
-  if (g_xvfb > 0) {
-    kill(g_xvfb, SIGTERM);
-    waitpid(g_xvfb, nullptr, 0);
-    g_xvfb = -1;
-  }
-}
 
 bool ExecutableOnPath(const std::string& name, std::string* found) {
   const char* path = std::getenv("PATH");
@@ -59,9 +50,15 @@ void EnsureDisplay() {
   // Xvfb picks a free display number itself and writes it to the pipe (-displayfd).
   int fds[2];
   if (pipe(fds) != 0) throw Error("render: cannot create a pipe to start Xvfb");
+  const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) throw Error("render: cannot fork to start Xvfb");
   if (pid == 0) {
+    // Xvfb ends when hedgefit does, after everything (VTK's static objects included) is
+    // done with the display: the kernel sends it SIGTERM when its parent exits. Killing it
+    // from an atexit handler instead races those destructors and can abort the process.
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) _exit(0);
     close(fds[0]);
     const int devnull = open("/dev/null", O_RDWR);
     if (devnull >= 0) {
@@ -92,8 +89,6 @@ void EnsureDisplay() {
     waitpid(pid, nullptr, 0);
     throw Error("render: Xvfb (" + xvfb + ") did not start within 10 s; check that it runs: Xvfb :99");
   }
-  g_xvfb = pid;
-  std::atexit(StopXvfb);
   setenv("DISPLAY", (":" + number).c_str(), 1);
 }
 
