@@ -1,0 +1,46 @@
+#pragma once
+/// The paper's improved semi-global matching: OpenCV SGBM (8 paths by default), a
+/// left-right consistency check that marks occluded or mismatched pixels, hole filling
+/// from the background side (occluded pixels belong to the farther surface, i.e. the
+/// smaller disparity), then an edge-preserving bilateral filter. Disparities are float px.
+
+#include <opencv2/core.hpp>
+
+namespace hedgefit::stereo {
+
+enum class SgbmMode { kSgbm5, kHh8, kSgbm3Way, kHh4 };
+
+struct SgbmOptions {
+  SgbmMode mode = SgbmMode::kHh8;  ///< 8 paths (MODE_HH) by default, as in the paper
+  int min_disparity = 0;           ///< px
+  int num_disparities = 64;        ///< px, rounded up to a multiple of 16
+  int block_size = 5;              ///< px, odd
+  int p1 = 0;                      ///< smoothness penalty; 0 = 8 * channels * block^2
+  int p2 = 0;                      ///< 0 = 32 * channels * block^2
+  int uniqueness_ratio = 10;       ///< %
+  int disp12_max_diff = -1;        ///< OpenCV's own check, off: the LRC check below replaces it
+  double lrc_tolerance_px = 1.0;   ///< |d_left(x) - d_right(x - d_left(x))| allowed; < 0 turns LRC off
+  bool fill_holes = true;          ///< fill rejected pixels from the background side
+  double bilateral_sigma_disp = 1.5;  ///< bilateral filter range sigma (px of disparity); 0 = off
+  double bilateral_sigma_space = 3.0; ///< bilateral filter spatial sigma (px)
+  void Check() const;  ///< throws hedgefit::Error naming the field
+};
+
+struct DisparityMap {
+  cv::Mat disparity;  ///< CV_32F, px; NaN where no disparity is known
+  cv::Mat rejected;   ///< CV_8U, 255 where the LRC check (or SGBM) rejected the pixel
+  int filled = 0;     ///< pixels filled from neighbours
+};
+
+/// Matches a rectified pair (8-bit grey or BGR). `left` and `right` have the same size.
+DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& options);
+
+/// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
+/// to the left and right; returns how many pixels were filled.
+int FillHolesFromBackground(cv::Mat* disparity);
+
+/// Disparity search range [min, min + num) for depths [min_z, max_z] mm: d = f b / Z.
+void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
+                            int* num_disparities);
+
+}  // namespace hedgefit::stereo
