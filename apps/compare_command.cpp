@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/fit_methods.hpp"
 #include "cloud/cloud_io.hpp"
 #include "cloud/pipeline.hpp"
 #include "fitting/algebraic_fit.hpp"
@@ -28,8 +29,6 @@ using fitting::Sphere;
 using fitting::SphereFitResult;
 using nlohmann::json;
 
-const std::vector<std::string> kAllMethods = {"kasa", "pratt", "taubin", "hyper", "ransac", "geometric",
-                                              "ransac_geometric"};
 
 struct CompareArgs {
   std::vector<std::string> clouds;
@@ -96,43 +95,6 @@ json CleaningStages(const CompareArgs& a) {
     }
   }
   return j;
-}
-
-SphereFitResult RunMethod(const std::string& method, const std::vector<Eigen::Vector3d>& pts, const CompareArgs& a) {
-  using namespace fitting;
-  auto algebraic = [&](AlgebraicMethod m) {
-    AlgebraicFitOptions o;
-    o.method = m;
-    return FitSphereAlgebraic(pts, o);
-  };
-  RansacFitOptions ro;
-  ro.distance_threshold_mm = a.ransac_threshold_mm;
-  ro.min_radius_mm = a.min_radius_mm;
-  ro.max_radius_mm = a.max_radius_mm;
-  ro.seed = a.seed;
-  ro.sample_radius_mm = a.sample_radius_mm;
-  if (method == "kasa") return algebraic(AlgebraicMethod::kKasa);
-  if (method == "pratt") return algebraic(AlgebraicMethod::kPratt);
-  if (method == "taubin") return algebraic(AlgebraicMethod::kTaubin);
-  if (method == "hyper") return algebraic(AlgebraicMethod::kHyper);
-  if (method == "ransac") return FitSphereRansac(pts, ro);
-  if (method == "geometric") return FitSphereGeometric(pts, {});
-  // RANSAC to find the inliers, then the geometric fit on them from RANSAC's sphere.
-  std::vector<std::size_t> inliers;
-  const SphereFitResult coarse = FitSphereRansac(pts, ro, &inliers);
-  SphereFitResult r;
-  if (!coarse.converged) {
-    r = coarse;
-  } else {
-    std::vector<Eigen::Vector3d> in;
-    in.reserve(inliers.size());
-    for (std::size_t i : inliers) in.push_back(pts[i]);
-    r = FitSphereGeometric(in, {}, &coarse.sphere);
-    r.wall_ms += coarse.wall_ms;
-    r.points_used = pts.size();
-  }
-  r.method = "ransac_geometric";
-  return r;
 }
 
 json FitJson(const SphereFitResult& f, const std::optional<Sphere>& truth) {
@@ -233,7 +195,15 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
           } else if (auto t = fitting::TruthFileFor(file)) {
             rep.truth = fitting::ReadTruthFile(*t);
           }
-          for (const auto& m : methods) rep.fits.push_back(RunMethod(m, pts, *a));
+          for (const auto& m : methods) {
+            FitMethodOptions fo;
+            fo.ransac_threshold_mm = a->ransac_threshold_mm;
+            fo.min_radius_mm = a->min_radius_mm;
+            fo.max_radius_mm = a->max_radius_mm;
+            fo.sample_radius_mm = a->sample_radius_mm;
+            fo.seed = a->seed;
+            rep.fits.push_back(RunFitMethod(m, pts, fo));
+          }
           reports.push_back(std::move(rep));
         } catch (const Error& e) {
           std::cerr << "hedgefit: " << e.what() << "; skipped\n";

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   AddCalibrateCommand(app, &run);
   AddSimulateCommand(app, &run);
   AddRenderCommand(app, &run);
+  AddConvertCommand(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

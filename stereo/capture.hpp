@@ -1,0 +1,73 @@
+#pragma once
+/// From a stereo capture to a point cloud, as the paper does it: rectify, segment the
+/// hedge (excess green), match with the improved SGBM over the hedge's region only, and
+/// reproject to 3-D in the unrectified left camera frame (mm).
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "cloud/point_cloud.hpp"
+#include "stereo/matching.hpp"
+#include "stereo/rig.hpp"
+
+namespace hedgefit::stereo {
+
+struct SegmentOptions {
+  double gamma = 1.5;             ///< y = (x + esp)^gamma on the excess-green value in [0, 1]
+  double esp = 0.0;               ///< offset added before the gamma
+  int bilateral_diameter = 9;     ///< px; 0 = no bilateral filter
+  double bilateral_sigma_color = 0.1;  ///< in excess-green units ([0, 1])
+  double bilateral_sigma_space = 5.0;  ///< px
+  bool largest_component = true;  ///< keep only the largest region
+  bool fill_holes = true;         ///< fill holes inside it
+  int erode_px = 0;               ///< drop this many silhouette pixels (least reliable disparity)
+  void Check() const;
+};
+
+/// The paper's hedge mask: ExG = 2G - R - B, bilateral filter, gamma, Otsu; CV_8U 0/255.
+cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& options);
+
+/// Undistorts and rectifies a pair with the rig's R1/P1 and R2/P2.
+void RectifyPair(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, cv::Mat* left_rect,
+                 cv::Mat* right_rect);
+
+struct ReprojectOptions {
+  bool organized = false;          ///< keep the image grid (NaN where no point)
+  bool extra_fields = true;        ///< add "disparity" and "sigma_z" fields per point
+  double sigma_disparity_px = 0.2; ///< assumed disparity noise for sigma_z = Z^2 sigma_d / (f b)
+};
+
+/// Disparity (rectified left, CV_32F, NaN = none) to points in the unrectified left camera
+/// frame (mm, R1 transposed applied), coloured from `left_rect`, only where `mask` is set.
+cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
+                            const StereoRig& rig, const ReprojectOptions& options);
+
+struct ConvertOptions {
+  SegmentOptions segment;
+  SgbmOptions sgbm;                ///< min/num disparities are set from the working range
+  ReprojectOptions reproject;
+  double min_z_mm = 1500;          ///< working range: sets the disparity search
+  double max_z_mm = 3500;
+  bool region_only = true;         ///< match only the mask's bounding box (plus margin)
+  int margin_px = 24;              ///< around the mask's bounding box
+  std::string mask_path;           ///< a user-supplied mask (left image) instead of segmentation
+  void Check() const;
+};
+
+struct ConvertResult {
+  cloud::PointCloud cloud;
+  cv::Mat left_rect, right_rect, mask, disparity;  ///< for debug images
+  cv::Rect matched_region;         ///< in the rectified left image
+  double matched_fraction = 1.0;   ///< matched area / full image area
+  double wall_ms = 0;
+};
+
+/// The whole capture-to-cloud path. Throws hedgefit::Error (e.g. "no hedge found").
+ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig,
+                             const ConvertOptions& options);
+
+/// Colourised disparity and mask overlay, for debug PNGs.
+cv::Mat ColorizeDisparity(const cv::Mat& disparity);
+cv::Mat MaskOverlay(const cv::Mat& bgr, const cv::Mat& mask);
+
+}  // namespace hedgefit::stereo
