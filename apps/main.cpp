@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   AddSimulateCommand(app, &run);
   AddRenderCommand(app, &run);
   AddConvertCommand(app, &run);
+  AddBenchCommand(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
