@@ -14,6 +14,8 @@ echo "== hedgefit pipeline examples/clean.json --metadata build/demo/metadata.js
 echo "== wrote build/demo/cleaned.pcd and build/demo/metadata.json"
 echo "== hedgefit compare sample_clouds/*.pcd"
 ./build/apps/hedgefit compare sample_clouds/*.pcd
+echo "== hedgefit bench lab: simulated captures -> calibration -> PCD -> every fitter, Table 2"
+./build/apps/hedgefit bench lab --dir build/demo/lab
 echo "== hedgefit render (the last step writes a picture)"
 ./build/apps/hedgefit compare sample_clouds/scene_ground_z2300.pcd --format json > build/demo/fits.json
 ./build/apps/hedgefit render sample_clouds/scene_ground_z2300.pcd --fits build/demo/fits.json \
