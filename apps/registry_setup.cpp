@@ -2,6 +2,7 @@
 #include "cloud/plugin.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "render/render_stages.hpp"
+#include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
 
@@ -10,6 +11,7 @@ void PrepareRegistry(bool load_plugins) {
   static const bool builtins = [&] {
     fitting::RegisterFittingStages(registry);
     render::RegisterRenderStages(registry);
+    stereo::RegisterStereoStages(registry);
     return true;
   }();
   (void)builtins;

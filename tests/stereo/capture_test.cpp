@@ -160,3 +160,54 @@ TEST(ConvertCli, BatchSkipsACorruptCaptureAndFinishesTheRest) {
 
 }  // namespace
 }  // namespace hedgefit::stereo
+
+#include "cloud/pipeline.hpp"
+#include "fitting/fitting_stages.hpp"
+#include "stereo/stereo_stages.hpp"
+
+namespace hedgefit::stereo {
+namespace {
+
+TEST(StereoStages, CaptureToFitInOnePipeline) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const SimRig sim = PaperRig(0.5);
+  WriteRig((dir / "rig.yaml").string(), TrueRig(sim));
+  SphereScene scene;
+  RenderOptions ro;
+  ro.supersample = 2;
+  cv::imwrite((dir / "l.png").string(), RenderSphere(sim, false, scene, ro));
+  cv::imwrite((dir / "r.png").string(), RenderSphere(sim, true, scene, ro));
+  cloud::Registry registry;
+  cloud::RegisterCloudStages(registry);
+  fitting::RegisterFittingStages(registry);
+  RegisterStereoStages(registry);
+  const std::string d = dir.string();
+  const std::string json = R"([{"type": "readers.stereo", "left": ")" + d + R"(/l.png", "right": ")" + d +
+                           R"(/r.png", "rig": ")" + d + R"(/rig.yaml"}, {"type": "stereo.rectify"},
+      {"type": "stereo.segment"}, {"type": "stereo.sgbm"}, {"type": "stereo.reproject"},
+      {"type": "fitters.ransac", "distance_threshold": 30, "min_radius": 100, "max_radius": 1000}])";
+  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", registry);
+  cloud::Context ctx;
+  p.Run(ctx);
+  EXPECT_GT(ctx.Get<cloud::PointCloud>("cloud").size(), 5000u);
+  const auto& fits = ctx.Get<std::vector<fitting::SphereFitResult>>("fits");
+  ASSERT_EQ(fits.size(), 1u);
+  ASSERT_TRUE(fits[0].converged);
+  // Same bounds as SimulatedSphereConvertsAndFits (half-size rig, silhouette bias).
+  EXPECT_NEAR(fits[0].sphere.radius_mm, 300.0, 5.0);
+
+  // Matching unrectified images is refused with a clear message.
+  const std::string no_rectify = R"([{"type": "readers.stereo", "left": ")" + d + R"(/l.png", "right": ")" + d +
+                                 R"(/r.png", "rig": ")" + d + R"(/rig.yaml"}, {"type": "stereo.sgbm"}])";
+  cloud::Pipeline q = cloud::Pipeline::FromJson(no_rectify, "q", registry);
+  cloud::Context ctx2;
+  try {
+    q.Run(ctx2);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "stage 'stereo.sgbm': the images are not rectified; add stereo.rectify before it");
+  }
+}
+
+}  // namespace
+}  // namespace hedgefit::stereo
