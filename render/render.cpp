@@ -16,6 +16,8 @@
 #include <vtkProperty.h>
 #include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
+#include <vtkRendererCollection.h>
+#include <vtkSmartPointer.h>
 #include <vtkScalarBarActor.h>
 #include <vtkSphereSource.h>
 #include <vtkTextProperty.h>
@@ -282,9 +284,16 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
   const int n = static_cast<int>(options.views.size());
   const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
   const int rows = (n + cols - 1) / cols;
-  vtkNew<vtkRenderWindow> window;
-  window->SetOffScreenRendering(1);
-  window->SetMultiSamples(0);
+  // One window (one X connection, one GL context) for the whole process: creating a fresh
+  // GLX window for every render intermittently aborts inside VTK under load.
+  static vtkSmartPointer<vtkRenderWindow> shared_window;
+  if (!shared_window) {
+    shared_window = vtkSmartPointer<vtkRenderWindow>::New();
+    shared_window->SetOffScreenRendering(1);
+    shared_window->SetMultiSamples(0);
+  }
+  vtkRenderWindow* window = shared_window;
+  window->GetRenderers()->RemoveAllItems();
   window->SetSize(options.width * cols, options.height * rows);
   for (int k = 0; k < n; ++k) {
     vtkNew<vtkRenderer> ren;

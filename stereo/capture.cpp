@@ -159,15 +159,7 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
                          &sg.min_disparity, &sg.num_disparities);
   const cv::Size size = r.left_rect.size();
   cv::Rect roi(0, 0, size.width, size.height);
-  if (options.region_only) {
-    const cv::Rect box = cv::boundingRect(r.mask);
-    const int reach = sg.min_disparity + sg.num_disparities;  // columns SGBM needs to the left
-    const int x0 = std::max(0, box.x - options.margin_px - reach);
-    const int y0 = std::max(0, box.y - options.margin_px);
-    const int x1 = std::min(size.width, box.x + box.width + options.margin_px);
-    const int y1 = std::min(size.height, box.y + box.height + options.margin_px);
-    roi = cv::Rect(x0, y0, x1 - x0, y1 - y0);
-  }
+  if (options.region_only) roi = MatchRegion(r.mask, sg, options.margin_px);
   r.matched_region = roi;
   r.matched_fraction = double(roi.area()) / double(size.area());
   const DisparityMap d = ComputeDisparity(r.left_rect(roi), r.right_rect(roi), sg);
@@ -179,6 +171,15 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   }
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px) {
+  const cv::Rect box = cv::boundingRect(mask);
+  const int reach = sgbm.min_disparity + sgbm.num_disparities;  // columns SGBM needs to the left
+  const int x0 = std::max(0, box.x - margin_px - reach), y0 = std::max(0, box.y - margin_px);
+  const int x1 = std::min(mask.cols, box.x + box.width + margin_px);
+  const int y1 = std::min(mask.rows, box.y + box.height + margin_px);
+  return cv::Rect(x0, y0, x1 - x0, y1 - y0);
 }
 
 cv::Mat ColorizeDisparity(const cv::Mat& disparity) {

@@ -66,6 +66,10 @@ struct ConvertResult {
 ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig,
                              const ConvertOptions& options);
 
+/// The region SGBM needs for the mask's pixels: its bounding box plus `margin_px`, widened
+/// to the left by the disparity reach so every masked pixel gets a full search.
+cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px);
+
 /// Colourised disparity and mask overlay, for debug PNGs.
 cv::Mat ColorizeDisparity(const cv::Mat& disparity);
 cv::Mat MaskOverlay(const cv::Mat& bgr, const cv::Mat& mask);

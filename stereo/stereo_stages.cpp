@@ -125,13 +125,7 @@ void RegisterStereoStages(cloud::Registry& r) {
                                    &run.num_disparities);
             cv::Rect roi(0, 0, l.cols, l.rows);
             const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
-            if (region && mask && cv::countNonZero(*mask) > 0) {
-              const cv::Rect box = cv::boundingRect(*mask);
-              const int reach = run.min_disparity + run.num_disparities;
-              const int x0 = std::max(0, box.x - margin - reach), y0 = std::max(0, box.y - margin);
-              const int x1 = std::min(l.cols, box.x + box.width + margin), y1 = std::min(l.rows, box.y + box.height + margin);
-              roi = cv::Rect(x0, y0, x1 - x0, y1 - y0);
-            }
+            if (region && mask && cv::countNonZero(*mask) > 0) roi = MatchRegion(*mask, run, margin);
             const DisparityMap d = ComputeDisparity(l(roi), rt(roi), run);
             cv::Mat full(l.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
             d.disparity.copyTo(full(roi));
