@@ -29,17 +29,7 @@ int main(int argc, char** argv) {
   stereo::RenderOptions ro;
   ro.supersample = 2;
   const cv::Mat left = stereo::RenderSphere(sim, false, scene, ro), right = stereo::RenderSphere(sim, true, scene, ro);
-  stereo::StereoRig rig;
-  rig.image_size = sim.left.size;
-  rig.K1 = cv::Mat(sim.left.K).clone();
-  rig.D1 = cv::Mat(sim.left.dist).t();
-  rig.K2 = cv::Mat(sim.right.K).clone();
-  rig.D2 = cv::Mat(sim.right.dist).t();
-  rig.R = cv::Mat(sim.R).clone();
-  rig.T = cv::Mat(sim.T).clone();
-  rig.baseline_mm = cv::norm(rig.T);
-  cv::stereoRectify(rig.K1, rig.D1, rig.K2, rig.D2, rig.image_size, rig.R, rig.T, rig.R1, rig.R2, rig.P1, rig.P2, rig.Q,
-                    cv::CALIB_ZERO_DISPARITY, 0);
+  const stereo::StereoRig rig = stereo::RigFromSimulation(sim);
 
   double radius = 0;
   std::size_t points = 0;

@@ -81,22 +81,7 @@ void PlotErrors(const std::vector<ErrorSeries>& series, const std::string& x_tit
     }
   }
   view->GetRenderWindow()->Render();
-  vtkNew<vtkWindowToImageFilter> grab;
-  grab->SetInput(view->GetRenderWindow());
-  grab->SetInputBufferTypeToRGB();
-  grab->ReadFrontBufferOff();
-  grab->Update();
-  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ".png");
-  vtkNew<vtkPNGWriter> writer;
-  writer->SetFileName(tmp.string().c_str());
-  writer->SetInputConnection(grab->GetOutputPort());
-  writer->Write();
-  if (writer->GetErrorCode() != 0 || !fs::exists(tmp, ec)) {
-    fs::remove(tmp, ec);
-    throw Error(png_path + ": cannot write the PNG; check free space and permissions");
-  }
-  fs::rename(tmp, target, ec);
-  if (ec) throw Error(png_path + ": cannot be replaced: " + ec.message());
+  WriteWindowPng(view->GetRenderWindow(), png_path);
 }
 
 }  // namespace hedgefit::render

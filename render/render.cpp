@@ -316,25 +316,7 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
     window->AddRenderer(ren);
   }
   window->Render();
-  vtkNew<vtkWindowToImageFilter> grab;
-  grab->SetInput(window);
-  grab->SetInputBufferTypeToRGB();
-  grab->ReadFrontBufferOff();
-  grab->Update();
-  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ".png");
-  vtkNew<vtkPNGWriter> writer;
-  writer->SetFileName(tmp.string().c_str());
-  writer->SetInputConnection(grab->GetOutputPort());
-  writer->Write();
-  if (writer->GetErrorCode() != 0 || !fs::exists(tmp, ec)) {
-    fs::remove(tmp, ec);
-    throw Error(png_path + ": cannot write the PNG; check free space and permissions");
-  }
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(png_path + ": cannot be replaced: " + ec.message());
-  }
+  WriteWindowPng(window, png_path);
 }
 
 }  // namespace hedgefit::render

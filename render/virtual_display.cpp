@@ -11,6 +11,13 @@
 #include <mutex>
 #include <string>
 
+#include <vtkNew.h>
+#include <vtkPNGWriter.h>
+#include <vtkRenderWindow.h>
+#include <vtkWindowToImageFilter.h>
+
+#include <filesystem>
+
 #include "cloud/error.hpp"
 
 namespace hedgefit::render {
@@ -90,6 +97,32 @@ void EnsureDisplay() {
     throw Error("render: Xvfb (" + xvfb + ") did not start within 10 s; check that it runs: Xvfb :99");
   }
   setenv("DISPLAY", (":" + number).c_str(), 1);
+}
+
+void WriteWindowPng(vtkRenderWindow* window, const std::string& png_path) {
+  namespace fs = std::filesystem;
+  const fs::path target(png_path);
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  vtkNew<vtkWindowToImageFilter> grab;
+  grab->SetInput(window);
+  grab->SetInputBufferTypeToRGB();
+  grab->ReadFrontBufferOff();
+  grab->Update();
+  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ".png");
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetFileName(tmp.string().c_str());
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->Write();
+  std::error_code ec;
+  if (writer->GetErrorCode() != 0 || !fs::exists(tmp, ec)) {
+    fs::remove(tmp, ec);
+    throw Error(png_path + ": cannot write the PNG; check free space and permissions");
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw Error(png_path + ": cannot be replaced: " + ec.message());
+  }
 }
 
 }  // namespace hedgefit::render

@@ -285,6 +285,21 @@ cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& sc, const
   });
 }
 
+StereoRig RigFromSimulation(const SimRig& sim) {
+  StereoRig rig;
+  rig.image_size = sim.left.size;
+  rig.K1 = cv::Mat(sim.left.K).clone();
+  rig.D1 = cv::Mat(sim.left.dist).t();
+  rig.K2 = cv::Mat(sim.right.K).clone();
+  rig.D2 = cv::Mat(sim.right.dist).t();
+  rig.R = cv::Mat(sim.R).clone();
+  rig.T = cv::Mat(sim.T).clone();
+  rig.baseline_mm = cv::norm(rig.T);
+  cv::stereoRectify(rig.K1, rig.D1, rig.K2, rig.D2, rig.image_size, rig.R, rig.T, rig.R1, rig.R2, rig.P1, rig.P2,
+                    rig.Q, cv::CALIB_ZERO_DISPARITY, 0);
+  return rig;
+}
+
 std::string RigJson(const SimRig& rig) {
   auto mat = [](const cv::Matx33d& m) {
     char buf[512];

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "stereo/rig.hpp"
+
 namespace hedgefit::stereo {
 
 struct SimCamera {
@@ -70,6 +72,10 @@ std::vector<cv::Point3d> BoardInnerCornersWorld(const BoardScene& board);
 /// and the r = 300 mm sphere at Z = 2000, 2100, ..., 2600 mm (sphere_ZZZZ_left/right.png),
 /// each with a truth JSON, plus rig_truth.json. Returns the files written.
 std::vector<std::string> WritePaperLab(const std::string& dir, double scale, const RenderOptions& options);
+
+/// The simulated rig as a calibrated one (exact intrinsics and extrinsics), rectified by
+/// cv::stereoRectify: for tests and benchmarks that must not depend on calibration error.
+StereoRig RigFromSimulation(const SimRig& sim);
 
 /// The rig as JSON (K, distortion, R, T, image size) for truth files.
 std::string RigJson(const SimRig& rig);

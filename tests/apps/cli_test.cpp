@@ -9,38 +9,19 @@
 #include <sstream>
 
 #include "cloud/cloud_io.hpp"
+#include "tests/cli_helpers.hpp"
 #include "tests/test_data.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using Result = hedgefit::testing::CliResult;
+using hedgefit::testing::Slurp;
 
 // Runs hedgefit with `args` (shell words) from `cwd`, with an optional environment prefix.
 Result RunHedgefit(const std::string& args, const fs::path& cwd, const std::string& env = "") {
-  const fs::path out = cwd / "stdout.txt", err = cwd / "stderr.txt";
-  const std::string cmd = "cd '" + cwd.string() + "' && " + env + " '" + HEDGEFIT_EXE + "' " + args + " >'" +
-                          out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = Slurp(out);
-  r.err = Slurp(err);
-  fs::remove(out);
-  fs::remove(err);
-  return r;
+  return hedgefit::testing::RunCli(HEDGEFIT_EXE, args, cwd, cwd, env);
 }
 
 void ExpectOneLineError(const Result& r, int code, const std::string& fragment) {

@@ -8,28 +8,18 @@
 #include <fstream>
 #include <sstream>
 
+#include "tests/cli_helpers.hpp"
 #include "tests/test_data.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using Result = hedgefit::testing::CliResult;
+using hedgefit::testing::Slurp;
 
 Result RunHedgefit(const std::string& args, const fs::path& scratch) {
-  const std::string cmd = "cd '" + scratch.string() + "' && '" + HEDGEFIT_EXE + "' " + args + " >out 2>err";
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, Slurp(scratch / "out"), Slurp(scratch / "err")};
+  return hedgefit::testing::RunCli(HEDGEFIT_EXE, args, scratch, scratch);
 }
 
 TEST(CalibrateCli, RealPairsGiveRigAndJson) {

@@ -20,21 +20,7 @@
 namespace hedgefit::stereo {
 namespace {
 
-// The simulator's true rig as a calibrated rig (no calibration error), rectified by OpenCV.
-StereoRig TrueRig(const SimRig& sim) {
-  StereoRig rig;
-  rig.image_size = sim.left.size;
-  rig.K1 = cv::Mat(sim.left.K).clone();
-  rig.D1 = cv::Mat(sim.left.dist).t();
-  rig.K2 = cv::Mat(sim.right.K).clone();
-  rig.D2 = cv::Mat(sim.right.dist).t();
-  rig.R = cv::Mat(sim.R).clone();
-  rig.T = cv::Mat(sim.T).clone();
-  rig.baseline_mm = cv::norm(rig.T);
-  cv::stereoRectify(rig.K1, rig.D1, rig.K2, rig.D2, rig.image_size, rig.R, rig.T, rig.R1, rig.R2, rig.P1, rig.P2,
-                    rig.Q, cv::CALIB_ZERO_DISPARITY, 0);
-  return rig;
-}
+StereoRig TrueRig(const SimRig& sim) { return RigFromSimulation(sim); }
 
 // A point reprojected from rectified pixel (u, v) with disparity d must project, through
 // each camera's own (unrectified, distorted) model, to pixels that rectify back to (u, v)
