@@ -21,8 +21,10 @@ struct SgbmOptions {
   int disp12_max_diff = -1;        ///< OpenCV's own check, off: the LRC check below replaces it
   double lrc_tolerance_px = 1.0;   ///< |d_left(x) - d_right(x - d_left(x))| allowed; < 0 turns LRC off
   bool fill_holes = true;          ///< fill rejected pixels from the background side
-  double bilateral_sigma_disp = 1.5;  ///< bilateral filter range sigma (px of disparity); 0 = off
+  double bilateral_sigma_disp = 0.0;  ///< bilateral filter range sigma (px of disparity); 0 = off (see below)
   double bilateral_sigma_space = 3.0; ///< bilateral filter spatial sigma (px)
+  int refine_radius = 2;           ///< sub-pixel refinement window half-size (px); 0 = off (see RefineSubpixel)
+  int refine_iterations = 3;       ///< Gauss-Newton steps per pixel
   void Check() const;  ///< throws hedgefit::Error naming the field
 };
 
@@ -33,7 +35,21 @@ struct DisparityMap {
 };
 
 /// Matches a rectified pair (8-bit grey or BGR). `left` and `right` have the same size.
-DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& options);
+/// `mask` (optional, CV_8U, left view) limits the sub-pixel refinement's windows to the
+/// object, so silhouette pixels are not pulled towards the background.
+DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& options,
+                              const cv::Mat& mask = cv::Mat());
+
+/// Sub-pixel refinement of an SGBM disparity map. SGM's path costs favour constant
+/// disparity, so on a convex surface (every path arrives from the farther rim) the map is
+/// biased towards smaller disparities, and its parabola interpolation pixel-locks. This
+/// re-estimates each known, non-`skip` pixel by Gauss-Newton on the windowed photometric
+/// error L(x, y) = (1 + a) R(x - d, y) + b (shift, gain, offset), using only window pixels
+/// inside `mask` (all when empty). A pixel keeps its SGBM value when its window is too
+/// textureless or outside the mask, or when the step would exceed 1 px. Returns the number
+/// of pixels refined.
+int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip,
+                   int radius, int iterations, cv::Mat* disparity);
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.

@@ -1,0 +1,100 @@
+#include "stereo/bspline.hpp"
+
+#include <opencv2/core/utility.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "cloud/error.hpp"
+
+namespace hedgefit::stereo {
+
+cv::Mat BSplineCoefficientsAlongRows(const cv::Mat& image) {
+  if (image.type() != CV_32FC1) throw Error("BSplineCoefficientsAlongRows: needs a CV_32FC1 image");
+  const double z = std::sqrt(3.0) - 2.0;  // the cubic spline's pole
+  const int n = image.cols;
+  cv::Mat out(image.size(), CV_32F);
+  if (n < 2) {
+    image.copyTo(out);
+    return out;
+  }
+  const int horizon = std::min(n, 24);  // |z|^24 ~ 2e-14
+  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
+    std::vector<double> c(static_cast<std::size_t>(n));
+    for (int y = rows.start; y < rows.end; ++y) {
+      const float* s = image.ptr<float>(y);
+      double sum = 0, zk = 1;
+      for (int k = 0; k < horizon; ++k, zk *= z) sum += zk * s[k];
+      c[0] = sum;  // causal pass, mirror boundary
+      for (int k = 1; k < n; ++k) c[std::size_t(k)] = s[k] + z * c[std::size_t(k - 1)];
+      c[std::size_t(n - 1)] = (z / (z * z - 1)) * (c[std::size_t(n - 1)] + z * c[std::size_t(n - 2)]);
+      for (int k = n - 2; k >= 0; --k) c[std::size_t(k)] = z * (c[std::size_t(k + 1)] - c[std::size_t(k)]);
+      float* o = out.ptr<float>(y);
+      for (int k = 0; k < n; ++k) o[k] = static_cast<float>(6.0 * c[std::size_t(k)]);
+    }
+  });
+  return out;
+}
+
+cv::Mat BSplineCoefficients2D(const cv::Mat& image) {
+  cv::Mat rows = BSplineCoefficientsAlongRows(image), t, out;
+  cv::transpose(rows, t);
+  cv::transpose(BSplineCoefficientsAlongRows(t), out);
+  return out;
+}
+
+cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
+  if (source.depth() != CV_8U || (source.channels() != 1 && source.channels() != 3)) {
+    throw Error("RemapBSpline: needs an 8-bit grey or BGR image");
+  }
+  if (map_xy.type() != CV_32FC2) throw Error("RemapBSpline: needs a CV_32FC2 map");
+  const int channels = source.channels();
+  cv::Mat out = cv::Mat::zeros(map_xy.size(), source.type());
+  if (map_xy.empty()) return out;
+  // Only the part of the source the map reaches (plus the prefilter's reach) is filtered.
+  std::vector<cv::Mat> xy;
+  cv::split(map_xy, xy);
+  double x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;
+  cv::minMaxLoc(xy[0], &x_lo, &x_hi);
+  cv::minMaxLoc(xy[1], &y_lo, &y_hi);
+  constexpr int kMargin = 16;  // |z|^16 ~ 1e-9: the crop's edges do not reach the samples
+  const int x0 = std::clamp(static_cast<int>(std::floor(x_lo)) - kMargin, 0, source.cols - 1);
+  const int y0 = std::clamp(static_cast<int>(std::floor(y_lo)) - kMargin, 0, source.rows - 1);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(x_hi)) + kMargin + 1, x0 + 1, source.cols);
+  const int y1 = std::clamp(static_cast<int>(std::ceil(y_hi)) + kMargin + 1, y0 + 1, source.rows);
+  const cv::Mat crop = source(cv::Rect(x0, y0, x1 - x0, y1 - y0));
+  std::vector<cv::Mat> planes, coeffs(static_cast<std::size_t>(channels));
+  cv::split(crop, planes);
+  for (int c = 0; c < channels; ++c) {
+    cv::Mat f;
+    planes[std::size_t(c)].convertTo(f, CV_32F);
+    coeffs[std::size_t(c)] = BSplineCoefficients2D(f);
+  }
+  const int cw = crop.cols, ch = crop.rows;
+  cv::parallel_for_(cv::Range(0, map_xy.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const cv::Vec2f* m = map_xy.ptr<cv::Vec2f>(y);
+      std::uint8_t* o = out.ptr<std::uint8_t>(y);
+      for (int x = 0; x < map_xy.cols; ++x) {
+        const double u = m[x][0] - x0, v = m[x][1] - y0;
+        const int iu = static_cast<int>(std::floor(u)), iv = static_cast<int>(std::floor(v));
+        if (!(iu >= 1 && iu + 2 < cw && iv >= 1 && iv + 2 < ch)) continue;
+        double wx[4], wy[4];
+        BSplineWeights(u - iu, wx, nullptr);
+        BSplineWeights(v - iv, wy, nullptr);
+        for (int c = 0; c < channels; ++c) {
+          double acc = 0;
+          for (int j = 0; j < 4; ++j) {
+            const float* row = coeffs[std::size_t(c)].ptr<float>(iv - 1 + j) + (iu - 1);
+            acc += wy[j] * (wx[0] * row[0] + wx[1] * row[1] + wx[2] * row[2] + wx[3] * row[3]);
+          }
+          o[x * channels + c] = cv::saturate_cast<std::uint8_t>(acc);
+        }
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace hedgefit::stereo
