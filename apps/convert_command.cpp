@@ -76,8 +76,9 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
   struct Args {
     std::string left, right, input, rig, output, output_dir = "clouds", shard, mask;
     double min_z = 1500, max_z = 3500, gamma = 1.5;
-    int erode = 0, block = 5, threads = 0;
-    bool debug = false, organized = false, quiet = false, full_frame = false;
+    int erode = stereo::SegmentOptions{}.erode_px, block = 5, threads = 0,
+        refine_radius = stereo::SgbmOptions{}.refine_radius;
+    bool debug = false, organized = false, quiet = false, full_frame = false, keep_filled = false;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("--left", a->left, "left image of one capture");
@@ -91,6 +92,9 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--gamma", a->gamma, "segmentation gamma")->capture_default_str();
   cmd->add_option("--erode", a->erode, "drop this many silhouette pixels from the mask")->capture_default_str();
   cmd->add_option("--block", a->block, "SGBM block size, px (odd)")->capture_default_str();
+  cmd->add_option("--refine-radius", a->refine_radius, "sub-pixel refinement window half-size, px (0 = off)")
+      ->capture_default_str();
+  cmd->add_flag("--keep-filled", a->keep_filled, "also write hole-filled (unmeasured) pixels as points");
   cmd->add_option("--mask", a->mask, "use this mask image (left view) instead of segmentation (single capture)");
   cmd->add_option("--shard", a->shard, "i/n: convert only every n-th capture starting at i (0-based)");
   cmd->add_option("--threads", a->threads, "captures converted in parallel (0 = all cores)")->capture_default_str();
@@ -107,13 +111,21 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       o.segment.gamma = a->gamma;
       o.segment.erode_px = a->erode;
       o.sgbm.block_size = a->block;
+      o.sgbm.refine_radius = a->refine_radius;
+      o.reproject.keep_filled = a->keep_filled;
       o.reproject.organized = a->organized;
       o.region_only = !a->full_frame;
       o.mask_path = a->mask;
       try {
         o.Check();
       } catch (const Error& e) {
-        throw Error(std::string("--") + e.what());
+        // "field: why" -> "--field: why", spelled as the command-line option.
+        std::string msg = e.what();
+        const auto colon = msg.find(':');
+        for (std::size_t i = 0; i < colon && colon != std::string::npos; ++i) {
+          if (msg[i] == '_') msg[i] = '-';
+        }
+        throw Error("--" + msg);
       }
       const stereo::StereoRig rig = stereo::ReadRig(a->rig);
       std::vector<Capture> captures;

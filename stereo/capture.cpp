@@ -1,14 +1,19 @@
 #include "stereo/capture.hpp"
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
+#include <vector>
 
 #include "cloud/error.hpp"
+#include "stereo/bspline.hpp"
 
 namespace hedgefit::stereo {
 
@@ -30,23 +35,33 @@ void ConvertOptions::Check() const {
 cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
   o.Check();
   if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("stereo.segment: needs a colour (BGR) image");
-  cv::Mat f;
-  bgr.convertTo(f, CV_32FC3, 1.0 / 255.0);
-  std::vector<cv::Mat> ch;
-  cv::split(f, ch);
-  // Excess green 2G - R - B in [-2, 2], mapped to [0, 1].
-  cv::Mat exg = (2 * ch[1] - ch[2] - ch[0] + 2.0) / 4.0;
+  // Excess green 2G - R - B in [-510, 510], mapped to 8 bits ([0, 255] ~ ExG / 4 + 127.5):
+  // 8-bit images make the bilateral filter ~3x faster (table-driven range weights), and
+  // Otsu bins 256 levels anyway.
+  cv::Mat exg(bgr.size(), CV_8U);
+  cv::parallel_for_(cv::Range(0, bgr.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
+      std::uint8_t* out = exg.ptr<std::uint8_t>(y);
+      for (int x = 0; x < bgr.cols; ++x) out[x] = std::uint8_t((2 * p[x][1] - p[x][2] - p[x][0] + 510) >> 2);
+    }
+  });
   if (o.bilateral_diameter > 0) {
     cv::Mat smooth;
-    cv::bilateralFilter(exg, smooth, o.bilateral_diameter, o.bilateral_sigma_color, o.bilateral_sigma_space);
+    cv::bilateralFilter(exg, smooth, o.bilateral_diameter, o.bilateral_sigma_color * 255.0, o.bilateral_sigma_space);
     exg = smooth;
   }
-  cv::Mat g = exg + o.esp;
-  cv::max(g, 0.0, g);
-  cv::pow(g, o.gamma, g);
+  // y = (x + esp)^gamma on x in [0, 1], stretched to the image's own range, as one table.
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(exg, &lo, &hi);
+  auto curve = [&](double level) { return std::pow(std::max(0.0, level / 255.0 + o.esp), o.gamma); };
+  const double c_lo = curve(lo), c_hi = curve(hi);
+  cv::Mat lut(1, 256, CV_8U);
+  for (int i = 0; i < 256; ++i) {
+    lut.at<std::uint8_t>(i) = cv::saturate_cast<std::uint8_t>(c_hi > c_lo ? 255.0 * (curve(i) - c_lo) / (c_hi - c_lo) : 0.0);
+  }
   cv::Mat g8;
-  cv::normalize(g, g, 0, 255, cv::NORM_MINMAX);
-  g.convertTo(g8, CV_8U);
+  cv::LUT(exg, lut, g8);
   cv::Mat mask;
   cv::threshold(g8, mask, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
   if (o.largest_component) {
@@ -66,11 +81,51 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
     cv::floodFill(padded, cv::Point(0, 0), 0);
     mask |= padded(cv::Rect(1, 1, mask.cols, mask.rows));
   }
-  if (o.erode_px > 0) {
-    cv::erode(mask, mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * o.erode_px + 1, 2 * o.erode_px + 1)));
-  }
-  return mask;
+  return ErodeMask(mask, o.erode_px);
 }
+
+cv::Mat ErodeMask(const cv::Mat& mask, int px) {
+  if (px <= 0) return mask;
+  cv::Mat out;
+  cv::erode(mask, out, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * px + 1, 2 * px + 1)));
+  return out;
+}
+
+namespace {
+
+// Rectification maps for one camera of a rig, cached: building them costs ~10 ms per
+// camera at 1920x1200 and a batch converts many captures with one rig. Fixed-point maps
+// (CV_16SC2 + interpolation table) remap faster than float ones.
+struct RectifyMaps {
+  cv::Mat map1, map2;  // fixed point, for cv::remap
+  cv::Mat map_xy;      // CV_32FC2, for the B-spline remap of the matched region
+};
+
+std::shared_ptr<const RectifyMaps> MapsFor(const cv::Mat& K, const cv::Mat& D, const cv::Mat& R, const cv::Mat& P,
+                                           const cv::Size& size) {
+  static std::mutex mutex;
+  static std::vector<std::pair<std::vector<double>, std::shared_ptr<const RectifyMaps>>> cache;  // newest last
+  std::vector<double> key = {double(size.width), double(size.height)};
+  for (const cv::Mat* m : {&K, &D, &R, &P}) {
+    cv::Mat d;
+    m->convertTo(d, CV_64F);
+    key.insert(key.end(), d.begin<double>(), d.end<double>());
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  for (const auto& entry : cache) {
+    if (entry.first == key) return entry.second;
+  }
+  auto maps = std::make_shared<RectifyMaps>();
+  cv::Mat m1, m2;
+  cv::initUndistortRectifyMap(K, D, R, P, size, CV_32FC2, m1, m2);
+  cv::convertMaps(m1, m2, maps->map1, maps->map2, CV_16SC2);
+  maps->map_xy = m1;
+  if (cache.size() >= 8) cache.erase(cache.begin());
+  cache.emplace_back(std::move(key), maps);
+  return maps;
+}
+
+}  // namespace
 
 void RectifyPair(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, cv::Mat* left_rect,
                  cv::Mat* right_rect) {
@@ -82,11 +137,18 @@ void RectifyPair(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right
                 " but the rig was calibrated at " + std::to_string(rig.image_size.width) + "x" +
                 std::to_string(rig.image_size.height));
   }
-  cv::Mat m1, m2;
-  cv::initUndistortRectifyMap(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size, CV_32FC2, m1, m2);
-  cv::remap(left, *left_rect, m1, m2, cv::INTER_LINEAR);
-  cv::initUndistortRectifyMap(rig.K2, rig.D2, rig.R2, rig.P2, rig.image_size, CV_32FC2, m1, m2);
-  cv::remap(right, *right_rect, m1, m2, cv::INTER_LINEAR);
+  const auto lm = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
+  const auto rm = MapsFor(rig.K2, rig.D2, rig.R2, rig.P2, rig.image_size);
+  cv::remap(left, *left_rect, lm->map1, lm->map2, cv::INTER_LINEAR);
+  cv::remap(right, *right_rect, rm->map1, rm->map2, cv::INTER_LINEAR);
+}
+
+void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, const cv::Rect& roi,
+                            cv::Mat* left_rect, cv::Mat* right_rect) {
+  const auto lm = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
+  const auto rm = MapsFor(rig.K2, rig.D2, rig.R2, rig.P2, rig.image_size);
+  RemapBSpline(left, lm->map_xy(roi)).copyTo((*left_rect)(roi));
+  RemapBSpline(right, rm->map_xy(roi)).copyTo((*right_rect)(roi));
 }
 
 cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
@@ -146,10 +208,9 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
       throw Error(options.mask_path + ": cannot read the mask, or its size differs from the images");
     }
     // The mask is drawn on the unrectified left image: rectify it the same way.
-    cv::Mat m1, m2;
-    cv::initUndistortRectifyMap(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size, CV_32FC2, m1, m2);
-    cv::remap(user, r.mask, m1, m2, cv::INTER_NEAREST);
-    r.mask = r.mask > 127;
+    const auto maps = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
+    cv::remap(user, r.mask, maps->map1, maps->map2, cv::INTER_NEAREST);
+    r.mask = ErodeMask(r.mask > 127, options.segment.erode_px);
   } else {
     r.mask = SegmentHedge(r.left_rect, options.segment);
   }
@@ -161,11 +222,19 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   cv::Rect roi(0, 0, size.width, size.height);
   if (options.region_only) roi = MatchRegion(r.mask, sg, options.margin_px);
   r.matched_region = roi;
+  // The matched region again, with B-spline instead of bilinear resampling: matching to
+  // hundredths of a pixel needs resampling that does not shift the texture (see bspline.hpp).
+  if (options.precise_resampling) RectifyRegionPrecisely(rig, left_bgr, right_bgr, roi, &r.left_rect, &r.right_rect);
   r.matched_fraction = double(roi.area()) / double(size.area());
-  const DisparityMap d = ComputeDisparity(r.left_rect(roi), r.right_rect(roi), sg);
+  const DisparityMap d = ComputeDisparity(r.left_rect(roi), r.right_rect(roi), sg, r.mask(roi));
   r.disparity = cv::Mat(size, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   d.disparity.copyTo(r.disparity(roi));
-  r.cloud = Reproject(r.disparity, r.mask, r.left_rect, rig, options.reproject);
+  r.filled = cv::Mat::zeros(size, CV_8U);
+  d.rejected.copyTo(r.filled(roi));
+  // Filled pixels are occluded or mismatched in the other view: no measurement, so by
+  // default they stay in the dense map but not in the cloud.
+  r.cloud = Reproject(r.disparity, options.reproject.keep_filled ? r.mask : (r.mask & ~r.filled), r.left_rect, rig,
+                      options.reproject);
   if (r.cloud.size() - cloud::CountNonFinite(r.cloud) == 0) {
     throw Error("no hedge found: no disparity inside the mask within the working range");
   }

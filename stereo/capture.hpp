@@ -20,21 +20,34 @@ struct SegmentOptions {
   double bilateral_sigma_space = 5.0;  ///< px
   bool largest_component = true;  ///< keep only the largest region
   bool fill_holes = true;         ///< fill holes inside it
-  int erode_px = 0;               ///< drop this many silhouette pixels (least reliable disparity)
+  int erode_px = 5;               ///< drop this many silhouette pixels (least reliable disparity);
+                                  ///< also applied to a user mask
   void Check() const;
 };
 
 /// The paper's hedge mask: ExG = 2G - R - B, bilateral filter, gamma, Otsu; CV_8U 0/255.
 cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& options);
 
-/// Undistorts and rectifies a pair with the rig's R1/P1 and R2/P2.
+/// Drops `px` pixels from a mask's outline (elliptical structuring element); 0 = as is.
+/// The outermost ring of a silhouette mixes hedge and background in both views, and the
+/// sub-pixel refinement's windows must not reach it.
+cv::Mat ErodeMask(const cv::Mat& mask, int px);
+
+/// Undistorts and rectifies a pair with the rig's R1/P1 and R2/P2 (bilinear; the maps are
+/// cached per rig).
 void RectifyPair(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, cv::Mat* left_rect,
                  cv::Mat* right_rect);
+
+/// Re-renders `roi` of already rectified images with cubic B-spline resampling, whose
+/// sub-pixel phase error is far below bilinear's (see bspline.hpp).
+void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, const cv::Rect& roi,
+                            cv::Mat* left_rect, cv::Mat* right_rect);
 
 struct ReprojectOptions {
   bool organized = false;          ///< keep the image grid (NaN where no point)
   bool extra_fields = true;        ///< add "disparity" and "sigma_z" fields per point
   double sigma_disparity_px = 0.2; ///< assumed disparity noise for sigma_z = Z^2 sigma_d / (f b)
+  bool keep_filled = false;        ///< also reproject hole-filled (unmeasured) disparities
 };
 
 /// Disparity (rectified left, CV_32F, NaN = none) to points in the unrectified left camera
@@ -50,6 +63,7 @@ struct ConvertOptions {
   double max_z_mm = 3500;
   bool region_only = true;         ///< match only the mask's bounding box (plus margin)
   int margin_px = 24;              ///< around the mask's bounding box
+  bool precise_resampling = true;  ///< B-spline rectification of the matched region
   std::string mask_path;           ///< a user-supplied mask (left image) instead of segmentation
   void Check() const;
 };
@@ -57,6 +71,7 @@ struct ConvertOptions {
 struct ConvertResult {
   cloud::PointCloud cloud;
   cv::Mat left_rect, right_rect, mask, disparity;  ///< for debug images
+  cv::Mat filled;                  ///< CV_8U, 255 where the disparity was filled, not measured
   cv::Rect matched_region;         ///< in the rectified left image
   double matched_fraction = 1.0;   ///< matched area / full image area
   double wall_ms = 0;

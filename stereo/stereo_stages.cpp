@@ -1,6 +1,7 @@
 // Thin adapters from declared options to the capture functions. Artifacts: "left_image",
 // "right_image" (cv::Mat BGR), "rig" (StereoRig), "rectified" (bool), "mask" (CV_8U),
-// "disparity" (CV_32F), and "cloud".
+// "disparity" (CV_32F), "filled" (CV_8U, 255 where the disparity was filled rather than
+// measured), and "cloud".
 
 #include "stereo/stereo_stages.hpp"
 
@@ -53,7 +54,9 @@ void RegisterStereoStages(cloud::Registry& r) {
   r.Add(StageInfo{"stereo.segment", "The hedge mask: excess green, bilateral filter, gamma, Otsu, largest region",
                   {DoubleOption("gamma", 1.5, "gamma on the excess-green value").Min(1e-3),
                    DoubleOption("esp", 0.0, "offset added before the gamma"),
-                   IntOption("erode", 0, "drop this many silhouette pixels", "px").Range(0, 200),
+                   IntOption("erode", SegmentOptions{}.erode_px,
+                             "drop this many silhouette pixels (also from a user mask)", "px")
+                       .Range(0, 200),
                    BoolOption("largest_component", true, "keep only the largest region"),
                    BoolOption("fill_holes", true, "fill holes inside the region"),
                    StringOption("mask", "", "use this mask image instead (same size as the left image)")},
@@ -65,7 +68,7 @@ void RegisterStereoStages(cloud::Registry& r) {
           if (!o.GetString("mask").empty()) {
             mask = cv::imread(o.GetString("mask"), cv::IMREAD_GRAYSCALE);
             if (mask.empty()) throw Error(o.GetString("mask") + ": cannot read the mask image");
-            mask = mask > 127;
+            mask = ErodeMask(mask > 127, static_cast<int>(o.GetInt("erode")));
           } else {
             SegmentOptions s;
             s.gamma = o.GetDouble("gamma");
@@ -88,13 +91,18 @@ void RegisterStereoStages(cloud::Registry& r) {
                    IntOption("uniqueness", 10, "uniqueness ratio", "%").Range(0, 100),
                    DoubleOption("lrc_tolerance", 1.0, "left-right check tolerance; < 0 turns it off", "px"),
                    BoolOption("fill_holes", true, "fill rejected pixels from the background side"),
-                   DoubleOption("bilateral_sigma", 1.5, "bilateral range sigma; 0 = off", "px").Min(0),
+                   DoubleOption("bilateral_sigma", SgbmOptions{}.bilateral_sigma_disp, "bilateral range sigma (the paper uses ~1.5); 0 = off", "px").Min(0),
+                   IntOption("refine_radius", SgbmOptions{}.refine_radius,
+                             "sub-pixel refinement window half-size (slanted window, masked); 0 = off", "px")
+                       .Range(0, 15),
+                   IntOption("refine_iterations", SgbmOptions{}.refine_iterations, "Gauss-Newton steps per pixel")
+                       .Range(1, 50),
                    DoubleOption("min_z", 1500, "working range, nearest", "mm").Min(1),
                    DoubleOption("max_z", 3500, "working range, farthest", "mm").Min(1),
                    BoolOption("region_only", true, "match only the mask's bounding box"),
                    IntOption("margin", 24, "margin around the mask's bounding box", "px").Range(0, 10000)},
                   {"left_image", "right_image", "rig"},
-                  {"disparity"},
+                  {"disparity", "filled"},
                   {}},
         [](const Options& o) -> std::unique_ptr<Stage> {
           SgbmOptions sg;
@@ -107,6 +115,8 @@ void RegisterStereoStages(cloud::Registry& r) {
           sg.lrc_tolerance_px = o.GetDouble("lrc_tolerance");
           sg.fill_holes = o.GetBool("fill_holes");
           sg.bilateral_sigma_disp = o.GetDouble("bilateral_sigma");
+          sg.refine_radius = static_cast<int>(o.GetInt("refine_radius"));
+          sg.refine_iterations = static_cast<int>(o.GetInt("refine_iterations"));
           sg = CheckedParams(sg, "stereo.sgbm");
           const double min_z = o.GetDouble("min_z"), max_z = o.GetDouble("max_z");
           if (!(max_z > min_z)) throw Error("stage 'stereo.sgbm', option min_z/max_z: need min_z < max_z (mm)");
@@ -126,20 +136,24 @@ void RegisterStereoStages(cloud::Registry& r) {
             cv::Rect roi(0, 0, l.cols, l.rows);
             const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
             if (region && mask && cv::countNonZero(*mask) > 0) roi = MatchRegion(*mask, run, margin);
-            const DisparityMap d = ComputeDisparity(l(roi), rt(roi), run);
+            const DisparityMap d = ComputeDisparity(l(roi), rt(roi), run, mask ? (*mask)(roi) : cv::Mat());
             cv::Mat full(l.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
             d.disparity.copyTo(full(roi));
+            cv::Mat filled = cv::Mat::zeros(l.size(), CV_8U);
+            d.rejected.copyTo(filled(roi));
             ctx.Note("matched_fraction", double(roi.area()) / double(l.total()));
             ctx.Note("filled", static_cast<std::int64_t>(d.filled));
             ctx.Note("disparity_range", std::vector<double>{double(run.min_disparity), double(run.min_disparity + run.num_disparities)});
             ctx.Put("disparity", full);
+            ctx.Put("filled", filled);
           });
         });
   r.Add(StageInfo{"stereo.reproject",
                   "Disparity to points in the unrectified left camera frame (mm), coloured, inside the mask",
                   {BoolOption("organized", false, "keep the image grid (NaN where no point)"),
                    BoolOption("extra_fields", true, "add disparity and sigma_z fields"),
-                   DoubleOption("sigma_disparity", 0.2, "disparity noise for sigma_z", "px").Min(0)},
+                   DoubleOption("sigma_disparity", 0.2, "disparity noise for sigma_z", "px").Min(0),
+                   BoolOption("keep_filled", false, "also reproject hole-filled (unmeasured) disparities")},
                   {"disparity", "left_image", "rig"},
                   {"cloud"},
                   {}},
@@ -148,8 +162,12 @@ void RegisterStereoStages(cloud::Registry& r) {
           ro.organized = o.GetBool("organized");
           ro.extra_fields = o.GetBool("extra_fields");
           ro.sigma_disparity_px = o.GetDouble("sigma_disparity");
+          ro.keep_filled = o.GetBool("keep_filled");
           const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
-          cloud::PointCloud pc = Reproject(ctx.Get<cv::Mat>("disparity"), mask ? *mask : cv::Mat(),
+          const cv::Mat* filled = ctx.Find<cv::Mat>("filled");
+          cv::Mat use = mask ? *mask : cv::Mat();
+          if (filled && !ro.keep_filled) use = use.empty() ? ~*filled : (use & ~*filled);
+          cloud::PointCloud pc = Reproject(ctx.Get<cv::Mat>("disparity"), use,
                                            ctx.Get<cv::Mat>("left_image"), ctx.Get<StereoRig>("rig"), ro);
           ctx.Note("points", static_cast<std::int64_t>(pc.size() - cloud::CountNonFinite(pc)));
           ctx.Put("cloud", std::move(pc));
