@@ -74,7 +74,8 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit convert --input captures.txt --rig rig.yaml --output-dir out --shard 3/8   # one of 8 machines\n"
       "A directory input takes NAME_left.* / NAME_right.* pairs; a manifest has 'LEFT RIGHT [NAME]' lines.\n");
   struct Args {
-    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask;
+    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask, box;
+    double depth_tolerance = stereo::ConvertOptions{}.depth_tolerance_px;
     double min_z = 1500, max_z = 3500, gamma = 1.5;
     int erode = stereo::SegmentOptions{}.erode_px, block = 5, threads = 0,
         refine_radius = stereo::SgbmOptions{}.refine_radius;
@@ -96,6 +97,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       ->capture_default_str();
   cmd->add_flag("--keep-filled", a->keep_filled, "also write hole-filled (unmeasured) pixels as points");
   cmd->add_option("--mask", a->mask, "use this mask image (left view) instead of segmentation (single capture)");
+  cmd->add_option("--box", a->box,
+                  "X,Y,W,H: segment by depth inside this box of the left image instead of by colour (grey images)");
+  cmd->add_option("--depth-tolerance", a->depth_tolerance, "with --box: disparity band around the box's middle, px")
+      ->capture_default_str();
   cmd->add_option("--shard", a->shard, "i/n: convert only every n-th capture starting at i (0-based)");
   cmd->add_option("--threads", a->threads, "captures converted in parallel (0 = all cores)")->capture_default_str();
   cmd->add_flag("--debug", a->debug, "also write NAME_rectified.png, NAME_mask.png, NAME_disparity.png");
@@ -116,6 +121,16 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       o.reproject.organized = a->organized;
       o.region_only = !a->full_frame;
       o.mask_path = a->mask;
+      o.depth_tolerance_px = a->depth_tolerance;
+      if (!a->box.empty()) {
+        int bx = 0, by = 0, bw = 0, bh = 0;
+        char c1 = 0, c2 = 0, c3 = 0;
+        std::istringstream bs(a->box);
+        if (!(bs >> bx >> c1 >> by >> c2 >> bw >> c3 >> bh) || c1 != ',' || c2 != ',' || c3 != ',') {
+          throw Error("--box '" + a->box + "': give X,Y,W,H in px, e.g. 255,160,80,70");
+        }
+        o.box = cv::Rect(bx, by, bw, bh);
+      }
       try {
         o.Check();
       } catch (const Error& e) {
@@ -154,6 +169,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
         captures = mine;
       }
       std::mutex io;
+      std::string first_error;
       std::atomic<std::size_t> next{0}, done{0};
       std::atomic<int> failed{0};
       auto work = [&]() {
@@ -187,7 +203,15 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
             line = buf;
           } catch (const std::exception& e) {
             ++failed;
-            line = c.name + ": skipped: " + e.what();
+            const std::size_t n_done = ++done;
+            std::lock_guard<std::mutex> lock(io);
+            if (single) {
+              first_error = c.name + ": " + e.what();
+            } else {
+              // Failures go to stderr even with --quiet: quiet hides progress, not problems.
+              std::fprintf(stderr, "[%zu/%zu] %s: skipped: %s\n", n_done, captures.size(), c.name.c_str(), e.what());
+            }
+            continue;
           }
           const std::size_t n_done = ++done;
           if (!a->quiet) {
@@ -205,11 +229,11 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       work();
       for (auto& t : pool) t.join();
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (single && failed) throw ProcessingError(first_error);
       if (!a->quiet) {
         std::printf("converted %zu of %zu captures in %.1f s (%.2f s per capture)%s\n", captures.size() - failed,
-                    captures.size(), s, s / double(captures.size()), failed ? "; see the skipped ones above" : "");
+                    captures.size(), s, s / double(captures.size()), failed ? "; the skipped ones are listed on stderr" : "");
       }
-      if (single && failed) throw ProcessingError(captures[0].name + ": conversion failed (see above)");
       return failed ? kExitProcessing : kExitOk;
     };
   });

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   AddPluginsCommand(app, &run);
   AddCompareCommand(app, &run);
   AddCalibrateCommand(app, &run);
+  AddRigCommand(app, &run);
   AddSimulateCommand(app, &run);
   AddRenderCommand(app, &run);
   AddConvertCommand(app, &run);

@@ -30,11 +30,34 @@ void ConvertOptions::Check() const {
   sgbm.Check();
   if (!(min_z_mm > 0 && max_z_mm > min_z_mm)) throw Error("min_z/max_z: need 0 < min_z < max_z (mm)");
   if (margin_px < 0) throw Error("margin: must be >= 0 px");
+  if (!box.empty() && (box.width < 3 || box.height < 3 || box.x < 0 || box.y < 0)) {
+    throw Error("box: give X,Y,W,H with X, Y >= 0 and W, H >= 3 px");
+  }
+  if (!(depth_tolerance_px > 0)) throw Error("depth_tolerance: must be > 0 px");
 }
+
+namespace {
+
+// True when every pixel has B = G = R: a grey image stored as colour.
+bool IsGrey(const cv::Mat& bgr) {
+  for (int y = 0; y < bgr.rows; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < bgr.cols; ++x) {
+      if (p[x][0] != p[x][1] || p[x][1] != p[x][2]) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
 
 cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
   o.Check();
   if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("stereo.segment: needs a colour (BGR) image");
+  if (IsGrey(bgr)) {
+    throw Error("no hedge found: the image has no colour, so excess green cannot segment it; segment by depth "
+                "inside a box around the hedge (convert --box X,Y,W,H) or give a mask");
+  }
   // Excess green 2G - R - B in [-510, 510], mapped to 8 bits ([0, 255] ~ ExG / 4 + 127.5):
   // 8-bit images make the bilateral filter ~3x faster (table-driven range weights), and
   // Otsu bins 256 levels anyway.
@@ -74,14 +97,53 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
     mask = labels == best;
     if (best == 0) mask.setTo(0);
   }
-  if (o.fill_holes && cv::countNonZero(mask) > 0) {
-    // Holes: background regions not connected to the image border.
-    cv::Mat inv = ~mask, padded;
-    cv::copyMakeBorder(inv, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 255);
-    cv::floodFill(padded, cv::Point(0, 0), 0);
-    mask |= padded(cv::Rect(1, 1, mask.cols, mask.rows));
-  }
+  if (o.fill_holes) mask = FillHoles(mask);
   return ErodeMask(mask, o.erode_px);
+}
+
+cv::Mat FillHoles(const cv::Mat& mask) {
+  if (cv::countNonZero(mask) == 0) return mask.clone();
+  // Holes: background regions not connected to the image border.
+  cv::Mat inv = ~mask, padded;
+  cv::copyMakeBorder(inv, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 255);
+  cv::floodFill(padded, cv::Point(0, 0), 0);
+  return mask | padded(cv::Rect(1, 1, mask.cols, mask.rows));
+}
+
+cv::Mat SegmentByDepth(const cv::Mat& disparity, const cv::Rect& box, double tolerance_px, int erode_px) {
+  const cv::Rect b = box & cv::Rect(0, 0, disparity.cols, disparity.rows);
+  if (b.width < 3 || b.height < 3) throw Error("stereo.segment: the box lies outside the image");
+  // The object's disparity: the median over the box's central third.
+  const cv::Rect core(b.x + b.width / 3, b.y + b.height / 3, std::max(1, b.width / 3), std::max(1, b.height / 3));
+  std::vector<float> values;
+  for (int y = core.y; y < core.y + core.height; ++y) {
+    for (int x = core.x; x < core.x + core.width; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (std::isfinite(d)) values.push_back(d);
+    }
+  }
+  if (values.size() < 9) throw Error("no hedge found: no disparity in the middle of the box within the working range");
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(values.size() / 2), values.end());
+  const float seed = values[values.size() / 2];
+  cv::Mat candidate = cv::Mat::zeros(disparity.size(), CV_8U);
+  for (int y = b.y; y < b.y + b.height; ++y) {
+    for (int x = b.x; x < b.x + b.width; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (std::isfinite(d) && std::abs(d - seed) <= tolerance_px) candidate.at<std::uint8_t>(y, x) = 255;
+    }
+  }
+  // The connected region with most pixels in the core: the object, not a patch of ground
+  // or background that happens to lie at the same depth elsewhere in the box.
+  cv::Mat labels;
+  const int n = cv::connectedComponents(candidate, labels, 8, CV_32S);
+  std::vector<int> in_core(static_cast<std::size_t>(n), 0);
+  for (int y = core.y; y < core.y + core.height; ++y) {
+    for (int x = core.x; x < core.x + core.width; ++x) ++in_core[std::size_t(labels.at<int>(y, x))];
+  }
+  in_core[0] = 0;
+  const int best = static_cast<int>(std::max_element(in_core.begin(), in_core.end()) - in_core.begin());
+  if (best == 0 || in_core[std::size_t(best)] == 0) throw Error("no hedge found: nothing at one depth in the box");
+  return ErodeMask(FillHoles(labels == best), erode_px);
 }
 
 cv::Mat ErodeMask(const cv::Mat& mask, int px) {
@@ -143,6 +205,19 @@ void RectifyPair(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right
   cv::remap(right, *right_rect, rm->map1, rm->map2, cv::INTER_LINEAR);
 }
 
+cv::Rect RectifiedBox(const StereoRig& rig, const cv::Rect& box) {
+  std::vector<cv::Point2f> edge, rect;
+  for (int i = 0; i <= 8; ++i) {
+    const float fx = float(box.x + box.width * i / 8.0), fy = float(box.y + box.height * i / 8.0);
+    edge.emplace_back(fx, float(box.y));
+    edge.emplace_back(fx, float(box.y + box.height));
+    edge.emplace_back(float(box.x), fy);
+    edge.emplace_back(float(box.x + box.width), fy);
+  }
+  cv::undistortPoints(edge, rect, rig.K1, rig.D1, rig.R1, rig.P1);
+  return cv::boundingRect(rect) & cv::Rect(0, 0, rig.image_size.width, rig.image_size.height);
+}
+
 void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, const cv::Rect& roi,
                             cv::Mat* left_rect, cv::Mat* right_rect) {
   const auto lm = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
@@ -200,8 +275,16 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
                              const ConvertOptions& options) {
   options.Check();
   const auto t0 = std::chrono::steady_clock::now();
+  auto last = t0;
+  auto lap = [&last]() {
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - last).count();
+    last = now;
+    return ms;
+  };
   ConvertResult r;
   RectifyPair(rig, left_bgr, right_bgr, &r.left_rect, &r.right_rect);
+  r.stage_ms.rectify = lap();
   if (!options.mask_path.empty()) {
     cv::Mat user = cv::imread(options.mask_path, cv::IMREAD_GRAYSCALE);
     if (user.empty() || user.size() != rig.image_size) {
@@ -211,13 +294,28 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
     const auto maps = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
     cv::remap(user, r.mask, maps->map1, maps->map2, cv::INTER_NEAREST);
     r.mask = ErodeMask(r.mask > 127, options.segment.erode_px);
-  } else {
+  } else if (options.box.empty()) {
     r.mask = SegmentHedge(r.left_rect, options.segment);
   }
-  if (cv::countNonZero(r.mask) == 0) throw Error("no hedge found: the segmentation mask is empty");
   SgbmOptions sg = options.sgbm;
   DisparityRangeForDepth(rig.P1.at<double>(0, 0), rig.baseline_mm, options.min_z_mm, options.max_z_mm,
                          &sg.min_disparity, &sg.num_disparities);
+  if (options.mask_path.empty() && !options.box.empty()) {
+    // Segment by depth: match the box's region, then keep what lies at the depth of its middle.
+    const cv::Rect box = RectifiedBox(rig, options.box);
+    cv::Mat box_mask = cv::Mat::zeros(r.left_rect.size(), CV_8U);
+    box_mask(box).setTo(255);
+    const cv::Rect roi = MatchRegion(box_mask, sg, options.margin_px);
+    if (options.precise_resampling) RectifyRegionPrecisely(rig, left_bgr, right_bgr, roi, &r.left_rect, &r.right_rect);
+    SgbmOptions coarse = sg;
+    coarse.refine_radius = 0;
+    coarse.fill_holes = false;
+    cv::Mat disparity(r.left_rect.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    ComputeDisparity(r.left_rect(roi), r.right_rect(roi), coarse).disparity.copyTo(disparity(roi));
+    r.mask = SegmentByDepth(disparity, box, options.depth_tolerance_px, options.segment.erode_px);
+  }
+  if (cv::countNonZero(r.mask) == 0) throw Error("no hedge found: the segmentation mask is empty");
+  r.stage_ms.segment = lap();
   const cv::Size size = r.left_rect.size();
   cv::Rect roi(0, 0, size.width, size.height);
   if (options.region_only) roi = MatchRegion(r.mask, sg, options.margin_px);
@@ -225,12 +323,14 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   // The matched region again, with B-spline instead of bilinear resampling: matching to
   // hundredths of a pixel needs resampling that does not shift the texture (see bspline.hpp).
   if (options.precise_resampling) RectifyRegionPrecisely(rig, left_bgr, right_bgr, roi, &r.left_rect, &r.right_rect);
+  r.stage_ms.rectify += lap();
   r.matched_fraction = double(roi.area()) / double(size.area());
   const DisparityMap d = ComputeDisparity(r.left_rect(roi), r.right_rect(roi), sg, r.mask(roi));
   r.disparity = cv::Mat(size, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   d.disparity.copyTo(r.disparity(roi));
   r.filled = cv::Mat::zeros(size, CV_8U);
   d.rejected.copyTo(r.filled(roi));
+  r.stage_ms.match = lap();
   // Filled pixels are occluded or mismatched in the other view: no measurement, so by
   // default they stay in the dense map but not in the cloud.
   r.cloud = Reproject(r.disparity, options.reproject.keep_filled ? r.mask : (r.mask & ~r.filled), r.left_rect, rig,
@@ -238,6 +338,7 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   if (r.cloud.size() - cloud::CountNonFinite(r.cloud) == 0) {
     throw Error("no hedge found: no disparity inside the mask within the working range");
   }
+  r.stage_ms.reproject = lap();
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

@@ -28,6 +28,18 @@ struct SegmentOptions {
 /// The paper's hedge mask: ExG = 2G - R - B, bilateral filter, gamma, Otsu; CV_8U 0/255.
 cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& options);
 
+/// Fills the holes of a mask: background regions not connected to the image border.
+cv::Mat FillHoles(const cv::Mat& mask);
+
+/// Segmentation by depth, for images without colour: inside `box` (rectified left image),
+/// the region of disparities within `tolerance_px` of the median over the box's middle
+/// third, connected and holes filled, then eroded by `erode_px`. Throws hedgefit::Error
+/// ("no hedge found: ...") when the middle of the box has no disparity.
+cv::Mat SegmentByDepth(const cv::Mat& disparity, const cv::Rect& box, double tolerance_px, int erode_px);
+
+/// The bounding box, in the rectified left image, of a box drawn on the original left image.
+cv::Rect RectifiedBox(const StereoRig& rig, const cv::Rect& box);
+
 /// Drops `px` pixels from a mask's outline (elliptical structuring element); 0 = as is.
 /// The outermost ring of a silhouette mixes hedge and background in both views, and the
 /// sub-pixel refinement's windows must not reach it.
@@ -65,6 +77,9 @@ struct ConvertOptions {
   int margin_px = 24;              ///< around the mask's bounding box
   bool precise_resampling = true;  ///< B-spline rectification of the matched region
   std::string mask_path;           ///< a user-supplied mask (left image) instead of segmentation
+  cv::Rect box;                    ///< non-empty: segment by depth inside this box (original left
+                                   ///< image, px) instead of by colour; for grey images
+  double depth_tolerance_px = 1.0; ///< with `box`: disparity band around the box's middle
   void Check() const;
 };
 
@@ -75,6 +90,12 @@ struct ConvertResult {
   cv::Rect matched_region;         ///< in the rectified left image
   double matched_fraction = 1.0;   ///< matched area / full image area
   double wall_ms = 0;
+  struct {
+    double rectify = 0;    ///< bilinear full frame + B-spline matched region
+    double segment = 0;
+    double match = 0;      ///< SGBM, right matcher, left-right check, refinement, filling
+    double reproject = 0;
+  } stage_ms;
 };
 
 /// The whole capture-to-cloud path. Throws hedgefit::Error (e.g. "no hedge found").

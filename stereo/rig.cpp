@@ -9,6 +9,32 @@
 
 namespace hedgefit::stereo {
 
+StereoRig RigForRectifiedPair(const cv::Size& image_size, double f, double cx, double cy, double baseline_mm) {
+  if (image_size.width <= 0 || image_size.height <= 0) throw Error("size: must be positive, e.g. 640x480");
+  if (!(f > 0)) throw Error("focal: must be > 0 px");
+  if (!(baseline_mm > 0)) throw Error("baseline: must be > 0 mm");
+  StereoRig rig;
+  rig.image_size = image_size;
+  rig.K1 = (cv::Mat_<double>(3, 3) << f, 0, cx, 0, f, cy, 0, 0, 1);
+  rig.K2 = rig.K1.clone();
+  rig.D1 = cv::Mat::zeros(1, 5, CV_64F);
+  rig.D2 = cv::Mat::zeros(1, 5, CV_64F);
+  rig.R = cv::Mat::eye(3, 3, CV_64F);
+  rig.T = (cv::Mat_<double>(3, 1) << -baseline_mm, 0, 0);
+  rig.baseline_mm = baseline_mm;
+  // E = [T]x R, F = K2^-T E K1^-1, as cv::stereoCalibrate would report them.
+  const cv::Mat tx = (cv::Mat_<double>(3, 3) << 0, 0, 0, 0, 0, baseline_mm, 0, -baseline_mm, 0);
+  rig.E = tx * rig.R;
+  rig.F = rig.K2.inv().t() * rig.E * rig.K1.inv();
+  rig.R1 = cv::Mat::eye(3, 3, CV_64F);
+  rig.R2 = cv::Mat::eye(3, 3, CV_64F);
+  rig.P1 = (cv::Mat_<double>(3, 4) << f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0);
+  rig.P2 = (cv::Mat_<double>(3, 4) << f, 0, cx, -f * baseline_mm, 0, f, cy, 0, 0, 0, 1, 0);
+  // cv::stereoRectify's Q for equal principal points: (x, y, d) -> (X, Y, Z, W).
+  rig.Q = (cv::Mat_<double>(4, 4) << 1, 0, 0, -cx, 0, 1, 0, -cy, 0, 0, 0, f, 0, 0, 1.0 / baseline_mm, 0);
+  return rig;
+}
+
 void WriteRig(const std::string& path, const StereoRig& rig) {
   cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   fs << "image_width" << rig.image_size.width << "image_height" << rig.image_size.height;

@@ -31,6 +31,13 @@ struct StereoRig {
   std::vector<PairReport> pairs;        ///< per-pair results, rejected pairs included
 };
 
+/// The rig of a pair that is already rectified (and undistorted): both cameras share the
+/// focal length and principal point, the right camera sits `baseline_mm` to the right.
+/// R1 = R2 = I, so rectification leaves the images as they are. Throws hedgefit::Error on
+/// non-positive sizes, focal length or baseline.
+StereoRig RigForRectifiedPair(const cv::Size& image_size, double focal_px, double cx_px, double cy_px,
+                              double baseline_mm);
+
 /// Writes `rig` as OpenCV FileStorage YAML, atomically; throws hedgefit::Error naming the file.
 void WriteRig(const std::string& path, const StereoRig& rig);
 

@@ -126,14 +126,81 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
 
 TEST(Capture, NoHedgeIsAClearError) {
   const StereoRig rig = TrueRig(PaperRig(0.25));
-  const cv::Mat grey(rig.image_size, CV_8UC3, cv::Scalar(128, 128, 128));
+  const cv::Mat brown(rig.image_size, CV_8UC3, cv::Scalar(60, 90, 140));  // no green anywhere
   try {
-    ConvertCapture(grey, grey, rig, {});
+    ConvertCapture(brown, brown, rig, {});
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no hedge found"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(ConvertCapture(grey, cv::Mat(10, 10, CV_8UC3), rig, {}), Error);
+  EXPECT_THROW(ConvertCapture(brown, cv::Mat(10, 10, CV_8UC3), rig, {}), Error);
+}
+
+// For grey images: inside a box, the region at the depth of the box's middle. A second
+// object at the same depth elsewhere in the box and the background behind are left out;
+// a hole of unknown disparity inside the object is filled.
+TEST(Capture, DepthSegmentationKeepsTheObjectInTheBox) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat d(120, 160, CV_32F, cv::Scalar(10.0f));  // background, 10 px
+  const cv::Point c(70, 60);
+  const int radius = 25;
+  cv::Mat truth = cv::Mat::zeros(d.size(), CV_8U);
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 0; x < d.cols; ++x) {
+      const double r2 = double((x - c.x) * (x - c.x) + (y - c.y) * (y - c.y));
+      if (r2 < radius * radius) {
+        d.at<float>(y, x) = float(14.0 + 0.5 * (1 - r2 / (radius * radius)));  // a dome, 14-14.5 px
+        truth.at<std::uint8_t>(y, x) = 255;
+      }
+    }
+  }
+  d(cv::Rect(105, 20, 8, 8)).setTo(14.2f);  // same depth, not connected
+  d(cv::Rect(66, 56, 5, 5)).setTo(nan);     // no match inside the object
+  const cv::Rect box(40, 15, 80, 80);
+  const cv::Mat mask = SegmentByDepth(d, box, 1.0, 0);
+  EXPECT_EQ(cv::countNonZero(mask(cv::Rect(105, 20, 8, 8))), 0);
+  EXPECT_EQ(cv::countNonZero(mask & ~truth), 0);
+  EXPECT_EQ(cv::countNonZero(truth & ~mask), 0);  // the hole is filled
+  // Nothing at one depth in the middle of the box is a clear error.
+  cv::Mat empty(120, 160, CV_32F, cv::Scalar(nan));
+  try {
+    SegmentByDepth(empty, box, 1.0, 0);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no hedge found"), std::string::npos) << e.what();
+  }
+}
+
+// Excess green needs colour: a grey image gets a one-line error that says what to do.
+TEST(Capture, GreyImagesAskForABoxOrAMask) {
+  const cv::Mat grey(60, 80, CV_8UC3, cv::Scalar(90, 90, 90));
+  try {
+    SegmentHedge(grey, SegmentOptions{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--box X,Y,W,H"), std::string::npos) << e.what();
+  }
+}
+
+// A rig from numbers for an already rectified pair: rectification leaves the images as
+// they are, and a disparity reprojects to Z = f b / d, X = (u - cx) Z / f exactly.
+TEST(Capture, RigForARectifiedPairReprojectsByTheNumbers) {
+  const double f = 368.5347, cx = 318.1122, cy = 224.3349, b = 838.7445;
+  const StereoRig rig = RigForRectifiedPair(cv::Size(640, 480), f, cx, cy, b);
+  cv::Mat img(480, 640, CV_8UC3);
+  cv::randu(img, 0, 255);
+  cv::Mat l, r;
+  RectifyPair(rig, img, img, &l, &r);
+  EXPECT_EQ(cv::norm(l, img, cv::NORM_INF), 0.0);
+  cv::Mat disparity(480, 640, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  disparity.at<float>(200, 290) = 13.0f;
+  const cloud::PointCloud pc = Reproject(disparity, cv::Mat(), img, rig, {});
+  ASSERT_EQ(pc.size(), 1u);
+  const double z = f * b / 13.0;
+  EXPECT_NEAR(pc.points_mm[0].z(), z, z * 1e-6);  // float storage
+  EXPECT_NEAR(pc.points_mm[0].x(), (290 - cx) * z / f, 0.05);
+  EXPECT_NEAR(pc.points_mm[0].y(), (200 - cy) * z / f, 0.05);
+  EXPECT_THROW(RigForRectifiedPair(cv::Size(640, 480), f, cx, cy, 0), Error);
 }
 
 }  // namespace
