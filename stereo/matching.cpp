@@ -24,6 +24,7 @@ void SgbmOptions::Check() const {
   if (bilateral_sigma_disp < 0 || bilateral_sigma_space < 0) throw Error("bilateral sigmas: must be >= 0");
   if (refine_radius < 0 || refine_radius > 15) throw Error("refine_radius: must be in 0..15 px (0 = off)");
   if (refine_iterations < 1 || refine_iterations > 50) throw Error("refine_iterations: must be in 1..50");
+  if (!(refine_max_sigma_px > 0)) throw Error("refine_max_sigma: must be > 0 px");
 }
 
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
@@ -82,7 +83,7 @@ cv::Mat GreyFloat(const cv::Mat& img) {
 }  // namespace
 
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
-                   int iterations, cv::Mat* disparity) {
+                   int iterations, cv::Mat* disparity, double max_sigma_px) {
   if (radius <= 0 || iterations <= 0) return 0;
   const cv::Mat L = GreyFloat(left);
   // The right image is interpolated along rows only (rectified geometry), with cubic
@@ -124,10 +125,12 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
         Eigen::Matrix<double, 5, 1> q;
         q << d0, 0, 0, 0, 0;
         bool ok = true;
+        double sigma = 0;
         for (int it = 0; it < iterations && ok; ++it) {
           Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
           Eigen::Matrix<double, 5, 1> b = Eigen::Matrix<double, 5, 1>::Zero();
           int used = 0;
+          double ssr = 0;
           for (const Sample& sm : window) {
             const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
             const int x0 = static_cast<int>(std::floor(xr));
@@ -142,6 +145,7 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
             Eigen::Matrix<double, 5, 1> J;
             J << gv, gv * sm.di, gv * sm.dj, -rv, -1.0;
             b.noalias() -= J * res;
+            ssr += res * res;
             H.selfadjointView<Eigen::Upper>().rankUpdate(J);
             ++used;
           }
@@ -156,11 +160,13 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
             break;
           }
           const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
+          // The estimate's standard deviation from the window's residuals and H^-1.
+          sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
           q += step;
           if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) ok = false;
           if (std::abs(step[0]) < 1e-3) break;
         }
-        if (ok) {
+        if (ok && sigma <= max_sigma_px) {
           drow[x] = static_cast<float>(q[0]);
           ++local;
         }
@@ -228,7 +234,8 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
   }
   // Refine what SGBM and the check accepted, before holes are filled from it.
   if (o.refine_radius > 0) {
-    RefineSubpixel(left, right, mask, out.rejected, o.refine_radius, o.refine_iterations, &out.disparity);
+    RefineSubpixel(left, right, mask, out.rejected, o.refine_radius, o.refine_iterations, &out.disparity,
+                   o.refine_max_sigma_px);
   }
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
   if (o.bilateral_sigma_disp > 0 && o.bilateral_sigma_space > 0) {

@@ -25,6 +25,7 @@ struct SgbmOptions {
   double bilateral_sigma_space = 3.0; ///< bilateral filter spatial sigma (px)
   int refine_radius = 2;           ///< sub-pixel refinement window half-size (px); 0 = off (see RefineSubpixel)
   int refine_iterations = 3;       ///< Gauss-Newton steps per pixel
+  double refine_max_sigma_px = 0.2;  ///< keep SGBM's value where the refined one is less certain
   void Check() const;  ///< throws hedgefit::Error naming the field
 };
 
@@ -44,12 +45,14 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
 /// disparity, so on a convex surface (every path arrives from the farther rim) the map is
 /// biased towards smaller disparities, and its parabola interpolation pixel-locks. This
 /// re-estimates each known, non-`skip` pixel by Gauss-Newton on the windowed photometric
-/// error L(x, y) = (1 + a) R(x - d, y) + b (shift, gain, offset), using only window pixels
-/// inside `mask` (all when empty). A pixel keeps its SGBM value when its window is too
-/// textureless or outside the mask, or when the step would exceed 1 px. Returns the number
-/// of pixels refined.
+/// error L(x + i, y + j) = (1 + a) R(x + i - d - sx i - sy j, y + j) + b (disparity, its
+/// slopes, gain, offset), with cubic B-spline interpolation along the right image's rows,
+/// using only window pixels inside `mask` (all when empty). A pixel keeps its SGBM value
+/// when its window is textureless or mostly outside the mask, when the estimate moves more
+/// than 1 px, or when its standard deviation (residuals and the inverse Hessian) exceeds
+/// `max_sigma_px`. Returns the number of pixels refined.
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip,
-                   int radius, int iterations, cv::Mat* disparity);
+                   int radius, int iterations, cv::Mat* disparity, double max_sigma_px = 0.2);
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.

@@ -97,6 +97,9 @@ void RegisterStereoStages(cloud::Registry& r) {
                        .Range(0, 15),
                    IntOption("refine_iterations", SgbmOptions{}.refine_iterations, "Gauss-Newton steps per pixel")
                        .Range(1, 50),
+                   DoubleOption("refine_max_sigma", SgbmOptions{}.refine_max_sigma_px,
+                                "keep SGBM's value where the refined one's standard deviation is larger", "px")
+                       .Min(1e-6),
                    DoubleOption("min_z", 1500, "working range, nearest", "mm").Min(1),
                    DoubleOption("max_z", 3500, "working range, farthest", "mm").Min(1),
                    BoolOption("region_only", true, "match only the mask's bounding box"),
@@ -117,6 +120,7 @@ void RegisterStereoStages(cloud::Registry& r) {
           sg.bilateral_sigma_disp = o.GetDouble("bilateral_sigma");
           sg.refine_radius = static_cast<int>(o.GetInt("refine_radius"));
           sg.refine_iterations = static_cast<int>(o.GetInt("refine_iterations"));
+          sg.refine_max_sigma_px = o.GetDouble("refine_max_sigma");
           sg = CheckedParams(sg, "stereo.sgbm");
           const double min_z = o.GetDouble("min_z"), max_z = o.GetDouble("max_z");
           if (!(max_z > min_z)) throw Error("stage 'stereo.sgbm', option min_z/max_z: need min_z < max_z (mm)");
