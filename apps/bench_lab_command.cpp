@@ -31,7 +31,7 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
     std::string dir = "build/lab-bench", json;
     double scale = 1.0;
     int erode = stereo::SegmentOptions{}.erode_px, refine_radius = stereo::SgbmOptions{}.refine_radius;
-    double alpha = 0;
+    double alpha = stereo::CalibrationOptions{}.alpha;
     bool reuse = false, true_rig = false;
   };
   auto a = std::make_shared<Args>();

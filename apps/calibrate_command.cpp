@@ -50,7 +50,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       "Pairs are matched by sorted order; a list file has one 'LEFT RIGHT' pair per line.\n");
   struct Args {
     std::string left, right, list, board = "9x6", model = "k1k2p1p2k3", output = "rig.yaml";
-    double square = 1.0, alpha = -1, reject = 3.0;
+    double square = 1.0, alpha = stereo::CalibrationOptions{}.alpha, reject = 3.0;
     bool fix_pp = false, fix_aspect = false, json = false, keep_intrinsics = false;
   };
   auto a = std::make_shared<Args>();
@@ -64,7 +64,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       ->capture_default_str();
   cmd->add_flag("--fix-principal-point", a->fix_pp, "keep cx, cy at the image centre");
   cmd->add_flag("--fix-aspect", a->fix_aspect, "fx = fy");
-  cmd->add_option("--alpha", a->alpha, "rectification scaling: -1 default, 0 crop to valid, 1 keep all")->capture_default_str();
+  cmd->add_option("--alpha", a->alpha, "rectification scaling: 0 crop to valid pixels, 1 keep all, -1 OpenCV's default")->capture_default_str();
   cmd->add_option("--reject-factor", a->reject, "reject pairs above this many times the median RMS, then recalibrate (0 = never)")
       ->capture_default_str();
   cmd->add_flag("--keep-intrinsics", a->keep_intrinsics, "do not refine per-camera intrinsics in the stereo step");

@@ -27,7 +27,11 @@ struct CalibrationOptions {
   DistortionModel model = DistortionModel::kK1K2P1P2K3;
   bool fix_principal_point = false;  ///< keep cx, cy at the image centre
   bool fix_aspect_ratio = false;     ///< fx = fy
-  double alpha = -1;                 ///< stereoRectify free scaling: -1 OpenCV default, 0 crop, 1 keep all
+  /// stereoRectify free scaling: 0 crops to valid pixels, 1 keeps all, -1 is OpenCV's
+  /// default. 0 by default: it makes the rectified focal length differ from the cameras',
+  /// so the resampling phase varies over a hedge instead of being one constant sub-pixel
+  /// shift per view (lab test: mean |AER| 0.45 mm at 0, 0.81 mm at -1).
+  double alpha = 0;
   /// Reject pairs whose reprojection RMS exceeds this many times the median, then
   /// recalibrate (0 = keep every pair).
   double reject_factor = 3.0;
