@@ -16,7 +16,14 @@ echo "== hedgefit compare sample_clouds/*.pcd"
 ./build/apps/hedgefit compare sample_clouds/*.pcd
 echo "== hedgefit bench lab: simulated captures -> calibration -> PCD -> every fitter, Table 2"
 ./build/apps/hedgefit bench lab --dir build/demo/lab
-echo "== hedgefit render (the last step writes a picture)"
-./build/apps/hedgefit compare sample_clouds/scene_ground_z2300.pcd --format json > build/demo/fits.json
-./build/apps/hedgefit render sample_clouds/scene_ground_z2300.pcd --fits build/demo/fits.json \
-  --methods hyper,ransac_geometric --color distance --view front,side --size 640x480 -o build/demo/render.png
+echo "== the same path with the separate commands: calibrate from the boards, convert one capture, compare with its truth"
+L=build/demo/lab
+./build/apps/hedgefit calibrate --left "$L/board_*_left.png" --right "$L/board_*_right.png" --board 12x11 --square 30 \
+  -o build/demo/rig.yaml | tail -1
+./build/apps/hedgefit convert --left $L/sphere_2300_left.png --right $L/sphere_2300_right.png --rig build/demo/rig.yaml \
+  -o build/demo/sphere_2300.pcd
+./build/apps/hedgefit compare build/demo/sphere_2300.pcd --truth $L/sphere_2300.truth.json
+echo "== hedgefit render (the last step writes a picture of the reconstruction and its fits)"
+./build/apps/hedgefit compare build/demo/sphere_2300.pcd --methods kasa,ransac_geometric --format json > build/demo/fits.json
+./build/apps/hedgefit render build/demo/sphere_2300.pcd --fits build/demo/fits.json --truth $L/sphere_2300.truth.json \
+  --color distance --view front,side --size 640x480 --wireframe -o build/demo/render.png
