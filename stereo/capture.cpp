@@ -227,7 +227,7 @@ void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv:
 }
 
 cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
-                            const StereoRig& rig, const ReprojectOptions& o) {
+                            const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma) {
   cloud::PointCloud out;
   const cv::Matx44d Q(rig.Q);
   const cv::Matx33d R1t = cv::Matx33d(rig.R1).t();
@@ -255,7 +255,11 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
                                                     : cv::Vec3b::all(left_rect.at<std::uint8_t>(y, x));
       out.colors.push_back({c[2], c[1], c[0]});
       disp_field.push_back(d);
-      sigma_field.push_back(float(p_rect[2] * p_rect[2] * o.sigma_disparity_px / (f * b)));
+      const float own = disparity_sigma.empty() ? nan : disparity_sigma.at<float>(y, x);
+      // The window's residuals cannot see interpolation or calibration error, so a pixel's
+      // own estimate is floored at 0.02 px (the lab's remaining systematic error is ~0.01).
+      const double sigma_d = std::isfinite(own) ? std::max(0.02, double(own)) : o.sigma_disparity_px;
+      sigma_field.push_back(float(p_rect[2] * p_rect[2] * sigma_d / (f * b)));
     }
   }
   if (o.organized) {
@@ -330,11 +334,13 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   d.disparity.copyTo(r.disparity(roi));
   r.filled = cv::Mat::zeros(size, CV_8U);
   d.rejected.copyTo(r.filled(roi));
+  r.disparity_sigma = cv::Mat(size, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  if (!d.sigma.empty()) d.sigma.copyTo(r.disparity_sigma(roi));
   r.stage_ms.match = lap();
   // Filled pixels are occluded or mismatched in the other view: no measurement, so by
   // default they stay in the dense map but not in the cloud.
   r.cloud = Reproject(r.disparity, options.reproject.keep_filled ? r.mask : (r.mask & ~r.filled), r.left_rect, rig,
-                      options.reproject);
+                      options.reproject, r.disparity_sigma);
   if (r.cloud.size() - cloud::CountNonFinite(r.cloud) == 0) {
     throw Error("no hedge found: no disparity inside the mask within the working range");
   }

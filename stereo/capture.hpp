@@ -58,14 +58,18 @@ void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv:
 struct ReprojectOptions {
   bool organized = false;          ///< keep the image grid (NaN where no point)
   bool extra_fields = true;        ///< add "disparity" and "sigma_z" fields per point
-  double sigma_disparity_px = 0.2; ///< assumed disparity noise for sigma_z = Z^2 sigma_d / (f b)
+  double sigma_disparity_px = 0.2; ///< disparity noise for sigma_z = Z^2 sigma_d / (f b) where the
+                                   ///< refinement gave no per-pixel estimate
   bool keep_filled = false;        ///< also reproject hole-filled (unmeasured) disparities
 };
 
 /// Disparity (rectified left, CV_32F, NaN = none) to points in the unrectified left camera
 /// frame (mm, R1 transposed applied), coloured from `left_rect`, only where `mask` is set.
+/// `disparity_sigma` (optional, CV_32F px, NaN = unknown): each pixel's own disparity
+/// standard deviation (from the refinement) for its `sigma_z`.
 cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
-                            const StereoRig& rig, const ReprojectOptions& options);
+                            const StereoRig& rig, const ReprojectOptions& options,
+                            const cv::Mat& disparity_sigma = cv::Mat());
 
 struct ConvertOptions {
   SegmentOptions segment;
@@ -87,6 +91,7 @@ struct ConvertResult {
   cloud::PointCloud cloud;
   cv::Mat left_rect, right_rect, mask, disparity;  ///< for debug images
   cv::Mat filled;                  ///< CV_8U, 255 where the disparity was filled, not measured
+  cv::Mat disparity_sigma;         ///< CV_32F px, the refinement's standard deviation; NaN = none
   cv::Rect matched_region;         ///< in the rectified left image
   double matched_fraction = 1.0;   ///< matched area / full image area
   double wall_ms = 0;

@@ -83,7 +83,8 @@ cv::Mat GreyFloat(const cv::Mat& img) {
 }  // namespace
 
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
-                   int iterations, cv::Mat* disparity, double max_sigma_px) {
+                   int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out) {
+  if (sigma_out) sigma_out->create(disparity->size(), CV_32F), sigma_out->setTo(std::numeric_limits<float>::quiet_NaN());
   if (radius <= 0 || iterations <= 0) return 0;
   const cv::Mat L = GreyFloat(left);
   // The right image is interpolated along rows only (rectified geometry), with cubic
@@ -168,6 +169,7 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
         }
         if (ok && sigma <= max_sigma_px) {
           drow[x] = static_cast<float>(q[0]);
+          if (sigma_out) sigma_out->at<float>(y, x) = static_cast<float>(sigma);
           ++local;
         }
       }
@@ -235,7 +237,7 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
   // Refine what SGBM and the check accepted, before holes are filled from it.
   if (o.refine_radius > 0) {
     RefineSubpixel(left, right, mask, out.rejected, o.refine_radius, o.refine_iterations, &out.disparity,
-                   o.refine_max_sigma_px);
+                   o.refine_max_sigma_px, &out.sigma);
   }
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
   if (o.bilateral_sigma_disp > 0 && o.bilateral_sigma_space > 0) {

@@ -32,6 +32,7 @@ struct SgbmOptions {
 struct DisparityMap {
   cv::Mat disparity;  ///< CV_32F, px; NaN where no disparity is known
   cv::Mat rejected;   ///< CV_8U, 255 where the LRC check (or SGBM) rejected the pixel
+  cv::Mat sigma;      ///< CV_32F, px: the refinement's standard deviation; NaN where not refined
   int filled = 0;     ///< pixels filled from neighbours
 };
 
@@ -50,9 +51,11 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
 /// using only window pixels inside `mask` (all when empty). A pixel keeps its SGBM value
 /// when its window is textureless or mostly outside the mask, when the estimate moves more
 /// than 1 px, or when its standard deviation (residuals and the inverse Hessian) exceeds
-/// `max_sigma_px`. Returns the number of pixels refined.
+/// `max_sigma_px`. Returns the number of pixels refined; `sigma` (optional, CV_32F, same
+/// size) receives each refined pixel's standard deviation (px), NaN elsewhere.
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip,
-                   int radius, int iterations, cv::Mat* disparity, double max_sigma_px = 0.2);
+                   int radius, int iterations, cv::Mat* disparity, double max_sigma_px = 0.2,
+                   cv::Mat* sigma = nullptr);
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.

@@ -1,7 +1,7 @@
 // Thin adapters from declared options to the capture functions. Artifacts: "left_image",
 // "right_image" (cv::Mat BGR), "rig" (StereoRig), "rectified" (bool), "mask" (CV_8U),
 // "disparity" (CV_32F), "filled" (CV_8U, 255 where the disparity was filled rather than
-// measured), and "cloud".
+// measured), "disparity_sigma" (CV_32F px, the refinement's standard deviation), and "cloud".
 
 #include "stereo/stereo_stages.hpp"
 
@@ -105,7 +105,7 @@ void RegisterStereoStages(cloud::Registry& r) {
                    BoolOption("region_only", true, "match only the mask's bounding box"),
                    IntOption("margin", 24, "margin around the mask's bounding box", "px").Range(0, 10000)},
                   {"left_image", "right_image", "rig"},
-                  {"disparity", "filled"},
+                  {"disparity", "filled", "disparity_sigma"},
                   {}},
         [](const Options& o) -> std::unique_ptr<Stage> {
           SgbmOptions sg;
@@ -145,18 +145,21 @@ void RegisterStereoStages(cloud::Registry& r) {
             d.disparity.copyTo(full(roi));
             cv::Mat filled = cv::Mat::zeros(l.size(), CV_8U);
             d.rejected.copyTo(filled(roi));
+            cv::Mat sigma(l.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+            if (!d.sigma.empty()) d.sigma.copyTo(sigma(roi));
             ctx.Note("matched_fraction", double(roi.area()) / double(l.total()));
             ctx.Note("filled", static_cast<std::int64_t>(d.filled));
             ctx.Note("disparity_range", std::vector<double>{double(run.min_disparity), double(run.min_disparity + run.num_disparities)});
             ctx.Put("disparity", full);
             ctx.Put("filled", filled);
+            ctx.Put("disparity_sigma", sigma);
           });
         });
   r.Add(StageInfo{"stereo.reproject",
                   "Disparity to points in the unrectified left camera frame (mm), coloured, inside the mask",
                   {BoolOption("organized", false, "keep the image grid (NaN where no point)"),
                    BoolOption("extra_fields", true, "add disparity and sigma_z fields"),
-                   DoubleOption("sigma_disparity", 0.2, "disparity noise for sigma_z", "px").Min(0),
+                   DoubleOption("sigma_disparity", 0.2, "disparity noise for sigma_z where the refinement gave none", "px").Min(0),
                    BoolOption("keep_filled", false, "also reproject hole-filled (unmeasured) disparities")},
                   {"disparity", "left_image", "rig"},
                   {"cloud"},
@@ -169,10 +172,12 @@ void RegisterStereoStages(cloud::Registry& r) {
           ro.keep_filled = o.GetBool("keep_filled");
           const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
           const cv::Mat* filled = ctx.Find<cv::Mat>("filled");
+          const cv::Mat* sigma = ctx.Find<cv::Mat>("disparity_sigma");
           cv::Mat use = mask ? *mask : cv::Mat();
           if (filled && !ro.keep_filled) use = use.empty() ? ~*filled : (use & ~*filled);
           cloud::PointCloud pc = Reproject(ctx.Get<cv::Mat>("disparity"), use,
-                                           ctx.Get<cv::Mat>("left_image"), ctx.Get<StereoRig>("rig"), ro);
+                                           ctx.Get<cv::Mat>("left_image"), ctx.Get<StereoRig>("rig"), ro,
+                                           sigma ? *sigma : cv::Mat());
           ctx.Note("points", static_cast<std::int64_t>(pc.size() - cloud::CountNonFinite(pc)));
           ctx.Put("cloud", std::move(pc));
         }));
