@@ -1,5 +1,6 @@
 // Thin adapters from declared options to the capture functions. Artifacts: "left_image",
-// "right_image" (cv::Mat BGR), "rig" (StereoRig), "rectified" (bool), "mask" (CV_8U),
+// "right_image" (cv::Mat BGR), "raw_left_image", "raw_right_image" (before rectification),
+// "rig" (StereoRig), "rectified" (bool), "mask" (CV_8U),
 // "disparity" (CV_32F), "filled" (CV_8U, 255 where the disparity was filled rather than
 // measured), "disparity_sigma" (CV_32F px, the refinement's standard deviation), and "cloud".
 
@@ -43,10 +44,14 @@ void RegisterStereoStages(cloud::Registry& r) {
           ctx.Put("rectified", false);
         }));
   r.Add(StageInfo{"stereo.rectify", "Undistorts and rectifies the pair with the rig (Bouguet)", {},
-                  {"left_image", "right_image", "rig"}, {"left_image", "right_image"}, {}},
+                  {"left_image", "right_image", "rig"}, {"left_image", "right_image", "raw_left_image", "raw_right_image"}, {}},
         MakeFactory([](const Options&, Context& ctx) {
           cv::Mat l, rt;
           RectifyPair(ctx.Get<StereoRig>("rig"), ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), &l, &rt);
+          // The originals stay available: stereo.sgbm resamples its region again from them
+          // with B-splines, as `hedgefit convert` does.
+          ctx.Put("raw_left_image", ctx.Get<cv::Mat>("left_image"));
+          ctx.Put("raw_right_image", ctx.Get<cv::Mat>("right_image"));
           ctx.Put("left_image", l);
           ctx.Put("right_image", rt);
           ctx.Put("rectified", true);
@@ -140,6 +145,12 @@ void RegisterStereoStages(cloud::Registry& r) {
             cv::Rect roi(0, 0, l.cols, l.rows);
             const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
             if (region && mask && cv::countNonZero(*mask) > 0) roi = MatchRegion(*mask, run, margin);
+            const cv::Mat* raw_l = ctx.Find<cv::Mat>("raw_left_image");
+            const cv::Mat* raw_r = ctx.Find<cv::Mat>("raw_right_image");
+            if (raw_l && raw_r) {
+              cv::Mat l_out = l, r_out = rt;  // headers: the region is rewritten in place
+              RectifyRegionPrecisely(rig, *raw_l, *raw_r, roi, &l_out, &r_out);
+            }
             const DisparityMap d = ComputeDisparity(l(roi), rt(roi), run, mask ? (*mask)(roi) : cv::Mat());
             cv::Mat full(l.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
             d.disparity.copyTo(full(roi));
