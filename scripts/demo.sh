@@ -23,6 +23,8 @@ L=build/demo/lab
 ./build/apps/hedgefit convert --left $L/sphere_2300_left.png --right $L/sphere_2300_right.png --rig build/demo/rig.yaml \
   -o build/demo/sphere_2300.pcd
 ./build/apps/hedgefit compare build/demo/sphere_2300.pcd --truth $L/sphere_2300.truth.json
+echo "== the same capture as one pipeline: examples/capture_to_fit.json"
+./build/apps/hedgefit pipeline examples/capture_to_fit.json
 echo "== hedgefit render (the last step writes a picture of the reconstruction and its fits)"
 ./build/apps/hedgefit compare build/demo/sphere_2300.pcd --methods kasa,ransac_geometric --format json > build/demo/fits.json
 ./build/apps/hedgefit render build/demo/sphere_2300.pcd --fits build/demo/fits.json --truth $L/sphere_2300.truth.json \
