@@ -12,13 +12,11 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
-#include "apps/fit_methods.hpp"
+#include "apps/stage_flags.hpp"
 #include "cloud/cloud_io.hpp"
 #include "cloud/pipeline.hpp"
-#include "fitting/algebraic_fit.hpp"
 #include "fitting/evaluation.hpp"
-#include "fitting/geometric_fit.hpp"
-#include "fitting/ransac_fit.hpp"
+#include "fitting/methods.hpp"
 #include "render/plot.hpp"
 
 namespace hedgefit::apps {
@@ -37,11 +35,8 @@ struct CompareArgs {
   std::string methods = "all";
   std::string format = "table";
   double scale = 1.0;
-  double ransac_threshold_mm = 10.0;
-  double min_radius_mm = 50.0;
-  double max_radius_mm = 5000.0;
-  double sample_radius_mm = 0.0;
   std::uint64_t seed = 42;
+  StageFlags fit_flags;  // the robust methods' options, from the method table
   std::string plot;
 };
 
@@ -52,22 +47,6 @@ struct CloudReport {
   std::optional<Sphere> truth;
   std::vector<SphereFitResult> fits;
 };
-
-std::vector<std::string> ParseMethods(const std::string& text) {
-  if (text == "all") return kAllMethods;
-  std::vector<std::string> out;
-  std::stringstream ss(text);
-  for (std::string m; std::getline(ss, m, ',');) {
-    if (std::find(kAllMethods.begin(), kAllMethods.end(), m) == kAllMethods.end()) {
-      const std::string hint = cloud::DidYouMean(m, kAllMethods);
-      throw Error("--methods: unknown method '" + m + "'" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)") +
-                  "; choose from kasa, pratt, taubin, hyper, ransac, geometric, ransac_geometric, or all");
-    }
-    out.push_back(m);
-  }
-  if (out.empty()) throw Error("--methods: name at least one method");
-  return out;
-}
 
 // The cleaning stages as JSON: the user's pipeline file, or NaN removal + statistical outliers.
 json CleaningStages(const CompareArgs& a) {
@@ -98,21 +77,8 @@ json CleaningStages(const CompareArgs& a) {
 }
 
 json FitJson(const SphereFitResult& f, const std::optional<Sphere>& truth) {
-  json j;
-  j["method"] = f.method;
-  j["converged"] = f.converged;
-  j["center_mm"] = f.converged ? json::array({f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()})
-                               : json(nullptr);
-  j["radius_mm"] = f.converged ? json(f.sphere.radius_mm) : json(nullptr);
-  j["rms_mm"] = f.converged ? json(f.rms_mm) : json(nullptr);
-  j["inliers"] = f.inliers;
-  j["points_used"] = f.points_used;
-  j["iterations"] = f.iterations;
-  j["wall_ms"] = f.wall_ms;
-  j["std_error_mm"] = f.std_error_mm ? json::array({(*f.std_error_mm)[0], (*f.std_error_mm)[1], (*f.std_error_mm)[2],
-                                                    (*f.std_error_mm)[3]})
-                                     : json(nullptr);
-  j["message"] = f.message;
+  json j = {{"center_mm", nullptr}, {"radius_mm", nullptr}, {"rms_mm", nullptr}, {"std_error_mm", nullptr}};
+  for (const auto& [key, value] : fitting::FitFields(f)) j[key] = std::visit([](const auto& v) { return json(v); }, value);
   if (truth && f.converged) {
     const fitting::FitError e = fitting::Evaluate(f.sphere, *truth);
     j["errors"] = {{"aer_mm", e.aer_mm}, {"rer_percent", e.rer_percent}, {"ld_mm", e.ld_mm}};
@@ -142,22 +108,24 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("CLOUD", a->clouds, "cloud files (.pcd, .ply, .xyz)")->required();
   cmd->add_option("--truth", a->truth, "ground-truth JSON for every cloud (default: CLOUD.truth.json if present)");
   cmd->add_option("--pipeline", a->pipeline, "JSON array of cleaning stages replacing the default (nonfinite + statistical_outlier)");
-  cmd->add_option("--methods", a->methods, "comma-separated: kasa,pratt,taubin,hyper,ransac,geometric,ransac_geometric or all")
-      ->capture_default_str();
+  std::string method_list;
+  for (const auto& m : fitting::FitMethodNames()) method_list += m + ",";
+  cmd->add_option("--methods", a->methods, "comma-separated: " + method_list + " or all")->capture_default_str();
   cmd->add_option("--format", a->format, "table, json or csv")->check(CLI::IsMember({"table", "json", "csv"}))->capture_default_str();
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
-  cmd->add_option("--ransac-threshold", a->ransac_threshold_mm, "RANSAC inlier band, mm")->capture_default_str();
-  cmd->add_option("--min-radius", a->min_radius_mm, "RANSAC radius limit, mm")->capture_default_str();
-  cmd->add_option("--max-radius", a->max_radius_mm, "RANSAC radius limit, mm")->capture_default_str();
-  cmd->add_option("--sample-radius", a->sample_radius_mm,
-                  "RANSAC draws each sample within this distance, mm (0 = anywhere; use ~2 r in large scenes)")
-      ->capture_default_str();
+  // RANSAC's options, as declared in its table; each applies to every method that has it.
+  std::vector<cloud::OptionSpec> robust;
+  for (const auto& spec : fitting::FindFitMethod("ransac", "compare").options) {
+    if (spec.name != "seed") robust.push_back(spec);
+  }
+  a->fit_flags.Add(cmd, robust);
   cmd->add_option("--seed", a->seed, "RANSAC sampler seed")->capture_default_str();
   cmd->add_option("--plot", a->plot, "also draw |AER| and LD per method (against distance when several clouds have truth) to this PNG");
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
-      const std::vector<std::string> methods = ParseMethods(a->methods);
+      const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--methods");
+      const auto fit_options = a->fit_flags.Given();
       const json cleaning = CleaningStages(*a);
       std::optional<Sphere> common_truth;
       if (!a->truth.empty()) common_truth = fitting::ReadTruthFile(a->truth);
@@ -175,15 +143,13 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
         rep.file = file;
         try {
           json stages = json::array();
-          cloud::ReadOptions ro;
-          ro.scale = a->scale;
-          rep.points = cloud::ReadCloud(file, ro).size();
           stages.push_back({{"filename", file}, {"scale", a->scale}});
           for (const auto& s : cleaning) stages.push_back(s);
           cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "cleaning of " + file, cloud::Registry::Global());
           cloud::Context ctx;
           ctx.seed = a->seed;
-          p.Run(ctx);
+          const cloud::RunReport run_report = p.Run(ctx);
+          rep.points = std::size_t(std::max<std::int64_t>(0, run_report.stages.front().points_out));
           const cloud::PointCloud& cleaned = ctx.Get<cloud::PointCloud>("cloud");
           std::vector<Eigen::Vector3d> pts;
           for (const auto& q : cleaned.points_mm) {
@@ -195,15 +161,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
           } else if (auto t = fitting::TruthFileFor(file)) {
             rep.truth = fitting::ReadTruthFile(*t);
           }
-          for (const auto& m : methods) {
-            FitMethodOptions fo;
-            fo.ransac_threshold_mm = a->ransac_threshold_mm;
-            fo.min_radius_mm = a->min_radius_mm;
-            fo.max_radius_mm = a->max_radius_mm;
-            fo.sample_radius_mm = a->sample_radius_mm;
-            fo.seed = a->seed;
-            rep.fits.push_back(RunFitMethod(m, pts, fo));
-          }
+          for (const auto& m : methods) rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed));
           reports.push_back(std::move(rep));
         } catch (const Error& e) {
           std::cerr << "hedgefit: " << e.what() << "; skipped\n";
@@ -277,8 +235,11 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
                                {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm},
                                {"rmse_radius_mm", s.rmse_radius_mm}};
         }
-        out["paper"] = {{"mean_abs_aer_mm", 1.58}, {"max_abs_aer_mm", 3.00}, {"mean_rer_percent", 0.52},
-                        {"mean_ld_mm", 15.92}, {"max_ld_mm", 19.12}, {"rmse_radius_mm", 1.59}};
+        const fitting::MethodSummary paper = fitting::PaperTable2();
+        out["paper"] = {{"mean_abs_aer_mm", paper.mean_abs_aer_mm}, {"max_abs_aer_mm", paper.max_abs_aer_mm},
+                        {"mean_rer_percent", paper.mean_rer_percent}, {"mean_ld_mm", paper.mean_ld_mm},
+                        {"max_ld_mm", paper.max_ld_mm}, {"rmse_radius_mm", paper.rmse_radius_mm},
+                        {"source", fitting::kPaperTable2Label}};
         std::cout << out.dump(2) << "\n";
       } else if (a->format == "csv") {
         std::printf("cloud,method,converged,cx_mm,cy_mm,cz_mm,r_mm,rms_mm,inliers,points_used,iterations,wall_ms,"
@@ -349,8 +310,10 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
             std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f %9.2f %6zu\n", m.c_str(), s.mean_abs_aer_mm,
                         s.max_abs_aer_mm, s.mean_rer_percent, s.rmse_radius_mm, s.mean_ld_mm, s.max_ld_mm, s.failures);
           }
-          std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f %9.2f %6s   (Table 2, lab, 2.0-2.6 m)\n", "paper",
-                      1.58, 3.00, 0.52, 1.59, 15.92, 19.12, "-");
+          const fitting::MethodSummary p = fitting::PaperTable2();
+          std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f %9.2f %6s   (%s)\n", "paper", p.mean_abs_aer_mm,
+                      p.max_abs_aer_mm, p.mean_rer_percent, p.rmse_radius_mm, p.mean_ld_mm, p.max_ld_mm, "-",
+                      fitting::kPaperTable2Label);
           std::printf("  (mm; AER = measured - true radius, RER = |AER| / true radius, LD = centre distance)\n");
         }
       }

@@ -1,6 +1,5 @@
 // hedgefit convert: stereo captures -> PCD files (rectify, segment, match, reproject).
 
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -8,11 +7,15 @@
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
-#include <thread>
 
 #include "apps/commands.hpp"
+#include "apps/stage_flags.hpp"
+#include "cloud/parallel.hpp"
+#include "cloud/pipeline.hpp"
+#include "cloud/registry.hpp"
 #include "cloud/cloud_io.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
 
@@ -72,14 +75,15 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       "      --rig build/lab/rig.yaml -o build/sphere_2300.pcd\n"
       "  hedgefit convert --input build/lab --rig build/lab/rig.yaml --output-dir build/clouds --debug\n"
       "  hedgefit convert --input captures.txt --rig rig.yaml --output-dir out --shard 3/8   # one of 8 machines\n"
-      "A directory input takes NAME_left.* / NAME_right.* pairs; a manifest has 'LEFT RIGHT [NAME]' lines.\n");
+      "  hedgefit convert --left L.png --right R.png --rig rig.yaml -o out.pcd --print-pipeline  # the same as JSON\n"
+      "A directory input takes NAME_left.* / NAME_right.* pairs; a manifest has 'LEFT RIGHT [NAME]' lines.\n"
+      "Every stage option below is the stereo.* stage's own (see `hedgefit plugins`); one flag sets it in\n"
+      "every stage that has it (--erode, --min-z, ...).\n");
   struct Args {
-    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask, box;
-    double depth_tolerance = stereo::ConvertOptions{}.depth_tolerance_px;
-    double min_z = 1500, max_z = 3500, gamma = 1.5;
-    int erode = stereo::SegmentOptions{}.erode_px, block = 5, threads = 0,
-        refine_radius = stereo::SgbmOptions{}.refine_radius;
-    bool debug = false, organized = false, quiet = false, full_frame = false, keep_filled = false;
+    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask;
+    int threads = 0;
+    bool debug = false, quiet = false, full_frame = false, print_pipeline = false;
+    StageFlags flags;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("--left", a->left, "left image of one capture");
@@ -88,70 +92,83 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--rig", a->rig, "rig file from `hedgefit calibrate`")->required();
   cmd->add_option("-o,--output", a->output, "PCD for a single capture");
   cmd->add_option("--output-dir", a->output_dir, "directory for NAME.pcd (batch)")->capture_default_str();
-  cmd->add_option("--min-z", a->min_z, "working range, nearest, mm")->capture_default_str();
-  cmd->add_option("--max-z", a->max_z, "working range, farthest, mm")->capture_default_str();
-  cmd->add_option("--gamma", a->gamma, "segmentation gamma")->capture_default_str();
-  cmd->add_option("--erode", a->erode, "drop this many silhouette pixels from the mask")->capture_default_str();
-  cmd->add_option("--block", a->block, "SGBM block size, px (odd)")->capture_default_str();
-  cmd->add_option("--refine-radius", a->refine_radius, "sub-pixel refinement window half-size, px (0 = off)")
-      ->capture_default_str();
-  cmd->add_flag("--keep-filled", a->keep_filled, "also write hole-filled (unmeasured) pixels as points");
-  cmd->add_option("--mask", a->mask, "use this mask image (left view) instead of segmentation (single capture)");
-  cmd->add_option("--box", a->box,
-                  "X,Y,W,H: segment by depth inside this box of the left image instead of by colour (grey images)");
-  cmd->add_option("--depth-tolerance", a->depth_tolerance, "with --box: disparity band around the box's middle, px")
-      ->capture_default_str();
-  cmd->add_option("--shard", a->shard, "i/n: convert only every n-th capture starting at i (0-based)");
-  cmd->add_option("--threads", a->threads, "captures converted in parallel (0 = all cores)")->capture_default_str();
-  cmd->add_flag("--debug", a->debug, "also write NAME_rectified.png, NAME_mask.png, NAME_disparity.png");
-  cmd->add_flag("--organized", a->organized, "keep the image grid in the PCD (NaN where no point)");
+  cmd->add_option("--mask", a->mask, "segment with this mask image (drawn on the left view) instead of by colour");
+  // The stages' own options, declared once in their tables.
+  a->flags.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"});
+  a->flags.Add(cmd, stereo::MatchOptions::Table().Specs());
+  a->flags.Add(cmd, stereo::SegmentOptions::Table().Specs());
+  a->flags.Add(cmd, stereo::ReprojectOptions::Table().Specs());
   cmd->add_flag("--full-frame", a->full_frame, "match the whole image, not just the hedge's region");
+  cmd->add_option("--shard", a->shard, "i/n: convert only every n-th capture starting at i (0-based)");
+  cmd->add_option("--threads", a->threads, "captures converted in parallel (0 = all cores)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_flag("--debug", a->debug, "also write NAME_rectified.png, NAME_mask.png, NAME_disparity.png");
+  cmd->add_flag("--print-pipeline", a->print_pipeline, "print the equivalent pipeline JSON and exit");
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
   cmd->callback([=]() {
     *run = [=]() {
       namespace fs = std::filesystem;
+      PrepareRegistry(false);
+      const cloud::Registry& registry = cloud::Registry::Global();
+      // Options: each stage's declared options, as typed (messages name the flag).
       stereo::ConvertOptions o;
-      o.min_z_mm = a->min_z;
-      o.max_z_mm = a->max_z;
-      o.segment.gamma = a->gamma;
-      o.segment.erode_px = a->erode;
-      o.sgbm.block_size = a->block;
-      o.sgbm.refine_radius = a->refine_radius;
-      o.reproject.keep_filled = a->keep_filled;
-      o.reproject.organized = a->organized;
-      o.region_only = !a->full_frame;
-      o.mask_path = a->mask;
-      o.depth_tolerance_px = a->depth_tolerance;
-      if (!a->box.empty()) {
-        int bx = 0, by = 0, bw = 0, bh = 0;
-        char c1 = 0, c2 = 0, c3 = 0;
-        std::istringstream bs(a->box);
-        if (!(bs >> bx >> c1 >> by >> c2 >> bw >> c3 >> bh) || c1 != ',' || c2 != ',' || c3 != ',') {
-          throw Error("--box '" + a->box + "': give X,Y,W,H in px, e.g. 255,160,80,70");
+      const auto given = a->flags.Given();
+      auto bind = [&](const auto& table, auto* out, const char* stage) {
+        const auto specs = table.Specs();
+        std::map<std::string, cloud::OptionValue> mine;
+        for (const auto& spec : specs) {
+          if (given.count(spec.name)) mine[spec.name] = given.at(spec.name);
         }
-        o.box = cv::Rect(bx, by, bw, bh);
+        cloud::StageInfo info{stage, "", specs, {}, {}, {}};
+        *out = table.FromOptions(cloud::ResolveOptions(info, mine, stage));
+      };
+      bind(stereo::SegmentOptions::Table(), &o.segment, "stereo.segment");
+      bind(stereo::MaskOptions::Table(), &o.mask, "stereo.mask");
+      bind(stereo::DepthSegmentOptions::Table(), &o.depth, "stereo.segment_depth");
+      bind(stereo::MatchOptions::Table(), &o.match, "stereo.sgbm");
+      bind(stereo::ReprojectOptions::Table(), &o.reproject, "stereo.reproject");
+      if (a->full_frame) o.match.region_only = false;
+      if (!a->mask.empty() && given.count("box")) throw Error("--mask and --box: give one way to find the hedge, not both");
+      if (!a->mask.empty()) {
+        o.mode = stereo::SegmentMode::kMask;
+        o.mask.filename = a->mask;
+      } else if (given.count("box")) {
+        o.mode = stereo::SegmentMode::kDepth;
       }
       try {
         o.Check();
       } catch (const Error& e) {
-        // "field: why" -> "--field: why", spelled as the command-line option.
+        // "option 'block_size': why" -> "--block-size: why", as typed on the command line.
         std::string msg = e.what();
-        const auto colon = msg.find(':');
-        for (std::size_t i = 0; i < colon && colon != std::string::npos; ++i) {
-          if (msg[i] == '_') msg[i] = '-';
+        if (msg.rfind("option '", 0) == 0) {
+          const auto end = msg.find('\'', 8);
+          msg = cloud::FlagName(msg.substr(8, end - 8)) + msg.substr(end + 1);
         }
-        throw Error("--" + msg);
+        throw Error(msg);
       }
-      const stereo::StereoRig rig = stereo::ReadRig(a->rig);
-      std::vector<Capture> captures;
       const bool single = !a->left.empty() || !a->right.empty();
+      if (single && !a->input.empty()) throw Error("--input and --left/--right: give one capture or a batch, not both");
+      if (single && (a->left.empty() || a->right.empty() || a->output.empty())) {
+        throw Error("a single capture needs --left, --right and -o OUTPUT.pcd (or use --input for a batch)");
+      }
+      if (!single && a->input.empty()) throw Error("give --left/--right/-o for one capture, or --input DIR|MANIFEST");
+      if (a->print_pipeline) {
+        std::printf("%s\n", stereo::CapturePipelineJson(o, single ? a->left : "LEFT.png", single ? a->right : "RIGHT.png",
+                                                        a->rig, single ? a->output : "OUTPUT.pcd")
+                                .c_str());
+        return kExitOk;
+      }
+      stereo::ReadRig(a->rig);  // a bad rig fails once, before any capture
+      std::vector<Capture> captures;
       if (single) {
-        if (a->left.empty() || a->right.empty() || a->output.empty()) {
-          throw Error("a single capture needs --left, --right and -o OUTPUT.pcd (or use --input for a batch)");
+        const fs::path dir = fs::path(a->output).parent_path();
+        std::error_code ec;
+        if (!dir.empty() && !fs::is_directory(dir, ec)) {
+          throw Error("-o " + a->output + ": directory '" + dir.string() + "' does not exist; create it first");
         }
         captures.push_back({fs::path(a->output).stem().string(), a->left, a->right});
       } else {
-        if (a->input.empty()) throw Error("give --left/--right/-o for one capture, or --input DIR|MANIFEST");
         captures = ListCaptures(a->input);
         fs::create_directories(a->output_dir);
       }
@@ -159,7 +176,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
         int i = -1, n = 0;
         char slash = 0;
         std::istringstream ss(a->shard);
-        if (!(ss >> i >> slash >> n) || slash != '/' || n < 1 || i < 0 || i >= n) {
+        if (!(ss >> i >> slash >> n) || slash != '/' || n < 1 || i < 0 || i >= n || !ss.eof()) {
           throw Error("--shard '" + a->shard + "': give i/n with 0 <= i < n, e.g. 0/4");
         }
         std::vector<Capture> mine;
@@ -170,64 +187,56 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       }
       std::mutex io;
       std::string first_error;
-      std::atomic<std::size_t> next{0}, done{0};
-      std::atomic<int> failed{0};
-      auto work = [&]() {
-        for (;;) {
-          const std::size_t k = next.fetch_add(1);
-          if (k >= captures.size()) break;
-          const Capture& c = captures[k];
-          const std::string out = single ? a->output : (fs::path(a->output_dir) / (c.name + ".pcd")).string();
-          std::string line;
-          try {
-            const cv::Mat l = cv::imread(c.left), r = cv::imread(c.right);
-            if (l.empty()) throw Error(c.left + ": cannot read the image");
-            if (r.empty()) throw Error(c.right + ": cannot read the image");
-            if (l.size() != r.size()) throw Error(c.name + ": left and right images differ in size");
-            const stereo::ConvertResult res = stereo::ConvertCapture(l, r, rig, o);
-            cloud::WriteOptions w;
-            w.pcd_encoding = cloud::PcdEncoding::kBinaryCompressed;
-            cloud::WriteCloud(out, res.cloud, w);
-            if (a->debug) {
-              const fs::path base = fs::path(out).parent_path() / fs::path(out).stem();
-              cv::Mat pair;
-              cv::hconcat(res.left_rect, res.right_rect, pair);
-              cv::imwrite(base.string() + "_rectified.png", pair);
-              cv::imwrite(base.string() + "_mask.png", stereo::MaskOverlay(res.left_rect, res.mask));
-              cv::imwrite(base.string() + "_disparity.png", stereo::ColorizeDisparity(res.disparity));
-            }
-            char buf[512];
-            std::snprintf(buf, sizeof(buf), "%-24s %8zu points %7.0f ms  matched %.1f%% of the frame  -> %s", c.name.c_str(),
-                          res.cloud.size() - cloud::CountNonFinite(res.cloud), res.wall_ms, 100 * res.matched_fraction,
-                          out.c_str());
-            line = buf;
-          } catch (const std::exception& e) {
-            ++failed;
-            const std::size_t n_done = ++done;
-            std::lock_guard<std::mutex> lock(io);
-            if (single) {
-              first_error = c.name + ": " + e.what();
-            } else {
-              // Failures go to stderr even with --quiet: quiet hides progress, not problems.
-              std::fprintf(stderr, "[%zu/%zu] %s: skipped: %s\n", n_done, captures.size(), c.name.c_str(), e.what());
-            }
-            continue;
+      std::size_t done = 0;
+      int failed = 0;
+      auto convert_one = [&](const Capture& c) {
+        const std::string out = single ? a->output : (fs::path(a->output_dir) / (c.name + ".pcd")).string();
+        std::string line;
+        try {
+          // The very pipeline `--print-pipeline` shows.
+          cloud::Pipeline p = cloud::Pipeline::FromJson(stereo::CapturePipelineJson(o, c.left, c.right, a->rig, out),
+                                                        "convert", registry);
+          cloud::Context ctx;
+          ctx.quiet = true;
+          const cloud::RunReport report = p.Run(ctx);
+          const cloud::PointCloud& cloud = ctx.Get<cloud::PointCloud>("cloud");
+          const cv::Mat& left_rect = ctx.Get<cv::Mat>("left_image");
+          if (a->debug) {
+            const fs::path base = fs::path(out).parent_path() / fs::path(out).stem();
+            cv::Mat pair;
+            cv::hconcat(left_rect, ctx.Get<cv::Mat>("right_image"), pair);
+            cv::imwrite(base.string() + "_rectified.png", pair);
+            cv::imwrite(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
+            cv::imwrite(base.string() + "_disparity.png", stereo::ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
           }
-          const std::size_t n_done = ++done;
-          if (!a->quiet) {
-            std::lock_guard<std::mutex> lock(io);
-            std::printf("[%zu/%zu] %s\n", n_done, captures.size(), line.c_str());
-            std::fflush(stdout);
+          const double matched = double(ctx.Get<cv::Rect>("matched_region").area()) / double(left_rect.total());
+          char buf[512];
+          std::snprintf(buf, sizeof(buf), "%-24s %8zu points %7.0f ms  matched %.1f%% of the frame  -> %s", c.name.c_str(),
+                        cloud.size() - cloud::CountNonFinite(cloud), report.total_ms, 100 * matched, out.c_str());
+          line = buf;
+        } catch (const std::exception& e) {
+          std::lock_guard<std::mutex> lock(io);
+          ++failed;
+          ++done;
+          if (single) {
+            first_error = c.name + ": " + e.what();
+          } else {
+            // Failures go to stderr even with --quiet: quiet hides progress, not problems.
+            std::fprintf(stderr, "[%zu/%zu] %s: skipped: %s\n", done, captures.size(), c.name.c_str(), e.what());
           }
+          return;
+        }
+        std::lock_guard<std::mutex> lock(io);
+        ++done;
+        if (!a->quiet) {
+          std::printf("[%zu/%zu] %s\n", done, captures.size(), line.c_str());
+          std::fflush(stdout);
         }
       };
       const auto t0 = std::chrono::steady_clock::now();
-      const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-      const unsigned threads = std::min<unsigned>(a->threads > 0 ? unsigned(a->threads) : hw, unsigned(captures.size()));
-      std::vector<std::thread> pool;
-      for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-      work();
-      for (auto& t : pool) t.join();
+      cloud::ParallelFor(captures.size(), a->threads, 1, [&](std::size_t b, std::size_t e) {
+        for (std::size_t k = b; k < e; ++k) convert_one(captures[k]);
+      });
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (single && failed) throw ProcessingError(first_error);
       if (!a->quiet) {

@@ -10,6 +10,7 @@
 #include "apps/commands.hpp"
 #include "cloud/cloud_io.hpp"
 #include "fitting/evaluation.hpp"
+#include "fitting/methods.hpp"
 #include "render/render.hpp"
 
 namespace hedgefit::apps {
@@ -133,6 +134,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
       const cloud::PointCloud cloud = cloud::ReadCloud(a->cloud, ro);
       std::vector<render::SphereOverlay> spheres;
       if (!a->fits.empty()) spheres = ReadFits(a->fits, a->cloud);
+      for (const auto& m : a->methods) fitting::FindFitMethod(m, "--methods");
       if (!a->methods.empty()) {
         std::vector<render::SphereOverlay> kept;
         for (const auto& s : spheres) {
@@ -147,15 +149,19 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
         t.sphere = fitting::ReadTruthFile(a->truth);
         spheres.push_back(t);
       }
-      // Signed distances to the most trustworthy fit drawn: the robust geometric one first.
-      for (const char* preferred : {"ransac_geometric", "geometric", "ransac", "hyper", ""}) {
+      // Signed distances to the most trustworthy fit drawn (the method table's ranking).
+      std::vector<std::string> drawn;
+      for (const auto& s : spheres) {
+        if (!s.truth) drawn.push_back(s.label);
+      }
+      if (const fitting::FitMethod* best = fitting::MostTrusted(drawn)) {
         for (const auto& s : spheres) {
-          if (!s.truth && (s.label == preferred || *preferred == '\0')) {
-            o.distance_sphere = s.sphere;
-            break;
-          }
+          if (!s.truth && s.label == best->name) o.distance_sphere = s.sphere;
         }
-        if (o.distance_sphere) break;
+      } else if (!drawn.empty()) {
+        for (const auto& s : spheres) {
+          if (!s.truth && !o.distance_sphere) o.distance_sphere = s.sphere;
+        }
       }
       render::RenderToPng(cloud, spheres, o, a->output);
       std::printf("wrote %s\n", a->output.c_str());

@@ -12,8 +12,8 @@
 #include <string>
 #include <thread>
 
-#include "apps/fit_methods.hpp"
 #include "bench/bench_util.hpp"
+#include "fitting/methods.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/simulator.hpp"
 
@@ -39,11 +39,9 @@ int main(int argc, char** argv) {
     const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, stereo::ConvertOptions{});
     std::vector<Eigen::Vector3d> pts;
     for (const auto& p : res.cloud.points_mm) pts.push_back(p.cast<double>());
-    apps::FitMethodOptions fo;
-    fo.ransac_threshold_mm = 15;
-    fo.min_radius_mm = 100;
-    fo.max_radius_mm = 1000;
-    radius = apps::RunFitMethod("ransac_geometric", pts, fo).sphere.radius_mm;
+    radius = fitting::RunFitMethod("ransac_geometric", pts,
+                                   {{"distance_threshold", 15.0}, {"min_radius", 100.0}, {"max_radius", 1000.0}})
+                 .sphere.radius_mm;
     points = pts.size();
     fraction = res.matched_fraction;
     stages = res.stage_ms;

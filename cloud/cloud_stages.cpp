@@ -6,6 +6,7 @@
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/filters.hpp"
+#include "cloud/option_table.hpp"
 #include "cloud/registry.hpp"
 
 namespace hedgefit::cloud {
@@ -101,162 +102,65 @@ void RegisterCloudStages(Registry& r) {
           cloud = std::move(res.cloud);
         }));
 
-  {
-    const std::string name = "filters.statistical_outlier";
-    StageInfo info{name,
-                   "Removes points whose mean distance to their mean_k neighbours exceeds mean + stddev_mul * sigma "
-                   "(Rusu 2008; same kept set as PCL's StatisticalOutlierRemoval)",
-                   {IntOption("mean_k", 50, "neighbours used for each point's mean distance", "points").Range(1, 10000),
-                    DoubleOption("stddev_mul", 1.0, "threshold in standard deviations above the mean distance", "sigma"),
-                    IntOption("threads", 0, "worker threads, 0 = all cores", "threads").Range(0, 1024),
-                    BoolOption("keep_organized", false, "set removed points to NaN instead of dropping them")},
-                   {"cloud"}, {"cloud"}, {}};
-    r.Add(info, MakeParamsFactory<StatisticalOutlierOptions>(
-                    [name](const Options& o) {
-                      StatisticalOutlierOptions p;
-                      p.mean_k = static_cast<int>(o.GetInt("mean_k"));
-                      p.stddev_mul = o.GetDouble("stddev_mul");
-                      p.num_threads = static_cast<int>(o.GetInt("threads"));
-                      p.keep_organized = o.GetBool("keep_organized");
-                      return CheckedParams(p, name);
-                    },
-                    [](const StatisticalOutlierOptions& p, Context& ctx) {
-                      PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-                      FilterResult res = StatisticalOutlierRemoval(cloud, p);
-                      NoteFilter(ctx, res);
-                      ctx.Note("threshold_mm", res.threshold);
-                      cloud = std::move(res.cloud);
-                    }));
-  }
-  {
-    const std::string name = "filters.radius_outlier";
-    StageInfo info{name, "Removes points with fewer than min_neighbours others within radius (PCL RadiusOutlierRemoval's rule)",
-                   {DoubleOption("radius", 10.0, "neighbourhood radius", "mm").Min(1e-9),
-                    IntOption("min_neighbours", 5, "other points needed within radius", "points").Range(0, 1000000),
-                    IntOption("threads", 0, "worker threads, 0 = all cores", "threads").Range(0, 1024),
-                    BoolOption("keep_organized", false, "set removed points to NaN instead of dropping them")},
-                   {"cloud"}, {"cloud"}, {}};
-    r.Add(info, MakeParamsFactory<RadiusOutlierOptions>(
-                    [name](const Options& o) {
-                      RadiusOutlierOptions p;
-                      p.radius_mm = o.GetDouble("radius");
-                      p.min_neighbours = static_cast<int>(o.GetInt("min_neighbours"));
-                      p.num_threads = static_cast<int>(o.GetInt("threads"));
-                      p.keep_organized = o.GetBool("keep_organized");
-                      return CheckedParams(p, name);
-                    },
-                    [](const RadiusOutlierOptions& p, Context& ctx) {
-                      PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-                      FilterResult res = RadiusOutlierRemoval(cloud, p);
-                      NoteFilter(ctx, res);
-                      cloud = std::move(res.cloud);
-                    }));
-  }
-  {
-    const std::string name = "filters.voxel_grid";
-    StageInfo info{name, "Downsamples to one centroid per cubic voxel (colours and fields averaged)",
-                   {DoubleOption("leaf", 5.0, "voxel edge length", "mm").Min(1e-6),
-                    IntOption("min_points_per_voxel", 1, "drop voxels with fewer points", "points").Range(1, 1000000)},
-                   {"cloud"}, {"cloud"}, {}};
-    r.Add(info, MakeParamsFactory<VoxelGridOptions>(
-                    [name](const Options& o) {
-                      VoxelGridOptions p;
-                      p.leaf_mm = o.GetDouble("leaf");
-                      p.min_points_per_voxel = static_cast<int>(o.GetInt("min_points_per_voxel"));
-                      return CheckedParams(p, name);
-                    },
-                    [](const VoxelGridOptions& p, Context& ctx) {
-                      PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-                      FilterResult res = VoxelGrid(cloud, p);
-                      NoteFilter(ctx, res);
-                      cloud = std::move(res.cloud);
-                    }));
-  }
-  {
-    const std::string name = "filters.crop_box";
-    StageInfo info{name, "Keeps points inside (or, negative, outside) an axis-aligned box",
-                   {ListOption("min", {-1e9, -1e9, -1e9}, 3, "box corner [x, y, z]", "mm"),
-                    ListOption("max", {1e9, 1e9, 1e9}, 3, "opposite corner [x, y, z]", "mm"),
-                    BoolOption("negative", false, "keep the points outside the box"),
-                    BoolOption("keep_organized", false, "set removed points to NaN instead of dropping them")},
-                   {"cloud"}, {"cloud"}, {}};
-    r.Add(info, MakeParamsFactory<CropBoxOptions>(
-                    [name](const Options& o) {
-                      CropBoxOptions p;
-                      const auto& lo = o.GetList("min");
-                      const auto& hi = o.GetList("max");
-                      p.min_mm = Eigen::Vector3d(lo[0], lo[1], lo[2]).cast<float>();
-                      p.max_mm = Eigen::Vector3d(hi[0], hi[1], hi[2]).cast<float>();
-                      p.negative = o.GetBool("negative");
-                      p.keep_organized = o.GetBool("keep_organized");
-                      return CheckedParams(p, name);
-                    },
-                    [](const CropBoxOptions& p, Context& ctx) {
-                      PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-                      FilterResult res = CropBox(cloud, p);
-                      NoteFilter(ctx, res);
-                      cloud = std::move(res.cloud);
-                    }));
-  }
-  {
-    const std::string name = "filters.plane_removal";
-    StageInfo info{name, "Removes dominant planes (floor, walls) one by one with RANSAC, so fits see the object",
-                   {DoubleOption("distance_threshold", 20.0, "points this close to a plane are removed", "mm").Min(1e-9),
-                    IntOption("min_inliers", 1000, "stop when the best plane has fewer points", "points").Range(3, 1000000000),
-                    IntOption("max_planes", 5, "planes to remove at most", "planes").Range(1, 1000),
-                    IntOption("max_iterations", 1000, "RANSAC samples per plane", "samples").Range(1, 10000000),
-                    IntOption("seed", -1, "sampler seed; -1 = the pipeline's --seed").Min(-1)},
-                   {"cloud"}, {"cloud"}, {}};
-    r.Add(info, [name](const Options& o) -> std::unique_ptr<Stage> {
-      PlaneRemovalOptions p;
-      p.distance_threshold_mm = o.GetDouble("distance_threshold");
-      p.min_inliers = static_cast<int>(o.GetInt("min_inliers"));
-      p.max_planes = static_cast<int>(o.GetInt("max_planes"));
-      p.max_iterations = static_cast<int>(o.GetInt("max_iterations"));
-      p = CheckedParams(p, name);
-      const std::int64_t seed = o.GetInt("seed");
-      return std::make_unique<LambdaStage>(o, [p, seed](const Options&, Context& ctx) {
-        PlaneRemovalOptions run = p;
-        run.seed = seed >= 0 ? static_cast<std::uint64_t>(seed) : ctx.seed;
-        PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-        FilterResult res = RemovePlanes(cloud, run);
-        NoteFilter(ctx, res);
-        ctx.Note("planes", static_cast<std::int64_t>(res.threshold));
-        cloud = std::move(res.cloud);
-      });
-    });
-  }
-  {
-    const std::string name = "filters.pass_through";
-    StageInfo info{name, "Keeps points whose field (x, y, z, range or an extra field) lies in [min, max]",
-                   {StringOption("field", "z", "field to test: x, y, z, range (distance from the sensor) or an extra field"),
-                    DoubleOption("min", -1e30, "inclusive lower limit", "field unit (mm for x y z)"),
-                    DoubleOption("max", 1e30, "inclusive upper limit", "field unit (mm for x y z)"),
-                    BoolOption("negative", false, "keep the points outside [min, max]"),
-                    BoolOption("keep_organized", false, "set removed points to NaN instead of dropping them")},
-                   {"cloud"}, {"cloud"}, {}};
-    r.Add(info, MakeParamsFactory<PassThroughOptions>(
-                    [name](const Options& o) {
-                      PassThroughOptions p;
-                      p.field = o.GetString("field");
-                      p.min = o.GetDouble("min");
-                      p.max = o.GetDouble("max");
-                      p.negative = o.GetBool("negative");
-                      p.keep_organized = o.GetBool("keep_organized");
-                      return CheckedParams(p, name);
-                    },
-                    [name](const PassThroughOptions& p, Context& ctx) {
-                      PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-                      FilterResult res;
-                      try {
-                        res = PassThrough(cloud, p);
-                      } catch (const Error& e) {
-                        throw Error("stage '" + name + "', option " + e.what());
-                      }
-                      NoteFilter(ctx, res);
-                      cloud = std::move(res.cloud);
-                    }));
-  }
+  auto filter = [&r](const std::string& name, const std::string& what, std::vector<OptionSpec> options,
+                     StageFactory make) { r.Add(StageInfo{name, what, std::move(options), {"cloud"}, {"cloud"}, {}}, make); };
+  // Each runs its free function on 'cloud' and replaces it by what was kept.
+  auto keep = [](Context& ctx, const std::function<FilterResult(const PointCloud&)>& fn) {
+    PointCloud& cloud = ctx.Get<PointCloud>("cloud");
+    FilterResult res = fn(cloud);
+    NoteFilter(ctx, res);
+    cloud = std::move(res.cloud);
+    return res;
+  };
+  filter("filters.statistical_outlier",
+         "Removes points whose mean distance to their mean_k neighbours exceeds mean + stddev_mul * sigma "
+         "(Rusu 2008; same kept set as PCL's StatisticalOutlierRemoval)",
+         TableOptions<StatisticalOutlierOptions>(),
+         TableFactory<StatisticalOutlierOptions>(
+             "filters.statistical_outlier", [keep](const StatisticalOutlierOptions& p, const Options&, Context& ctx) {
+               const FilterResult res = keep(ctx, [&](const PointCloud& c) { return StatisticalOutlierRemoval(c, p); });
+               ctx.Note("threshold_mm", res.threshold);
+             }));
+  filter("filters.radius_outlier",
+         "Removes points with fewer than min_neighbours others within radius (PCL RadiusOutlierRemoval's rule)",
+         TableOptions<RadiusOutlierOptions>(),
+         TableFactory<RadiusOutlierOptions>("filters.radius_outlier",
+                                            [keep](const RadiusOutlierOptions& p, const Options&, Context& ctx) {
+                                              keep(ctx, [&](const PointCloud& c) { return RadiusOutlierRemoval(c, p); });
+                                            }));
+  filter("filters.voxel_grid", "Downsamples to one centroid per cubic voxel (colours and fields averaged)",
+         TableOptions<VoxelGridOptions>(),
+         TableFactory<VoxelGridOptions>("filters.voxel_grid", [keep](const VoxelGridOptions& p, const Options&, Context& ctx) {
+           keep(ctx, [&](const PointCloud& c) { return VoxelGrid(c, p); });
+         }));
+  filter("filters.crop_box", "Keeps points inside (or, negative, outside) an axis-aligned box",
+         TableOptions<CropBoxOptions>(),
+         TableFactory<CropBoxOptions>("filters.crop_box", [keep](const CropBoxOptions& p, const Options&, Context& ctx) {
+           keep(ctx, [&](const PointCloud& c) { return CropBox(c, p); });
+         }));
+  filter("filters.plane_removal", "Removes dominant planes (floor, walls) one by one with RANSAC, so fits see the object",
+         TableOptions<PlaneRemovalOptions>({IntOption("seed", -1, "sampler seed; -1 = the pipeline's --seed").Min(-1)}),
+         TableFactory<PlaneRemovalOptions>("filters.plane_removal",
+                                           [keep](const PlaneRemovalOptions& p, const Options& o, Context& ctx) {
+                                             PlaneRemovalOptions run = p;
+                                             const std::int64_t seed = o.GetInt("seed");
+                                             run.seed = seed >= 0 ? static_cast<std::uint64_t>(seed) : ctx.seed;
+                                             const FilterResult res =
+                                                 keep(ctx, [&](const PointCloud& c) { return RemovePlanes(c, run); });
+                                             ctx.Note("planes", static_cast<std::int64_t>(res.threshold));
+                                           }));
+  filter("filters.pass_through", "Keeps points whose field (x, y, z, range or an extra field) lies in [min, max]",
+         TableOptions<PassThroughOptions>(),
+         TableFactory<PassThroughOptions>("filters.pass_through",
+                                          [keep](const PassThroughOptions& p, const Options&, Context& ctx) {
+                                            try {
+                                              keep(ctx, [&](const PointCloud& c) { return PassThrough(c, p); });
+                                            } catch (const Error& e) {
+                                              const std::string what = e.what();
+                                              throw Error("stage 'filters.pass_through', " +
+                                                          (what.rfind("option '", 0) == 0 ? what : "option " + what));
+                                            }
+                                          }));
 }
 
 }  // namespace hedgefit::cloud

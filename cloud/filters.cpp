@@ -1,4 +1,5 @@
 #include "cloud/filters.hpp"
+#include "cloud/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -43,11 +44,18 @@ FilterResult RemoveNonFinite(const PointCloud& cloud) {
   return Finish(cloud, std::vector<bool>(cloud.size(), true), false);
 }
 
-void StatisticalOutlierOptions::Check() const {
-  if (mean_k < 1) throw Error("mean_k: must be >= 1 neighbour, got " + std::to_string(mean_k));
-  if (!std::isfinite(stddev_mul)) throw Error("stddev_mul: must be a finite number");
-  if (num_threads < 0) throw Error("num_threads: must be >= 0 (0 = all cores)");
+const OptionTable<StatisticalOutlierOptions>& StatisticalOutlierOptions::Table() {
+  using O = StatisticalOutlierOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("mean_k", &O::mean_k, "neighbours used for each point's mean distance", "points").Range(1, 10000)
+          .Add("stddev_mul", &O::stddev_mul, "threshold in standard deviations above the mean distance", "sigma")
+          .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024)
+          .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
+  return table;
 }
+
+void StatisticalOutlierOptions::Check() const { Table().Validate(*this); }
 
 std::vector<float> MeanNeighbourDistances(const PointCloud& cloud, int mean_k, int num_threads) {
   return internal::GridMeanKnnDistances(cloud, mean_k, num_threads);
@@ -88,11 +96,18 @@ FilterResult StatisticalOutlierRemoval(const PointCloud& cloud, const Statistica
   return r;
 }
 
-void RadiusOutlierOptions::Check() const {
-  if (!(radius_mm > 0 && std::isfinite(radius_mm))) throw Error("radius: must be > 0 mm");
-  if (min_neighbours < 0) throw Error("min_neighbours: must be >= 0");
-  if (num_threads < 0) throw Error("num_threads: must be >= 0 (0 = all cores)");
+const OptionTable<RadiusOutlierOptions>& RadiusOutlierOptions::Table() {
+  using O = RadiusOutlierOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("radius", &O::radius_mm, "neighbourhood radius", "mm").Min(1e-9)
+          .Add("min_neighbours", &O::min_neighbours, "other points needed within radius", "points").Range(0, 1000000)
+          .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024)
+          .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
+  return table;
 }
+
+void RadiusOutlierOptions::Check() const { Table().Validate(*this); }
 
 FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOptions& options) {
   options.Check();
@@ -103,7 +118,7 @@ FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOp
   const float sq_radius = static_cast<float>(options.radius_mm * options.radius_mm);
   // The count includes the query point itself, as PCL's does.
   const std::size_t needed = static_cast<std::size_t>(options.min_neighbours) + 1;
-  internal::ParallelFor(finite.size(), options.num_threads, [&](std::size_t begin, std::size_t end) {
+  ParallelFor(finite.size(), options.num_threads, 1024, [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j) {
       keep_finite[j] = index.CountWithin(cloud.points_mm[finite[j]].data(), sq_radius, needed) >= needed;
     }
@@ -114,10 +129,16 @@ FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOp
   return r;
 }
 
-void VoxelGridOptions::Check() const {
-  if (!(leaf_mm > 0 && std::isfinite(leaf_mm))) throw Error("leaf: must be > 0 mm");
-  if (min_points_per_voxel < 1) throw Error("min_points_per_voxel: must be >= 1");
+const OptionTable<VoxelGridOptions>& VoxelGridOptions::Table() {
+  using O = VoxelGridOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("leaf", &O::leaf_mm, "voxel edge length", "mm").Min(1e-6)
+          .Add("min_points_per_voxel", &O::min_points_per_voxel, "drop voxels with fewer points", "points").Range(1, 1000000);
+  return table;
 }
+
+void VoxelGridOptions::Check() const { Table().Validate(*this); }
 
 FilterResult VoxelGrid(const PointCloud& cloud, const VoxelGridOptions& options) {
   options.Check();
@@ -186,11 +207,21 @@ FilterResult VoxelGrid(const PointCloud& cloud, const VoxelGridOptions& options)
   return r;
 }
 
+const OptionTable<CropBoxOptions>& CropBoxOptions::Table() {
+  using O = CropBoxOptions;
+  static const auto table = OptionTable<O>()
+                                .Add("min", &O::min_mm, "box corner [x, y, z]", "mm")
+                                .Add("max", &O::max_mm, "opposite corner [x, y, z]", "mm")
+                                .Add("negative", &O::negative, "keep the points outside the box")
+                                .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
+  return table;
+}
+
 void CropBoxOptions::Check() const {
-  if (!min_mm.allFinite() || !max_mm.allFinite()) throw Error("min/max: box corners must be finite");
+  Table().Validate(*this);
   for (int a = 0; a < 3; ++a) {
     if (min_mm[a] > max_mm[a]) {
-      throw Error(std::string("min/max: min ") + "xyz"[a] + " (" + std::to_string(min_mm[a]) + ") is above max " +
+      throw Error(std::string("option 'min'/'max': min ") + "xyz"[a] + " (" + std::to_string(min_mm[a]) + ") is above max " +
                   "xyz"[a] + " (" + std::to_string(max_mm[a]) + "); swap them");
     }
   }
@@ -207,9 +238,22 @@ FilterResult CropBox(const PointCloud& cloud, const CropBoxOptions& options) {
   return Finish(cloud, std::move(keep), options.keep_organized);
 }
 
+const OptionTable<PassThroughOptions>& PassThroughOptions::Table() {
+  using O = PassThroughOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("field", &O::field, "field to test: x, y, z, range (distance from the sensor) or an extra field")
+          .Add("min", &O::min, "inclusive lower limit", "field unit (mm for x y z)")
+          .Add("max", &O::max, "inclusive upper limit", "field unit (mm for x y z)")
+          .Add("negative", &O::negative, "keep the points outside [min, max]")
+          .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
+  return table;
+}
+
 void PassThroughOptions::Check() const {
-  if (field.empty()) throw Error("field: name the field to test (x, y, z or an extra field)");
-  if (std::isnan(min) || std::isnan(max) || min > max) throw Error("min/max: need min <= max");
+  Table().Validate(*this);
+  if (field.empty()) throw Error("option 'field': name the field to test (x, y, z or an extra field)");
+  if (min > max) throw Error("option 'min'/'max': need min <= max");
 }
 
 FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& options) {
@@ -225,7 +269,7 @@ FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& opti
     if (it == cloud.fields.end() || it->second.empty()) {
       std::string have = "x, y, z, range";
       for (const auto& [name, v] : cloud.fields) have += ", " + name;
-      throw Error("field: the cloud has no field '" + options.field + "'; it has " + have);
+      throw Error("option 'field': the cloud has no field '" + options.field + "'; it has " + have);
     }
     values = &it->second;
   }
@@ -238,12 +282,18 @@ FilterResult PassThrough(const PointCloud& cloud, const PassThroughOptions& opti
   return Finish(cloud, std::move(keep), options.keep_organized);
 }
 
-void PlaneRemovalOptions::Check() const {
-  if (!(distance_threshold_mm > 0)) throw Error("distance_threshold: must be > 0 mm");
-  if (min_inliers < 3) throw Error("min_inliers: must be >= 3 points");
-  if (max_planes < 1) throw Error("max_planes: must be >= 1");
-  if (max_iterations < 1) throw Error("max_iterations: must be >= 1");
+const OptionTable<PlaneRemovalOptions>& PlaneRemovalOptions::Table() {
+  using O = PlaneRemovalOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("distance_threshold", &O::distance_threshold_mm, "points this close to a plane are removed", "mm").Min(1e-9)
+          .Add("min_inliers", &O::min_inliers, "stop when the best plane has fewer points", "points").Range(3, 1000000000)
+          .Add("max_planes", &O::max_planes, "planes to remove at most", "planes").Range(1, 1000)
+          .Add("max_iterations", &O::max_iterations, "RANSAC samples per plane", "samples").Range(1, 10000000);
+  return table;
 }
+
+void PlaneRemovalOptions::Check() const { Table().Validate(*this); }
 
 namespace {
 

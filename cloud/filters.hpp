@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 
 namespace hedgefit::cloud {
@@ -27,7 +28,8 @@ struct StatisticalOutlierOptions {
   double stddev_mul = 1.0;  ///< threshold = mean + stddev_mul * stddev of mean distances
   int num_threads = 0;      ///< 0 = all hardware threads
   bool keep_organized = false;  ///< removed points become NaN, structure kept
-  void Check() const;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<StatisticalOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// Per-point mean distance to the mean_k nearest neighbours (mm; 0 for non-finite
@@ -47,7 +49,8 @@ struct RadiusOutlierOptions {
   int min_neighbours = 5;   ///< other points needed within radius_mm to keep a point
   int num_threads = 0;      ///< 0 = all hardware threads
   bool keep_organized = false;
-  void Check() const;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<RadiusOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// PCL RadiusOutlierRemoval's decision: keep a point with >= min_neighbours others within radius.
@@ -56,7 +59,8 @@ FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOp
 struct VoxelGridOptions {
   double leaf_mm = 5.0;           ///< cubic voxel edge (mm)
   int min_points_per_voxel = 1;   ///< voxels with fewer points are dropped
-  void Check() const;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<VoxelGridOptions>& Table();  ///< the options, declared once
 };
 
 /// One point per occupied voxel at the centroid of its points (colours and
@@ -69,7 +73,8 @@ struct CropBoxOptions {
   Eigen::Vector3f max_mm = Eigen::Vector3f::Constant(1e9f);   ///< opposite corner (mm)
   bool negative = false;        ///< keep the points outside the box instead
   bool keep_organized = false;
-  void Check() const;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<CropBoxOptions>& Table();  ///< the options, declared once
 };
 
 /// Keeps points inside an axis-aligned box (bounds inclusive).
@@ -81,7 +86,8 @@ struct PassThroughOptions {
   double max = 1e30;        ///< inclusive upper limit
   bool negative = false;    ///< keep the points outside [min, max]
   bool keep_organized = false;
-  void Check() const;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<PassThroughOptions>& Table();  ///< the options, declared once
 };
 
 /// Keeps points whose `field` lies in [min, max]; throws Error if the field is missing.
@@ -93,7 +99,8 @@ struct PlaneRemovalOptions {
   int max_planes = 5;                   ///< remove at most this many planes
   int max_iterations = 1000;            ///< RANSAC samples per plane
   std::uint64_t seed = 42;              ///< RANSAC sampler seed
-  void Check() const;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<PlaneRemovalOptions>& Table();  ///< the options, declared once
 };
 
 /// Removes the dominant planes (floor, walls) one after another with PCL's RANSAC on

@@ -1,36 +1,16 @@
 #pragma once
 // Exact radius counting over the finite points of a cloud (nanoflann k-d tree),
-// plus a parallel-for over index ranges. Private to cloud/.
+// Private to cloud/.
 
 #include <nanoflann.hpp>
 
 #include <algorithm>
 #include <cstdint>
-#include <thread>
 #include <vector>
 
 #include "cloud/point_cloud.hpp"
 
 namespace hedgefit::cloud::internal {
-
-/// Calls fn(begin, end) on `threads` contiguous slices of [0, n).
-template <class Fn>
-void ParallelFor(std::size_t n, int threads, Fn fn) {
-  unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  unsigned t = threads > 0 ? static_cast<unsigned>(threads) : hw;
-  t = static_cast<unsigned>(std::min<std::size_t>(t, std::max<std::size_t>(1, n / 1024)));
-  if (t <= 1) {
-    fn(std::size_t{0}, n);
-    return;
-  }
-  std::vector<std::thread> pool;
-  const std::size_t chunk = (n + t - 1) / t;
-  for (unsigned i = 0; i < t; ++i) {
-    const std::size_t b = i * chunk, e = std::min(n, b + chunk);
-    if (b < e) pool.emplace_back([=] { fn(b, e); });
-  }
-  for (auto& th : pool) th.join();
-}
 
 /// The finite points of a cloud, and a k-d tree over them.
 class FiniteIndex {

@@ -73,7 +73,7 @@ Pipeline Pipeline::FromFile(const std::string& path, const Registry& registry,
 }
 
 Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& source, const Registry& registry,
-                            const std::vector<std::string>& overrides) {
+                            const std::vector<std::string>& overrides, const std::vector<std::string>& provided) {
   json doc;
   try {
     doc = json::parse(json_text);
@@ -170,7 +170,7 @@ Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& sou
   }
 
   Pipeline pipeline;
-  std::set<std::string> available;
+  std::set<std::string> available(provided.begin(), provided.end());
   std::set<std::string> labels;
   for (std::size_t i = 0; i < parsed.size(); ++i) {
     Parsed& p = parsed[i];

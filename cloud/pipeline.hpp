@@ -37,8 +37,11 @@ class Pipeline {
  public:
   /// Parses and validates `json_text`; `source` names it in errors. `overrides`
   /// are "label.option=value" strings (label = tag or type) applied on top.
+  /// `provided` names artifacts the caller puts into the Context before Run (e.g. images
+  /// already in memory), so stages that need them pass the check.
   static Pipeline FromJson(const std::string& json_text, const std::string& source, const Registry& registry,
-                           const std::vector<std::string>& overrides = {});
+                           const std::vector<std::string>& overrides = {},
+                           const std::vector<std::string>& provided = {});
   static Pipeline FromFile(const std::string& path, const Registry& registry,
                            const std::vector<std::string>& overrides = {});
 

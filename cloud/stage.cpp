@@ -116,13 +116,10 @@ std::size_t EditDistance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
-std::string Where(const std::string& stage_label, const std::string& option) {
-  return "stage '" + stage_label + "', option '" + option + "'";
-}
 
-void CheckNumber(const OptionSpec& spec, double v, const std::string& stage_label) {
+void CheckNumber(const OptionSpec& spec, double v, const OptionNamer& name_of) {
   if (!std::isfinite(v)) {
-    throw Error(Where(stage_label, spec.name) + ": must be a finite number");
+    throw Error(name_of(spec.name) + ": must be a finite number");
   }
   const bool below = spec.min && v < *spec.min;
   const bool above = spec.max && v > *spec.max;
@@ -131,15 +128,15 @@ void CheckNumber(const OptionSpec& spec, double v, const std::string& stage_labe
                             ? "in [" + FormatDouble(*spec.min) + ", " + FormatDouble(*spec.max) + "]"
                         : spec.min ? ">= " + FormatDouble(*spec.min)
                                    : "<= " + FormatDouble(*spec.max);
-    throw Error(Where(stage_label, spec.name) + ": " + FormatDouble(v) + " is out of range; use a value " +
+    throw Error(name_of(spec.name) + ": " + FormatDouble(v) + " is out of range; use a value " +
                 range + (spec.unit.empty() ? "" : " " + spec.unit));
   }
 }
 
 // Checks one value's type (allowing an integer where a number is declared) and range.
-OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const std::string& stage_label) {
+OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const OptionNamer& name_of) {
   auto wrong = [&](const std::string& got) {
-    return Error(Where(stage_label, spec.name) + ": expected " + TypeName(spec.type) + ", got " + got);
+    return Error(name_of(spec.name) + ": expected " + TypeName(spec.type) + ", got " + got);
   };
   const char* got_type = std::visit(
       [](const auto& v) -> const char* {
@@ -165,7 +162,7 @@ OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const std
       } else {
         throw wrong(std::string(got_type) + " " + ToString(given));
       }
-      CheckNumber(spec, static_cast<double>(v), stage_label);
+      CheckNumber(spec, static_cast<double>(v), name_of);
       return v;
     }
     case OptionType::kDouble: {
@@ -177,7 +174,7 @@ OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const std
       } else {
         throw wrong(std::string(got_type) + " " + ToString(given));
       }
-      CheckNumber(spec, v, stage_label);
+      CheckNumber(spec, v, name_of);
       return v;
     }
     case OptionType::kString: {
@@ -188,7 +185,7 @@ OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const std
         std::string list;
         for (const auto& c : spec.choices) list += (list.empty() ? "" : ", ") + c;
         std::string hint = DidYouMean(*s, spec.choices);
-        throw Error(Where(stage_label, spec.name) + ": '" + *s + "' is not one of " + list +
+        throw Error(name_of(spec.name) + ": '" + *s + "' is not one of " + list +
                     (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
       }
       return given;
@@ -197,10 +194,10 @@ OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const std
       const auto* list = std::get_if<std::vector<double>>(&given);
       if (list == nullptr) throw wrong(std::string(got_type) + " " + ToString(given));
       if (spec.list_size != 0 && list->size() != spec.list_size) {
-        throw Error(Where(stage_label, spec.name) + ": expected " + std::to_string(spec.list_size) +
+        throw Error(name_of(spec.name) + ": expected " + std::to_string(spec.list_size) +
                     " numbers, got " + std::to_string(list->size()));
       }
-      for (double v : *list) CheckNumber(spec, v, stage_label);
+      for (double v : *list) CheckNumber(spec, v, name_of);
       return given;
     }
   }
@@ -208,6 +205,16 @@ OptionValue Validate(const OptionSpec& spec, const OptionValue& given, const std
 }
 
 }  // namespace
+
+OptionNamer StageOptionNamer(std::string stage_label) {
+  return [stage_label](const std::string& option) {
+    return stage_label.empty() ? "option '" + option + "'" : "stage '" + stage_label + "', option '" + option + "'";
+  };
+}
+
+OptionValue CheckOptionValue(const OptionSpec& spec, const OptionValue& given, const OptionNamer& name_of) {
+  return Validate(spec, given, name_of);
+}
 
 std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
@@ -235,7 +242,7 @@ Options ResolveOptions(const StageInfo& info, const std::map<std::string, Option
                   (hint.empty() ? "" : " (did you mean '" + hint + "'?)") + "; see `hedgefit plugins` for " +
                   info.name + "'s options");
     }
-    values[name] = Validate(*spec, value, stage_label);
+    values[name] = Validate(*spec, value, StageOptionNamer(stage_label));
   }
   for (const auto& spec : info.options) {
     if (values.count(spec.name) == 0) values[spec.name] = spec.default_value;
@@ -245,8 +252,12 @@ Options ResolveOptions(const StageInfo& info, const std::map<std::string, Option
 
 OptionValue ParseOptionString(const OptionSpec& spec, const std::string& text,
                               const std::string& stage_label) {
+  return ParseOptionString(spec, text, StageOptionNamer(stage_label));
+}
+
+OptionValue ParseOptionString(const OptionSpec& spec, const std::string& text, const OptionNamer& name_of) {
   auto bad = [&]() {
-    return Error(Where(stage_label, spec.name) + ": cannot read '" + text + "' as " + TypeName(spec.type));
+    return Error(name_of(spec.name) + ": cannot read '" + text + "' as " + TypeName(spec.type));
   };
   switch (spec.type) {
     case OptionType::kBool:

@@ -83,6 +83,17 @@ class Options {
   std::map<std::string, OptionValue> values_;
 };
 
+/// How messages name an option: "stage 'filters.x', option 'mean_k'" in a pipeline, "--mean-k" on
+/// a command line, "option 'mean_k'" in a parameter struct's Check().
+using OptionNamer = std::function<std::string(const std::string& option)>;
+
+/// "stage 'LABEL', option 'NAME'", or "option 'NAME'" when the label is empty.
+OptionNamer StageOptionNamer(std::string stage_label);
+
+/// Checks one value against its declaration (type, finite, range, choices, list length) and
+/// returns it in the declared type (an integral number for an integer option, ...).
+OptionValue CheckOptionValue(const OptionSpec& spec, const OptionValue& given, const OptionNamer& name_of);
+
 /// Checks `given` against `info`: unknown option (with a "did you mean"), wrong
 /// type, out of range, bad choice. Fills in defaults. Throws Error naming
 /// `stage_label` and the option.
@@ -92,6 +103,7 @@ Options ResolveOptions(const StageInfo& info, const std::map<std::string, Option
 /// Parses a command-line string ("30", "true", "[1,2,3]") as the option's declared type.
 OptionValue ParseOptionString(const OptionSpec& spec, const std::string& text,
                               const std::string& stage_label);
+OptionValue ParseOptionString(const OptionSpec& spec, const std::string& text, const OptionNamer& name_of);
 
 /// Closest candidate by edit distance, or "" if none is close enough to suggest.
 std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates);
@@ -164,7 +176,8 @@ Params CheckedParams(Params params, const std::string& stage) {
   try {
     params.Check();
   } catch (const Error& e) {
-    throw Error("stage '" + stage + "', option " + e.what());
+    const std::string what = e.what();
+    throw Error("stage '" + stage + "', " + (what.rfind("option '", 0) == 0 ? "" : "option ") + what);
   }
   return params;
 }

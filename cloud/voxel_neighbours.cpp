@@ -1,17 +1,19 @@
 #include "cloud/voxel_neighbours.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <random>
-#include <thread>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 #endif
+
+#include "cloud/parallel.hpp"
 
 namespace hedgefit::cloud::internal {
 
@@ -260,19 +262,30 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
   }
   for (std::size_t r = 1; r < row_begin.size(); ++r) row_begin[r] += row_begin[r - 1];
 
-  std::atomic<std::size_t> next{0};
   constexpr std::size_t kChunk = 2048;
   const Kernels kernels = PickKernels();
-  auto worker = [&]() {
-    std::vector<float> near(n + 16);  // slack for the vector kernels' full-width stores
-    std::vector<float> ring(n + 16);
+  // Scratch per worker, kept across its chunks (the buffers are as long as the cloud).
+  struct Scratch {
+    std::vector<float> near, ring;
     std::vector<std::pair<std::ptrdiff_t, std::ptrdiff_t>> ranges;
     std::array<std::uint32_t, 6> cached_box{1, 0, 1, 0, 1, 0};  // empty
-    float guess = static_cast<float>(rho0 * rho0);  // k-th squared distance of the previous query
-    for (;;) {
-      const std::size_t first = next.fetch_add(kChunk);
-      if (first >= n) break;
-      const std::size_t last = std::min(n, first + kChunk);
+    float guess = 0;  // k-th squared distance of the previous query
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch([&] {
+    Scratch sc;
+    sc.near.resize(n + 16);  // slack for the vector kernels' full-width stores
+    sc.ring.resize(n + 16);
+    sc.guess = static_cast<float>(rho0 * rho0);
+    return sc;
+  });
+  auto work = [&](std::size_t first, std::size_t last) {
+    Scratch& sc = scratch.local();
+    std::vector<float>& near = sc.near;
+    std::vector<float>& ring = sc.ring;
+    auto& ranges = sc.ranges;
+    auto& cached_box = sc.cached_box;
+    float& guess = sc.guess;
+    {
       for (std::size_t s = first; s < last; ++s) {
         const float qx = xs[s], qy = ys[s], qz = zs[s];
         // Neighbouring queries have similar k-th distances: start just above the previous one.
@@ -343,13 +356,7 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
       }
     }
   };
-  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  unsigned threads = num_threads > 0 ? static_cast<unsigned>(num_threads) : hw;
-  threads = static_cast<unsigned>(std::min<std::size_t>(threads, (n + kChunk - 1) / kChunk));
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  ParallelFor(n, num_threads, kChunk, work);
   return out;
 }
 

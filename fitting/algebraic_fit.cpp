@@ -5,8 +5,8 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
-#include <thread>
 
+#include "cloud/parallel.hpp"
 namespace hedgefit::fitting {
 
 namespace {
@@ -18,19 +18,16 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Runs fn(begin, end, slot) on up to two slices of [0, n) (the target machine has two
-// cores) and returns the per-slice results; small inputs stay on one thread.
+// Runs fn(begin, end, &partial) on fixed slices of [0, n) and returns the partial results in
+// slice order, so their sum does not depend on timing; small inputs stay on one slice.
 template <class Acc, class Fn>
 std::vector<Acc> Slices(std::size_t n, Fn fn) {
-  const std::size_t threads = n >= 200000 ? std::min(2u, std::max(1u, std::thread::hardware_concurrency())) : 1;
-  std::vector<Acc> acc(threads);
-  std::vector<std::thread> pool;
-  const std::size_t chunk = (n + threads - 1) / threads;
-  for (std::size_t t = 1; t < threads; ++t) {
-    pool.emplace_back([&, t] { fn(t * chunk, std::min(n, (t + 1) * chunk), &acc[t]); });
-  }
-  fn(0, std::min(n, chunk), &acc[0]);
-  for (auto& th : pool) th.join();
+  constexpr std::size_t kSlice = 100000;
+  const std::size_t slices = n >= 2 * kSlice ? (n + kSlice - 1) / kSlice : 1;
+  const std::size_t grain = (n + slices - 1) / std::max<std::size_t>(1, slices);
+  std::vector<Acc> acc(slices);
+  cloud::ParallelFor(n, 0, std::max<std::size_t>(1, grain),
+                     [&](std::size_t b, std::size_t e) { fn(b, e, &acc[b / std::max<std::size_t>(1, grain)]); });
   return acc;
 }
 

@@ -88,4 +88,37 @@ std::map<std::string, MethodSummary> SummaryBuilder::Finish() const {
   return out;
 }
 
+MethodSummary PaperTable2() {
+  MethodSummary s;
+  s.clouds = 7;
+  s.mean_abs_aer_mm = 1.58;
+  s.max_abs_aer_mm = 3.00;
+  s.mean_rer_percent = 0.52;
+  s.rmse_radius_mm = 1.59;
+  s.mean_ld_mm = 15.92;
+  s.max_ld_mm = 19.12;
+  return s;
+}
+
+std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFitResult& f) {
+  std::vector<std::pair<std::string, cloud::OptionValue>> out = {
+      {"method", f.method},
+      {"converged", f.converged},
+      {"points_used", static_cast<std::int64_t>(f.points_used)},
+      {"inliers", static_cast<std::int64_t>(f.inliers)},
+      {"iterations", static_cast<std::int64_t>(f.iterations)},
+      {"wall_ms", f.wall_ms},
+      {"message", f.message}};
+  if (f.converged) {
+    out.emplace_back("center_mm", std::vector<double>{f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()});
+    out.emplace_back("radius_mm", f.sphere.radius_mm);
+    out.emplace_back("rms_mm", f.rms_mm);
+  }
+  if (f.std_error_mm) {
+    const auto& e = *f.std_error_mm;
+    out.emplace_back("std_error_mm", std::vector<double>{e[0], e[1], e[2], e[3]});
+  }
+  return out;
+}
+
 }  // namespace hedgefit::fitting

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/stage.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -36,6 +37,16 @@ struct MethodSummary {
   double max_ld_mm = 0;         ///< max LD
   double rmse_radius_mm = 0;    ///< sqrt(mean AER^2)
 };
+
+/// The paper's published lab summary (Table 2: seven positions, 2.0-2.6 m), the one copy of
+/// the figures every report sets beside its own.
+MethodSummary PaperTable2();
+inline constexpr const char* kPaperTable2Label = "Table 2, lab, 2.0-2.6 m";
+
+/// A fit as named values, the one description of a SphereFitResult that JSON, CSV and pipeline
+/// metadata are written from: method, converged, points_used, inliers, iterations, wall_ms,
+/// message, and when converged center_mm, radius_mm, rms_mm; std_error_mm where the method has it.
+std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFitResult& fit);
 
 /// Accumulates per-method statistics over clouds.
 class SummaryBuilder {

@@ -6,8 +6,7 @@
 
 namespace hedgefit::fitting {
 
-/// Adds fitters.algebraic, fitters.pratt, fitters.taubin, fitters.hyper, fitters.ransac
-/// and fitters.geometric to `registry`.
+/// Adds one stage per row of the method table (fitting/methods.hpp) to `registry`.
 void RegisterFittingStages(cloud::Registry& registry);
 
 }  // namespace hedgefit::fitting

@@ -108,11 +108,28 @@ RobustLoss ParseLoss(const std::string& name) {
   throw Error("loss: '" + name + "' is not one of none, huber, cauchy, tukey");
 }
 
-void GeometricFitOptions::Check() const {
-  if (!(loss_scale_mm > 0 && std::isfinite(loss_scale_mm))) throw Error("loss_scale: must be > 0 mm");
-  if (max_iterations < 1) throw Error("max_iterations: must be >= 1");
-  if (num_threads < 0) throw Error("num_threads: must be >= 0 (0 = all cores)");
+const cloud::OptionTable<GeometricFitOptions>& GeometricFitOptions::Table() {
+  using O = GeometricFitOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .AddEnum("initial", &O::initial,
+                   {{"kasa", AlgebraicMethod::kKasa}, {"pratt", AlgebraicMethod::kPratt},
+                    {"taubin", AlgebraicMethod::kTaubin}, {"hyper", AlgebraicMethod::kHyper}},
+                   "start from this algebraic fit")
+          .AddEnum("loss", &O::loss,
+                   {{"none", RobustLoss::kNone}, {"huber", RobustLoss::kHuber}, {"cauchy", RobustLoss::kCauchy},
+                    {"tukey", RobustLoss::kTukey}},
+                   "robust loss")
+          .Add("loss_scale", &O::loss_scale_mm, "residual where the loss starts to down-weight", "mm").Min(1e-9)
+          .AddEnum("derivatives", &O::analytic_derivatives, {{"analytic", true}, {"automatic", false}}, "Jacobians")
+          .Add("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations at most", "iterations")
+          .Range(1, 10000)
+          .Add("covariance", &O::compute_covariance, "compute standard errors of centre and radius")
+          .Add("threads", &O::num_threads, "Ceres threads, 0 = all cores", "threads").Range(0, 1024);
+  return table;
 }
+
+void GeometricFitOptions::Check() const { Table().Validate(*this); }
 
 SphereFitResult FitSphereGeometric(const std::vector<Eigen::Vector3d>& points_mm, const GeometricFitOptions& options,
                                    const Sphere* initial) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/option_table.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/sphere_fit.hpp"
 
@@ -26,8 +27,9 @@ struct GeometricFitOptions {
   int max_iterations = 100;            ///< Levenberg-Marquardt iterations at most
   bool compute_covariance = true;      ///< standard errors of (cx, cy, cz, r)
   int num_threads = 0;                 ///< 0 = all cores
-  /// Throws hedgefit::Error naming the bad field.
+  /// Throws hedgefit::Error naming the bad option.
   void Check() const;
+  static const cloud::OptionTable<GeometricFitOptions>& Table();  ///< the options, declared once
 };
 
 /// Fits a sphere by orthogonal distance. `initial` (if given) replaces the algebraic start.

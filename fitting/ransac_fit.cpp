@@ -62,13 +62,30 @@ ConsensusMethod ParseConsensus(const std::string& name) {
   throw Error("method: '" + name + "' is not one of ransac, msac, lmeds, prosac, mlesac");
 }
 
+const cloud::OptionTable<RansacFitOptions>& RansacFitOptions::Table() {
+  using O = RansacFitOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .AddEnum("method", &O::method,
+                   {{"ransac", ConsensusMethod::kRansac}, {"msac", ConsensusMethod::kMsac},
+                    {"lmeds", ConsensusMethod::kLmeds}, {"prosac", ConsensusMethod::kProsac},
+                    {"mlesac", ConsensusMethod::kMlesac}},
+                   "estimator")
+          .Add("distance_threshold", &O::distance_threshold_mm, "inlier band around the sphere", "mm").Min(1e-9)
+          .Add("max_iterations", &O::max_iterations, "samples drawn at most", "samples").Range(1, 100000000)
+          .Add("probability", &O::probability, "chance of one outlier-free sample").Range(1e-6, 0.999999)
+          .Add("min_radius", &O::min_radius_mm, "smallest sphere accepted", "mm").Min(0)
+          .Add("max_radius", &O::max_radius_mm, "largest sphere accepted", "mm").Min(0)
+          .Add("optimize", &O::optimize, "refine on the inliers")
+          .Add("sample_radius", &O::sample_radius_mm, "draw each sample within this distance (0 = anywhere)", "mm")
+          .Min(0);
+  return table;
+}
+
 void RansacFitOptions::Check() const {
-  if (!(distance_threshold_mm > 0)) throw Error("distance_threshold: must be > 0 mm");
-  if (max_iterations < 1) throw Error("max_iterations: must be >= 1");
-  if (!(probability > 0 && probability < 1)) throw Error("probability: must be in (0, 1)");
-  if (!(sample_radius_mm >= 0)) throw Error("sample_radius: must be >= 0 mm (0 = sample anywhere)");
-  if (!(min_radius_mm >= 0 && max_radius_mm > min_radius_mm)) {
-    throw Error("min_radius/max_radius: need 0 <= min_radius < max_radius (mm)");
+  Table().Validate(*this);
+  if (!(max_radius_mm > min_radius_mm)) {
+    throw Error("option 'min_radius'/'max_radius': need min_radius < max_radius (mm)");
   }
 }
 

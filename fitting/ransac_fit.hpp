@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -18,15 +19,16 @@ struct RansacFitOptions {
   double distance_threshold_mm = 10.0;  ///< inlier band half-width around the sphere, mm
   int max_iterations = 10000;           ///< sample draws at most
   double probability = 0.99;            ///< desired chance of drawing one outlier-free sample
-  double min_radius_mm = 0.0;           ///< radius limits for candidate spheres, mm
-  double max_radius_mm = 1e9;
+  double min_radius_mm = 50.0;          ///< radius limits for candidate spheres, mm: no hedge is
+  double max_radius_mm = 5000.0;        ///< smaller than a fist or larger than a house
   bool optimize = true;                 ///< refine on the inliers (PCL's LM, on centred data)
   /// > 0: draw the 2nd-4th points of each sample within this distance of the first (mm),
   /// so a small sphere in a large scene is found (PCL's setSamplesMaxDist); 0 = anywhere.
   double sample_radius_mm = 0.0;
   std::uint64_t seed = 42;              ///< PCL otherwise always uses 12345 (or the time)
-  /// Throws hedgefit::Error naming the bad field.
+  /// Throws hedgefit::Error naming the bad option.
   void Check() const;
+  static const cloud::OptionTable<RansacFitOptions>& Table();  ///< the options, declared once (not the seed)
 };
 
 /// "ransac", "msac", "lmeds", "prosac", "mlesac"; parses the same names (Error if unknown).

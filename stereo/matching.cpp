@@ -16,15 +16,37 @@
 
 namespace hedgefit::stereo {
 
+const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
+  using O = SgbmOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .AddEnum("mode", &O::mode,
+                   {{"hh", SgbmMode::kHh8}, {"sgbm", SgbmMode::kSgbm5}, {"3way", SgbmMode::kSgbm3Way}, {"hh4", SgbmMode::kHh4}},
+                   "paths: hh (8), sgbm (5), 3way, hh4")
+          .Add("block_size", &O::block_size, "matching block, odd", "px").Range(1, 31)
+          .Add("p1", &O::p1, "smoothness penalty, 0 = 8 * channels * block^2").Min(0)
+          .Add("p2", &O::p2, "smoothness penalty, 0 = 32 * channels * block^2").Min(0)
+          .Add("uniqueness", &O::uniqueness_ratio, "uniqueness ratio", "%").Range(0, 100)
+          .Add("lrc_tolerance", &O::lrc_tolerance_px, "left-right check tolerance; < 0 turns it off", "px")
+          .Add("fill_holes", &O::fill_holes, "fill rejected pixels from the background side")
+          .Add("bilateral_sigma", &O::bilateral_sigma_disp, "bilateral range sigma (the paper uses ~1.5); 0 = off", "px")
+          .Min(0)
+          .Add("bilateral_sigma_space", &O::bilateral_sigma_space, "bilateral spatial sigma", "px").Min(0)
+          .Add("refine_radius", &O::refine_radius,
+               "sub-pixel refinement window half-size (slanted window, masked); 0 = off", "px")
+          .Range(0, 15)
+          .Add("refine_iterations", &O::refine_iterations, "Gauss-Newton steps per pixel").Range(1, 50)
+          .Add("refine_max_sigma", &O::refine_max_sigma_px,
+               "keep SGBM's value where the refined one's standard deviation is larger", "px")
+          .Min(1e-6);
+  return table;
+}
+
 void SgbmOptions::Check() const {
+  Table().Validate(*this);
   if (num_disparities < 1) throw Error("num_disparities: must be >= 1 px");
-  if (block_size < 1 || block_size % 2 == 0 || block_size > 31) throw Error("block_size: must be odd, 1..31 px");
-  if (p1 < 0 || p2 < 0 || (p2 > 0 && p2 <= p1)) throw Error("p1/p2: need 0 <= p1 < p2 (0 = automatic)");
-  if (uniqueness_ratio < 0 || uniqueness_ratio > 100) throw Error("uniqueness: must be in 0..100 %");
-  if (bilateral_sigma_disp < 0 || bilateral_sigma_space < 0) throw Error("bilateral sigmas: must be >= 0");
-  if (refine_radius < 0 || refine_radius > 15) throw Error("refine_radius: must be in 0..15 px (0 = off)");
-  if (refine_iterations < 1 || refine_iterations > 50) throw Error("refine_iterations: must be in 1..50");
-  if (!(refine_max_sigma_px > 0)) throw Error("refine_max_sigma: must be > 0 px");
+  if (block_size % 2 == 0) throw Error("option 'block_size': must be odd (1, 3, 5, ... 31 px)");
+  if (p2 > 0 && p2 <= p1) throw Error("option 'p1'/'p2': need p1 < p2 (0 = automatic)");
 }
 
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,

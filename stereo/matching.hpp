@@ -6,6 +6,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "cloud/option_table.hpp"
+
 namespace hedgefit::stereo {
 
 enum class SgbmMode { kSgbm5, kHh8, kSgbm3Way, kHh4 };
@@ -26,7 +28,9 @@ struct SgbmOptions {
   int refine_radius = 2;           ///< sub-pixel refinement window half-size (px); 0 = off (see RefineSubpixel)
   int refine_iterations = 3;       ///< Gauss-Newton steps per pixel
   double refine_max_sigma_px = 0.2;  ///< keep SGBM's value where the refined one is less certain
-  void Check() const;  ///< throws hedgefit::Error naming the field
+  void Check() const;  ///< throws hedgefit::Error naming the option
+  /// The options a user sets (not the disparity range, which comes from the working range).
+  static const cloud::OptionTable<SgbmOptions>& Table();
 };
 
 struct DisparityMap {

@@ -10,11 +10,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <thread>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 
+#include "cloud/parallel.hpp"
 namespace hedgefit::stereo {
 
 namespace {
@@ -151,11 +151,7 @@ cv::Mat Render(const SimRig& rig, bool right, const RenderOptions& options, Shad
       }
     }
   };
-  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(rows, h * t / threads, h * (t + 1) / threads);
-  rows(0, h / threads);
-  for (auto& th : pool) th.join();
+  cloud::ParallelFor(std::size_t(h), 0, 16, [&](std::size_t v0, std::size_t v1) { rows(int(v0), int(v1)); });
   if (!options.labels) {
     if (options.blur_sigma_px > 0) cv::GaussianBlur(out, out, cv::Size(0, 0), options.blur_sigma_px);
     if (options.noise_sigma > 0) {

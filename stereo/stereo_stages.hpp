@@ -1,12 +1,23 @@
 #pragma once
-/// stereo.* pipeline stages: readers.stereo, stereo.rectify, stereo.segment, stereo.sgbm and
-/// stereo.reproject, so capture-to-cloud steps join the same pipelines as filters and fitters.
+/// stereo.* pipeline stages and readers.stereo: thin adapters from declared options to the
+/// capture functions (capture.hpp). Artifacts: "left_image", "right_image" (cv::Mat BGR;
+/// rectified after stereo.rectify), "raw_left_image", "raw_right_image" (as captured), "rig"
+/// (StereoRig), "rectified" (bool), "mask" (CV_8U), "disparity" (CV_32F px), "filled" (CV_8U,
+/// 255 where filled rather than measured), "disparity_sigma" (CV_32F px), "matched_region"
+/// (cv::Rect), and "cloud".
+
+#include <opencv2/core.hpp>
 
 #include "cloud/registry.hpp"
+#include "stereo/rig.hpp"
 
 namespace hedgefit::stereo {
 
-/// Adds the stereo stages to `registry`.
+/// Adds readers.stereo, stereo.rectify, stereo.segment, stereo.mask, stereo.segment_depth,
+/// stereo.sgbm and stereo.reproject to `registry`.
 void RegisterStereoStages(cloud::Registry& registry);
+
+/// Puts a capture already in memory into `ctx` as readers.stereo would.
+void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx);
 
 }  // namespace hedgefit::stereo

@@ -53,7 +53,7 @@ TEST(Pipeline, ValidationErrorsNameStageAndOption) {
             "pipeline with a reader, e.g. \"input.pcd\"");
   EXPECT_EQ(BuildError("[\"in.las\"]"), "p.json: stage 1: no reader for 'in.las'; use .pcd, .ply or .xyz, or give \"type\"");
   EXPECT_EQ(BuildError("[\"in.pcd\", {\"type\": \"filters.crop_box\", \"min\": [0, 0, 10], \"max\": [1, 1, 1]}]"),
-            "stage 'filters.crop_box', option min/max: min z (10.000000) is above max z (1.000000); swap them");
+            "stage 'filters.crop_box', option 'min'/'max': min z (10.000000) is above max z (1.000000); swap them");
   EXPECT_EQ(BuildError("[\"in.pcd\", \"no/such/dir/out.pcd\"]"),
             "stage 'writers.pcd', option 'filename': directory 'no/such/dir' does not exist; create it first");
   EXPECT_EQ(BuildError("[]"), "p.json: the pipeline has no stages");

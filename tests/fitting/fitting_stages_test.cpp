@@ -70,7 +70,7 @@ TEST(FittingStages, OptionsAreValidated) {
             "stage 'fitters.ransac', option 'method': 'ransak' is not one of ransac, msac, lmeds, prosac, mlesac "
             "(did you mean 'ransac'?)");
   EXPECT_EQ(error(R"(["a.pcd", {"type": "fitters.ransac", "min_radius": 500, "max_radius": 100}])"),
-            "stage 'fitters.ransac', option min_radius/max_radius: need 0 <= min_radius < max_radius (mm)");
+            "stage 'fitters.ransac', option 'min_radius'/'max_radius': need min_radius < max_radius (mm)");
   EXPECT_EQ(error(R"(["a.pcd", {"type": "fitters.geometric", "loss": "l1"}])"),
             "stage 'fitters.geometric', option 'loss': 'l1' is not one of none, huber, cauchy, tukey");
 }

@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sys/wait.h>
 
 #include <fstream>
 
+#include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
@@ -127,7 +129,7 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
   EXPECT_GT(ConvertCapture(l, r, rig, keep).cloud.size(), res.cloud.size());
 
   ConvertOptions no_refinement = o;
-  no_refinement.sgbm.refine_radius = 0;
+  no_refinement.match.sgbm.refine_radius = 0;
   const fitting::Sphere sgbm_only = fit_of(ConvertCapture(l, r, rig, no_refinement));
   EXPECT_GT(sgbm_only.center_mm.z() - 2300, 3.0);  // SGBM alone: too far
 
@@ -301,6 +303,58 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), "stage 'stereo.sgbm': the images are not rectified; add stereo.rectify before it");
+  }
+}
+
+// `hedgefit convert` and a pipeline written by hand with the same stages and options must
+// give the very same points, for each way of finding the hedge: they are one implementation,
+// so any difference (a drifted default, a step one path skips) shows as unequal clouds.
+TEST(StereoStages, ConvertAndTheEquivalentPipelineGiveTheSamePoints) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const SimRig sim = PaperRig(0.5);
+  WriteRig((dir / "rig.yaml").string(), TrueRig(sim));
+  SphereScene scene;
+  RenderOptions ro;
+  ro.supersample = 2;
+  cv::imwrite((dir / "l.png").string(), RenderSphere(sim, false, scene, ro));
+  cv::imwrite((dir / "r.png").string(), RenderSphere(sim, true, scene, ro));
+  // The user's mask and box are drawn on the unrectified left image: the label truth.
+  RenderOptions lo;
+  lo.labels = true;
+  const cv::Mat sphere = RenderSphere(sim, false, scene, lo) == kLabelSphere;
+  cv::imwrite((dir / "mask.png").string(), sphere);
+  const cv::Rect b = cv::boundingRect(sphere);
+  const std::string box = std::to_string(b.x - 8) + "," + std::to_string(b.y - 8) + "," + std::to_string(b.width + 16) +
+                          "," + std::to_string(b.height + 16);
+  const std::string d = dir.string();
+  struct Mode {
+    std::string name, flags, segment_stage;
+  };
+  // Non-default options on purpose, so each must reach its stage on both paths.
+  const std::vector<Mode> modes = {
+      {"colour", "--erode 3 --gamma 1.2", R"({"type": "stereo.segment", "erode": 3, "gamma": 1.2})"},
+      {"mask", "--mask mask.png --erode 3", R"({"type": "stereo.mask", "filename": ")" + d + R"(/mask.png", "erode": 3})"},
+      {"box", "--box " + box + " --erode 3",
+       // convert's --block-size and --min-z set every stage that has them: the depth stage too.
+       R"({"type": "stereo.segment_depth", "box": [)" + box + R"(], "erode": 3, "block_size": 7, "min_z": 1800})"}};
+  for (const Mode& m : modes) {
+    SCOPED_TRACE(m.name);
+    const std::string cli = "cd '" + d + "' && '" HEDGEFIT_EXE "' convert --left l.png --right r.png --rig rig.yaml -q " +
+                            "--block-size 7 --min-z 1800 -o " + m.name + "_cli.pcd " + m.flags;
+    ASSERT_EQ(std::system(cli.c_str()), 0) << cli;
+    std::ofstream(dir / "p.json") << R"([{"type": "readers.stereo", "left": ")" << d << R"(/l.png", "right": ")" << d
+                                  << R"(/r.png", "rig": ")" << d << R"(/rig.yaml"}, {"type": "stereo.rectify"}, )"
+                                  << m.segment_stage
+                                  << R"(, {"type": "stereo.sgbm", "block_size": 7, "min_z": 1800}, )"
+                                  << R"({"type": "stereo.reproject"}, ")" << d << "/" << m.name << R"(_json.pcd"])";
+    const std::string pipeline = "cd '" + d + "' && '" HEDGEFIT_EXE "' pipeline p.json -q";
+    ASSERT_EQ(std::system(pipeline.c_str()), 0) << pipeline;
+    const cloud::PointCloud a = cloud::ReadCloud((dir / (m.name + "_cli.pcd")).string());
+    const cloud::PointCloud c = cloud::ReadCloud((dir / (m.name + "_json.pcd")).string());
+    ASSERT_GT(a.size(), 2000u);
+    ASSERT_EQ(a.size(), c.size());
+    for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a.points_mm[i], c.points_mm[i]) << i;
+    EXPECT_EQ(a.fields.at("disparity"), c.fields.at("disparity"));
   }
 }
 

@@ -1,0 +1,51 @@
+#pragma once
+/// The paper's laboratory test on the simulated rig, end to end, as a library the CLI calls
+/// (`hedgefit bench lab`): render boards and spheres, calibrate from the boards (never from
+/// the simulator's truth), convert each sphere capture, fit with every method of the table,
+/// and score like Table 2.
+
+#include <string>
+#include <vector>
+
+#include "fitting/evaluation.hpp"
+#include "stereo/capture.hpp"
+
+namespace hedgefit::bench {
+
+struct LabOptions {
+  std::string dir = "build/lab-bench";  ///< where the simulated captures go
+  double scale = 1.0;                   ///< image scale of the simulated rig (1 = 1920x1200)
+  double alpha;                         ///< rectification scaling; set from CalibrationOptions
+  bool reuse = false;                   ///< reuse captures already in `dir`
+  bool true_rig = false;                ///< the simulator's exact rig instead of calibrating
+  stereo::ConvertOptions convert;       ///< the capture path's options
+  LabOptions();
+};
+
+struct LabRow {
+  double z_mm = 0;
+  fitting::Sphere truth;
+  std::vector<fitting::SphereFitResult> fits;  ///< one per method, in table order
+  double convert_ms = 0;
+  std::size_t points = 0;
+};
+
+struct LabResult {
+  double rms_stereo_px = 0;  ///< calibration's stereo RMS (0 with the exact rig)
+  double baseline_mm = 0;
+  bool exact_rig = false;
+  std::vector<LabRow> rows;  ///< Z = 2000..2600 mm
+  std::map<std::string, fitting::MethodSummary> summary;
+  double seconds = 0;
+};
+
+/// Runs the lab test. Throws hedgefit::Error when a capture cannot be converted.
+LabResult RunLab(const LabOptions& options);
+
+/// Prints the per-method tables and the summary beside the paper's Table 2.
+void PrintLab(const LabResult& result);
+
+/// The result as JSON text.
+std::string LabJson(const LabResult& result);
+
+}  // namespace hedgefit::bench

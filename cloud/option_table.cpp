@@ -1,0 +1,13 @@
+#include "cloud/option_table.hpp"
+
+namespace hedgefit::cloud {
+
+std::string FlagName(const std::string& option) {
+  std::string out = "--" + option;
+  for (char& c : out) {
+    if (c == '_') c = '-';
+  }
+  return out;
+}
+
+}  // namespace hedgefit::cloud

@@ -1,0 +1,177 @@
+#include "fitting/methods.hpp"
+
+#include <algorithm>
+#include <sstream>
+
+#include "fitting/algebraic_fit.hpp"
+#include "fitting/geometric_fit.hpp"
+#include "fitting/ransac_fit.hpp"
+
+namespace hedgefit::fitting {
+
+namespace {
+
+using cloud::Options;
+using cloud::OptionSpec;
+
+FitMethod Algebraic(AlgebraicMethod m, std::string stage, std::string description) {
+  return {MethodName(m), std::move(stage), std::move(description), {}, false, [m](const Options&) -> BoundFit {
+            return [m](const FitInputs& in) {
+              AlgebraicFitOptions o;
+              o.method = m;
+              return FitSphereAlgebraic(*in.points_mm, o);
+            };
+          }};
+}
+
+// RANSAC's options plus its seed (-1: the caller's, i.e. the pipeline's --seed).
+std::vector<OptionSpec> RansacOptions() {
+  return cloud::TableOptions<RansacFitOptions>(
+      {cloud::IntOption("seed", -1, "sampler seed; -1 = the pipeline's --seed").Min(-1)});
+}
+
+RansacFitOptions BindRansac(const Options& o) {
+  RansacFitOptions p = RansacFitOptions::Table().FromOptions(o);
+  p.Check();
+  return p;
+}
+
+std::uint64_t SeedOf(const Options& o, const FitInputs& in) {
+  const std::int64_t seed = o.GetInt("seed");
+  return seed >= 0 ? static_cast<std::uint64_t>(seed) : in.seed;
+}
+
+std::vector<FitMethod> MakeTable() {
+  std::vector<FitMethod> t;
+  t.push_back(Algebraic(AlgebraicMethod::kKasa, "fitters.algebraic",
+                        "The paper's algebraic least-squares sphere (Kasa): fast, biased small on partial caps"));
+  t.push_back(Algebraic(AlgebraicMethod::kPratt, "fitters.pratt", "Pratt's (1987) algebraic sphere fit"));
+  t.push_back(Algebraic(AlgebraicMethod::kTaubin, "fitters.taubin", "Taubin's (1991) algebraic sphere fit"));
+  t.push_back(Algebraic(AlgebraicMethod::kHyper, "fitters.hyper",
+                        "Hyper algebraic sphere fit (Al-Sharadqah & Chernov 2009): no second-order bias"));
+  t.push_back({"ransac", "fitters.ransac",
+               "PCL sample consensus on SACMODEL_SPHERE, seeded, on centred data, radius limits re-checked",
+               RansacOptions(), true, [](const Options& o) -> BoundFit {
+                 const RansacFitOptions p = BindRansac(o);
+                 return [p, o](const FitInputs& in) {
+                   RansacFitOptions run = p;
+                   run.seed = SeedOf(o, in);
+                   return FitSphereRansac(*in.points_mm, run, in.inliers);
+                 };
+               }});
+  {
+    std::vector<OptionSpec> options = cloud::TableOptions<GeometricFitOptions>();
+    // 'previous' starts from the last fit of the pipeline instead of an algebraic one.
+    for (auto& spec : options) {
+      if (spec.name == "initial") {
+        spec.choices.push_back("previous");
+        spec.help = "start from this algebraic fit, or 'previous' (the last fit before this one)";
+      }
+    }
+    t.push_back({"geometric", "fitters.geometric",
+                 "Ceres orthogonal-distance sphere fit (residual |p - c| - r), robust loss optional, with standard errors",
+                 options, false, [](const Options& o) -> BoundFit {
+                   const GeometricFitOptions p = GeometricFitOptions::Table().FromOptions(o);
+                   p.Check();
+                   const bool from_previous = o.GetString("initial") == "previous";
+                   return [p, from_previous](const FitInputs& in) {
+                     if (from_previous && in.previous == nullptr) {
+                       throw Error("option 'initial': 'previous' needs a converged fit from an earlier stage");
+                     }
+                     return FitSphereGeometric(*in.points_mm, p, from_previous ? in.previous : nullptr);
+                   };
+                 }});
+  }
+  t.push_back({"ransac_geometric", "fitters.ransac_geometric",
+               "RANSAC finds the inliers, then the geometric fit refines on them from RANSAC's sphere",
+               RansacOptions(), true, [](const Options& o) -> BoundFit {
+                 const RansacFitOptions p = BindRansac(o);
+                 return [p, o](const FitInputs& in) {
+                   RansacFitOptions run = p;
+                   run.seed = SeedOf(o, in);
+                   std::vector<std::size_t> inliers;
+                   const SphereFitResult coarse = FitSphereRansac(*in.points_mm, run, &inliers);
+                   SphereFitResult r;
+                   if (!coarse.converged) {
+                     r = coarse;
+                   } else {
+                     std::vector<Eigen::Vector3d> in_pts;
+                     in_pts.reserve(inliers.size());
+                     for (std::size_t i : inliers) in_pts.push_back((*in.points_mm)[i]);
+                     r = FitSphereGeometric(in_pts, {}, &coarse.sphere);
+                     r.wall_ms += coarse.wall_ms;
+                     r.points_used = in.points_mm->size();
+                   }
+                   if (in.inliers) *in.inliers = std::move(inliers);
+                   r.method = "ransac_geometric";
+                   return r;
+                 };
+               }});
+  // Robust and geometric before algebraic; among algebraic, the least biased first.
+  const std::map<std::string, int> trust = {{"ransac_geometric", 6}, {"geometric", 5}, {"ransac", 4},
+                                            {"hyper", 3},            {"taubin", 2},    {"pratt", 1}};
+  for (auto& m : t) m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
+  return t;
+}
+
+}  // namespace
+
+const FitMethod* MostTrusted(const std::vector<std::string>& names) {
+  const FitMethod* best = nullptr;
+  for (const auto& m : FitMethods()) {
+    if (std::find(names.begin(), names.end(), m.name) != names.end() && (best == nullptr || m.trust > best->trust)) {
+      best = &m;
+    }
+  }
+  return best;
+}
+
+const std::vector<FitMethod>& FitMethods() {
+  static const std::vector<FitMethod> table = MakeTable();
+  return table;
+}
+
+std::vector<std::string> FitMethodNames() {
+  std::vector<std::string> out;
+  for (const auto& m : FitMethods()) out.push_back(m.name);
+  return out;
+}
+
+const FitMethod& FindFitMethod(const std::string& name, const std::string& where) {
+  for (const auto& m : FitMethods()) {
+    if (m.name == name) return m;
+  }
+  const std::vector<std::string> names = FitMethodNames();
+  std::string list;
+  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  const std::string hint = cloud::DidYouMean(name, names);
+  throw Error(where + ": unknown method '" + name + "'" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)") +
+              "; choose from " + list + ", or all");
+}
+
+std::vector<std::string> ParseMethodList(const std::string& text, const std::string& where) {
+  if (text == "all") return FitMethodNames();
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  for (std::string m; std::getline(ss, m, ',');) out.push_back(FindFitMethod(m, where).name);
+  if (out.empty()) throw Error(where + ": name at least one method, or all");
+  return out;
+}
+
+SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
+                             const std::map<std::string, cloud::OptionValue>& given, std::uint64_t seed) {
+  const FitMethod& m = FindFitMethod(name, "fit");
+  std::map<std::string, cloud::OptionValue> mine;
+  for (const auto& spec : m.options) {
+    auto it = given.find(spec.name);
+    if (it != given.end()) mine[spec.name] = it->second;
+  }
+  cloud::StageInfo info{m.stage, m.description, m.options, {}, {}, {}};
+  const BoundFit fit = m.bind(cloud::ResolveOptions(info, mine, m.stage));
+  FitInputs in;
+  in.points_mm = &points_mm;
+  in.seed = seed;
+  return fit(in);
+}
+
+}  // namespace hedgefit::fitting

@@ -1,0 +1,61 @@
+#pragma once
+/// The table of sphere-fitting methods, COLMAP-style: one row per method with its name, its
+/// stage, a description and its options (declared once, in the method's OptionTable). The
+/// fitters.* stages, `compare`, `render` and the benches all read this table, so a new
+/// fitter is its own files plus one row here.
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "cloud/stage.hpp"
+#include "fitting/sphere_fit.hpp"
+
+namespace hedgefit::fitting {
+
+/// What a fit sees besides its own options.
+struct FitInputs {
+  const std::vector<Eigen::Vector3d>* points_mm = nullptr;  ///< the points, mm
+  std::uint64_t seed = 42;                                  ///< for methods that sample
+  const Sphere* previous = nullptr;  ///< an earlier fit, for options such as initial = previous
+  std::vector<std::size_t>* inliers = nullptr;  ///< out: inlier indices, for methods that have them
+};
+
+/// A method with its options bound and checked: call it on any number of inputs.
+using BoundFit = std::function<SphereFitResult(const FitInputs&)>;
+
+struct FitMethod {
+  std::string name;         ///< "kasa": what --methods takes
+  std::string stage;        ///< "fitters.algebraic": the pipeline stage that runs it
+  std::string description;  ///< one line
+  std::vector<cloud::OptionSpec> options;  ///< its options (types, defaults, units, ranges)
+  bool has_inliers = false;  ///< robust: reports which points it kept
+  /// Builds the fit from resolved options; throws hedgefit::Error naming a bad option.
+  std::function<BoundFit(const cloud::Options&)> bind;
+  int trust = 0;  ///< higher = preferred when one fit must stand for the cloud
+};
+
+/// Every method, in the order tables and plots list them.
+const std::vector<FitMethod>& FitMethods();
+
+/// Their names, in the same order.
+std::vector<std::string> FitMethodNames();
+
+/// The method called `name`; throws hedgefit::Error "`where`: unknown method 'x' (did you mean
+/// 'y'?); choose from ..." otherwise.
+const FitMethod& FindFitMethod(const std::string& name, const std::string& where);
+
+/// Of the methods named in `names`, the one with the highest trust; nullptr if none is a method.
+const FitMethod* MostTrusted(const std::vector<std::string>& names);
+
+/// "all" or a comma-separated list of names, each checked by FindFitMethod.
+std::vector<std::string> ParseMethodList(const std::string& text, const std::string& where);
+
+/// Runs one method with `given` options (the rest at their defaults; options the method does
+/// not declare are ignored, so one map can serve several methods).
+SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
+                             const std::map<std::string, cloud::OptionValue>& given = {}, std::uint64_t seed = 42);
+
+}  // namespace hedgefit::fitting

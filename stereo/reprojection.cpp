@@ -1,0 +1,88 @@
+#include "stereo/reprojection.hpp"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "cloud/error.hpp"
+
+namespace hedgefit::stereo {
+
+const cloud::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
+  using O = ReprojectOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("organized", &O::organized, "keep the image grid (NaN where no point)")
+          .Add("extra_fields", &O::extra_fields, "add disparity and sigma_z fields")
+          .Add("sigma_disparity", &O::sigma_disparity_px, "disparity noise for sigma_z where the refinement gave none", "px")
+          .Min(0)
+          .Add("keep_filled", &O::keep_filled, "also reproject hole-filled (unmeasured) disparities");
+  return table;
+}
+
+void ReprojectOptions::Check() const { Table().Validate(*this); }
+
+cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
+                            const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma) {
+  cloud::PointCloud out;
+  const cv::Matx44d Q(rig.Q);
+  const cv::Matx33d R1t = cv::Matx33d(rig.R1).t();
+  const double f = rig.P1.at<double>(0, 0), b = rig.baseline_mm;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> disp_field, sigma_field;
+  for (int y = 0; y < disparity.rows; ++y) {
+    for (int x = 0; x < disparity.cols; ++x) {
+      const float d = disparity.at<float>(y, x);
+      const bool use = std::isfinite(d) && d > 0 && (mask.empty() || mask.at<std::uint8_t>(y, x) != 0);
+      if (!use) {
+        if (o.organized) {
+          out.points_mm.emplace_back(nan, nan, nan);
+          out.colors.push_back({0, 0, 0});
+          disp_field.push_back(nan);
+          sigma_field.push_back(nan);
+        }
+        continue;
+      }
+      const cv::Vec4d h = Q * cv::Vec4d(x, y, d, 1.0);
+      const cv::Vec3d p_rect(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
+      const cv::Vec3d p = R1t * p_rect;  // unrectified left camera frame
+      out.points_mm.emplace_back(float(p[0]), float(p[1]), float(p[2]));
+      const cv::Vec3b c = left_rect.channels() == 3 ? left_rect.at<cv::Vec3b>(y, x)
+                                                    : cv::Vec3b::all(left_rect.at<std::uint8_t>(y, x));
+      out.colors.push_back({c[2], c[1], c[0]});
+      disp_field.push_back(d);
+      const float own = disparity_sigma.empty() ? nan : disparity_sigma.at<float>(y, x);
+      // The window's residuals cannot see interpolation or calibration error, so a pixel's
+      // own estimate is floored at 0.02 px (the lab's remaining systematic error is ~0.01).
+      const double sigma_d = std::isfinite(own) ? std::max(0.02, double(own)) : o.sigma_disparity_px;
+      sigma_field.push_back(float(p_rect[2] * p_rect[2] * sigma_d / (f * b)));
+    }
+  }
+  if (o.organized) {
+    out.width = static_cast<std::uint32_t>(disparity.cols);
+    out.height = static_cast<std::uint32_t>(disparity.rows);
+  } else {
+    out.Flatten();
+  }
+  if (o.extra_fields) {
+    out.fields["disparity"] = std::move(disp_field);
+    out.fields["sigma_z"] = std::move(sigma_field);
+  }
+  return out;
+}
+
+cloud::PointCloud ReprojectMeasured(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& filled,
+                                    const cv::Mat& left_rect, const StereoRig& rig, const ReprojectOptions& options,
+                                    const cv::Mat& disparity_sigma) {
+  // Filled pixels are occluded or mismatched in the other view: no measurement, so by
+  // default they stay in the dense map but not in the cloud.
+  cv::Mat use = mask;
+  if (!filled.empty() && !options.keep_filled) use = use.empty() ? ~filled : (use & ~filled);
+  cloud::PointCloud cloud = Reproject(disparity, use, left_rect, rig, options, disparity_sigma);
+  if (cloud.size() - cloud::CountNonFinite(cloud) == 0) {
+    throw Error("no hedge found: no disparity inside the mask within the working range");
+  }
+  return cloud;
+}
+
+}  // namespace hedgefit::stereo

@@ -1,0 +1,234 @@
+#include "stereo/segmentation.hpp"
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "cloud/error.hpp"
+#include "stereo/bspline.hpp"
+#include "stereo/capture.hpp"
+#include "stereo/rectification.hpp"
+
+namespace hedgefit::stereo {
+
+const cloud::OptionTable<SegmentOptions>& SegmentOptions::Table() {
+  using O = SegmentOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("gamma", &O::gamma, "gamma on the excess-green value").Min(1e-3)
+          .Add("esp", &O::esp, "offset added before the gamma")
+          .Add("bilateral_diameter", &O::bilateral_diameter, "bilateral filter on excess green; 0 = off", "px")
+          .Range(0, 100)
+          .Add("bilateral_sigma_color", &O::bilateral_sigma_color, "bilateral range sigma, excess-green units [0, 1]")
+          .Min(0)
+          .Add("bilateral_sigma_space", &O::bilateral_sigma_space, "bilateral spatial sigma", "px").Min(0)
+          .Add("largest_component", &O::largest_component, "keep only the largest region")
+          .Add("fill_holes", &O::fill_holes, "fill holes inside the region")
+          .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200);
+  return table;
+}
+
+void SegmentOptions::Check() const { Table().Validate(*this); }
+
+const cloud::OptionTable<MaskOptions>& MaskOptions::Table() {
+  using O = MaskOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("filename", &O::filename, "mask image drawn on the original left image (> 127 = hedge)")
+          .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200);
+  return table;
+}
+
+void MaskOptions::Check() const {
+  if (filename.empty()) throw Error("option 'filename': give the mask image");
+  Table().Validate(*this);
+}
+
+const cloud::OptionTable<DepthSegmentOptions>& DepthSegmentOptions::Table() {
+  using O = DepthSegmentOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("box", &O::box, "[X, Y, W, H] around the hedge in the original left image; required", "px")
+          .Min(0)
+          .Add("depth_tolerance", &O::tolerance_px, "disparity band around the box middle's median", "px").Min(1e-3)
+          .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200)
+          .Add("min_z", &O::min_z_mm, "working range, nearest", "mm").Min(1)
+          .Add("max_z", &O::max_z_mm, "working range, farthest", "mm").Min(1)
+          .Add("margin", &O::margin_px, "matched around the box", "px").Range(0, 10000)
+          .Add("block_size", &O::block_size, "the coarse match's block, odd", "px").Range(1, 31)
+          .Add("precise_resampling", &O::precise_resampling, "B-spline rectification of the matched box");
+  return table;
+}
+
+void DepthSegmentOptions::Check() const {
+  if (box.size() != 4) throw Error("option 'box': give the box around the hedge as [X, Y, W, H] px");
+  Table().Validate(*this);
+  if (box[2] < 3 || box[3] < 3) throw Error("option 'box': width and height must be >= 3 px");
+  if (!(max_z_mm > min_z_mm)) throw Error("option 'min_z'/'max_z': need min_z < max_z (mm)");
+  if (block_size % 2 == 0) throw Error("option 'block_size': must be odd");
+}
+
+namespace {
+
+// True when every pixel has B = G = R: a grey image stored as colour.
+bool IsGrey(const cv::Mat& bgr) {
+  for (int y = 0; y < bgr.rows; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < bgr.cols; ++x) {
+      if (p[x][0] != p[x][1] || p[x][1] != p[x][2]) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
+  o.Check();
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("stereo.segment: needs a colour (BGR) image");
+  if (IsGrey(bgr)) {
+    throw Error("no hedge found: the image has no colour, so excess green cannot segment it; segment by depth "
+                "inside a box around the hedge (convert --box X,Y,W,H) or give a mask");
+  }
+  // Excess green 2G - R - B in [-510, 510], mapped to 8 bits ([0, 255] ~ ExG / 4 + 127.5):
+  // 8-bit images make the bilateral filter ~3x faster (table-driven range weights), and
+  // Otsu bins 256 levels anyway.
+  cv::Mat exg(bgr.size(), CV_8U);
+  cv::parallel_for_(cv::Range(0, bgr.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
+      std::uint8_t* out = exg.ptr<std::uint8_t>(y);
+      for (int x = 0; x < bgr.cols; ++x) out[x] = std::uint8_t((2 * p[x][1] - p[x][2] - p[x][0] + 510) >> 2);
+    }
+  });
+  if (o.bilateral_diameter > 0) {
+    cv::Mat smooth;
+    cv::bilateralFilter(exg, smooth, o.bilateral_diameter, o.bilateral_sigma_color * 255.0, o.bilateral_sigma_space);
+    exg = smooth;
+  }
+  // y = (x + esp)^gamma on x in [0, 1], stretched to the image's own range, as one table.
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(exg, &lo, &hi);
+  auto curve = [&](double level) { return std::pow(std::max(0.0, level / 255.0 + o.esp), o.gamma); };
+  const double c_lo = curve(lo), c_hi = curve(hi);
+  cv::Mat lut(1, 256, CV_8U);
+  for (int i = 0; i < 256; ++i) {
+    lut.at<std::uint8_t>(i) = cv::saturate_cast<std::uint8_t>(c_hi > c_lo ? 255.0 * (curve(i) - c_lo) / (c_hi - c_lo) : 0.0);
+  }
+  cv::Mat g8;
+  cv::LUT(exg, lut, g8);
+  cv::Mat mask;
+  cv::threshold(g8, mask, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  if (o.largest_component) {
+    cv::Mat labels, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);
+    int best = 0, best_area = 0;
+    for (int i = 1; i < n; ++i) {
+      if (stats.at<int>(i, cv::CC_STAT_AREA) > best_area) best_area = stats.at<int>(i, cv::CC_STAT_AREA), best = i;
+    }
+    mask = labels == best;
+    if (best == 0) mask.setTo(0);
+  }
+  if (o.fill_holes) mask = FillHoles(mask);
+  return ErodeMask(mask, o.erode_px);
+}
+
+cv::Mat FillHoles(const cv::Mat& mask) {
+  if (cv::countNonZero(mask) == 0) return mask.clone();
+  // Holes: background regions not connected to the image border.
+  cv::Mat inv = ~mask, padded;
+  cv::copyMakeBorder(inv, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 255);
+  cv::floodFill(padded, cv::Point(0, 0), 0);
+  return mask | padded(cv::Rect(1, 1, mask.cols, mask.rows));
+}
+
+cv::Mat SegmentByDepth(const cv::Mat& disparity, const cv::Rect& box, double tolerance_px, int erode_px) {
+  const cv::Rect b = box & cv::Rect(0, 0, disparity.cols, disparity.rows);
+  if (b.width < 3 || b.height < 3) throw Error("stereo.segment: the box lies outside the image");
+  // The object's disparity: the median over the box's central third.
+  const cv::Rect core(b.x + b.width / 3, b.y + b.height / 3, std::max(1, b.width / 3), std::max(1, b.height / 3));
+  std::vector<float> values;
+  for (int y = core.y; y < core.y + core.height; ++y) {
+    for (int x = core.x; x < core.x + core.width; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (std::isfinite(d)) values.push_back(d);
+    }
+  }
+  if (values.size() < 9) throw Error("no hedge found: no disparity in the middle of the box within the working range");
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(values.size() / 2), values.end());
+  const float seed = values[values.size() / 2];
+  cv::Mat candidate = cv::Mat::zeros(disparity.size(), CV_8U);
+  for (int y = b.y; y < b.y + b.height; ++y) {
+    for (int x = b.x; x < b.x + b.width; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (std::isfinite(d) && std::abs(d - seed) <= tolerance_px) candidate.at<std::uint8_t>(y, x) = 255;
+    }
+  }
+  // The connected region with most pixels in the core: the object, not a patch of ground
+  // or background that happens to lie at the same depth elsewhere in the box.
+  cv::Mat labels;
+  const int n = cv::connectedComponents(candidate, labels, 8, CV_32S);
+  std::vector<int> in_core(static_cast<std::size_t>(n), 0);
+  for (int y = core.y; y < core.y + core.height; ++y) {
+    for (int x = core.x; x < core.x + core.width; ++x) ++in_core[std::size_t(labels.at<int>(y, x))];
+  }
+  in_core[0] = 0;
+  const int best = static_cast<int>(std::max_element(in_core.begin(), in_core.end()) - in_core.begin());
+  if (best == 0 || in_core[std::size_t(best)] == 0) throw Error("no hedge found: nothing at one depth in the box");
+  return ErodeMask(FillHoles(labels == best), erode_px);
+}
+
+cv::Mat ErodeMask(const cv::Mat& mask, int px) {
+  if (px <= 0) return mask;
+  cv::Mat out;
+  cv::erode(mask, out, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * px + 1, 2 * px + 1)));
+  return out;
+}
+
+cv::Mat SegmentFromMaskFile(const StereoRig& rig, const MaskOptions& options) {
+  options.Check();
+  const cv::Mat user = cv::imread(options.filename, cv::IMREAD_GRAYSCALE);
+  if (user.empty()) throw Error(options.filename + ": cannot read the mask image; give a PNG the size of the left image");
+  if (user.size() != rig.image_size) {
+    throw Error(options.filename + ": the mask is " + std::to_string(user.cols) + "x" + std::to_string(user.rows) +
+                " but the images are " + std::to_string(rig.image_size.width) + "x" +
+                std::to_string(rig.image_size.height) + "; draw it on the original left image");
+  }
+  // Drawn on the unrectified left image: rectified the same way.
+  return ErodeMask(RectifyLeftMask(rig, user), options.erode_px);
+}
+
+cv::Mat SegmentByDepthInBox(const StereoRig& rig, const cv::Mat& raw_left, const cv::Mat& raw_right, cv::Mat* left_rect,
+                            cv::Mat* right_rect, const DepthSegmentOptions& o) {
+  o.Check();
+  const cv::Rect box = RectifiedBox(rig, cv::Rect(int(o.box[0]), int(o.box[1]), int(o.box[2]), int(o.box[3])));
+  if (box.width < 3 || box.height < 3) throw Error("option 'box': the box lies outside the image");
+  // Match the box's region coarsely, then keep what lies at the depth of its middle.
+  MatchOptions coarse;
+  coarse.sgbm.block_size = o.block_size;
+  coarse.sgbm.refine_radius = 0;
+  coarse.sgbm.fill_holes = false;
+  coarse.min_z_mm = o.min_z_mm;
+  coarse.max_z_mm = o.max_z_mm;
+  coarse.margin_px = o.margin_px;
+  coarse.precise_resampling = o.precise_resampling;
+  cv::Mat box_mask = cv::Mat::zeros(left_rect->size(), CV_8U);
+  box_mask(box).setTo(255);
+  const MatchResult m = MatchHedge(rig, &raw_left, &raw_right, left_rect, right_rect, box_mask, coarse);
+  return SegmentByDepth(m.disparity, box, o.tolerance_px, o.erode_px);
+}
+
+cv::Mat MaskOverlay(const cv::Mat& bgr, const cv::Mat& mask) {
+  cv::Mat out = bgr.clone(), tint(bgr.size(), bgr.type(), cv::Scalar(255, 0, 255));
+  cv::Mat blended;
+  cv::addWeighted(bgr, 0.5, tint, 0.5, 0, blended);
+  blended.copyTo(out, ~mask);
+  return out;
+}
+
+
+}  // namespace hedgefit::stereo

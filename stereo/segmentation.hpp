@@ -1,0 +1,80 @@
+#pragma once
+/// Finding the hedge in the rectified left image. Three modes, each a stage:
+///  - colour (stereo.segment): the paper's excess green, bilateral, gamma, Otsu;
+///  - a user's mask (stereo.mask), drawn on the original left image;
+///  - depth inside a box (stereo.segment_depth), for grey images or green backgrounds.
+
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+#include "cloud/option_table.hpp"
+#include "stereo/matching.hpp"
+#include "stereo/rig.hpp"
+
+namespace hedgefit::stereo {
+
+struct SegmentOptions {
+  double gamma = 1.5;             ///< y = (x + esp)^gamma on the excess-green value in [0, 1]
+  double esp = 0.0;               ///< offset added before the gamma
+  int bilateral_diameter = 9;     ///< px; 0 = no bilateral filter
+  double bilateral_sigma_color = 0.1;  ///< in excess-green units ([0, 1])
+  double bilateral_sigma_space = 5.0;  ///< px
+  bool largest_component = true;  ///< keep only the largest region
+  bool fill_holes = true;         ///< fill holes inside it
+  int erode_px = 5;               ///< drop this many silhouette pixels (least reliable disparity)
+  void Check() const;
+  static const cloud::OptionTable<SegmentOptions>& Table();  ///< the options, declared once
+};
+
+/// The paper's hedge mask: ExG = 2G - R - B, bilateral filter, gamma, Otsu; CV_8U 0/255.
+cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& options);
+
+struct MaskOptions {
+  std::string filename;  ///< mask image (0 = background, > 127 = hedge), drawn on the original left image
+  int erode_px = 5;      ///< drop this many silhouette pixels
+  void Check() const;
+  static const cloud::OptionTable<MaskOptions>& Table();  ///< the options, declared once
+};
+
+/// A user's mask: read, checked against the rig's image size, rectified and eroded.
+cv::Mat SegmentFromMaskFile(const StereoRig& rig, const MaskOptions& options);
+
+struct DepthSegmentOptions {
+  std::vector<double> box;         ///< [X, Y, W, H] px in the original left image; required
+  double tolerance_px = 1.0;       ///< disparity band around the box middle's median
+  int erode_px = 5;                ///< drop this many silhouette pixels
+  double min_z_mm = 1500;          ///< working range, nearest: sets the coarse match's search
+  double max_z_mm = 3500;          ///< working range, farthest
+  int margin_px = 24;              ///< matched around the box
+  int block_size = 5;              ///< the coarse match's block, px
+  bool precise_resampling = true;  ///< B-spline rectification of the matched box
+  void Check() const;
+  static const cloud::OptionTable<DepthSegmentOptions>& Table();  ///< the options, declared once
+};
+
+/// Segmentation by depth: matches the box's region coarsely (no refinement, no filling), then
+/// keeps the connected region within `tolerance_px` of the median disparity of the box's
+/// middle third, holes filled, eroded. `left_rect`/`right_rect` get the box's region
+/// re-rendered with B-splines (as the fine match would), from `raw_left`/`raw_right`.
+/// Throws hedgefit::Error ("no hedge found: ...") when the middle of the box has no disparity.
+cv::Mat SegmentByDepthInBox(const StereoRig& rig, const cv::Mat& raw_left, const cv::Mat& raw_right, cv::Mat* left_rect,
+                            cv::Mat* right_rect, const DepthSegmentOptions& options);
+
+/// The region of `disparity` within `tolerance_px` of the median over `box`'s middle third,
+/// the connected part with most pixels there, holes filled, eroded by `erode_px`.
+cv::Mat SegmentByDepth(const cv::Mat& disparity, const cv::Rect& box, double tolerance_px, int erode_px);
+
+/// Fills the holes of a mask: background regions not connected to the image border.
+cv::Mat FillHoles(const cv::Mat& mask);
+
+/// Drops `px` pixels from a mask's outline (elliptical structuring element); 0 = as is.
+/// The outermost ring of a silhouette mixes hedge and background in both views, and the
+/// sub-pixel refinement's windows must not reach it.
+cv::Mat ErodeMask(const cv::Mat& mask, int px);
+
+/// Mask overlay for debug PNGs: outside the mask tinted magenta.
+cv::Mat MaskOverlay(const cv::Mat& bgr, const cv::Mat& mask);
+
+}  // namespace hedgefit::stereo
