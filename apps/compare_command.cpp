@@ -105,7 +105,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit compare ../shared/data/sphere_scans/example2/L1_S1.xyz --scale 1000 --min-radius 250 --max-radius 350\n"
       "Truth: --truth FILE, or CLOUD.truth.json beside each cloud: {\"center_mm\": [x, y, z], \"radius_mm\": r}.\n");
   auto a = std::make_shared<CompareArgs>();
-  cmd->add_option("CLOUD", a->clouds, "cloud files (.pcd, .ply, .xyz)")->required();
+  cmd->add_option("CLOUD", a->clouds, "cloud files (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_option("--truth", a->truth, "ground-truth JSON for every cloud (default: CLOUD.truth.json if present)");
   cmd->add_option("--pipeline", a->pipeline, "JSON array of cleaning stages replacing the default (nonfinite + statistical_outlier)");
   std::string method_list;

@@ -29,7 +29,7 @@ void AddInfoCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit info --json ../shared/data/pcl_test/table_scene_mug_stereo_textured.pcd\n");
   auto file = std::make_shared<std::string>();
   auto as_json = std::make_shared<bool>(false);
-  cmd->add_option("FILE", *file, "cloud file (.pcd, .ply, .xyz)")->required();
+  cmd->add_option("FILE", *file, "cloud file (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_flag("--json", *as_json, "print JSON instead of text");
   cmd->callback([=]() {
     *run = [=]() {
@@ -39,9 +39,7 @@ void AddInfoCommand(CLI::App& app, CommandFn* run) {
       const bool any = cloud::Bounds(c, &lo, &hi);
       const std::size_t nonfinite = cloud::CountNonFinite(c);
       const double extent = any ? (hi - lo).maxCoeff() : 0.0;
-      const char* format = header.format == cloud::CloudFormat::kPcd   ? "pcd"
-                           : header.format == cloud::CloudFormat::kPly ? "ply"
-                                                                        : "xyz";
+      const std::string& format = header.format;
       if (*as_json) {
         nlohmann::json j;
         j["file"] = *file;
@@ -64,7 +62,7 @@ void AddInfoCommand(CLI::App& app, CommandFn* run) {
       std::string fields;
       for (const auto& f : header.fields) fields += (fields.empty() ? "" : " ") + f;
       std::printf("file        %s\n", file->c_str());
-      std::printf("format      %s (%s)\n", format, header.encoding.c_str());
+      std::printf("format      %s (%s)\n", format.c_str(), header.encoding.c_str());
       std::printf("points      %zu (%s)\n", c.size(),
                   c.IsOrganized() ? ("organised " + std::to_string(c.width) + " x " + std::to_string(c.height)).c_str()
                                   : "unorganised");

@@ -83,7 +83,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
     std::vector<std::string> methods;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("CLOUD", a->cloud, "cloud file (.pcd, .ply, .xyz)")->required();
+  cmd->add_option("CLOUD", a->cloud, "cloud file (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_option("--fits", a->fits, "fits to draw: the output of `hedgefit compare --format json`");
   cmd->add_option("--truth", a->truth, "true sphere JSON to draw (black wireframe)");
   cmd->add_option("-o,--output", a->output, "PNG to write")->capture_default_str();

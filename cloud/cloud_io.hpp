@@ -4,17 +4,14 @@
 /// trip. Writes go to a temporary file that is renamed into place, so a failure
 /// never leaves a half-written output.
 
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "cloud/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 
 namespace hedgefit::cloud {
-
-enum class CloudFormat { kPcd, kPly, kXyz };
-
-/// Format from a file name's extension (.pcd, .ply, .xyz/.txt/.csv); throws Error naming the file.
-CloudFormat FormatFromPath(const std::string& path);
 
 struct ReadOptions {
   double scale = 1.0;  ///< multiplies coordinates on read: 1000 turns a metre file into mm
@@ -23,7 +20,7 @@ struct ReadOptions {
 
 /// What the file said about itself, beyond the points.
 struct CloudFileHeader {
-  CloudFormat format = CloudFormat::kPcd;
+  std::string format;               ///< "pcd", "ply", "xyz": the CloudFormat's name
   std::vector<std::string> fields;  ///< field names as stored ("x", "y", "z", "rgb", ...)
   std::string encoding;             ///< "ascii", "binary", "binary_compressed", ...
 };
@@ -38,7 +35,31 @@ struct WriteOptions {
   PcdEncoding pcd_encoding = PcdEncoding::kBinary;  ///< PCD only
   bool ply_binary = true;                           ///< PLY only
   int ascii_precision = 8;  ///< significant digits for text formats (float holds ~7)
+  /// The writers' options, declared once; each format uses the ones it names.
+  static const OptionTable<WriteOptions>& Table();
 };
+
+/// One cloud file format: a file of its own (cloud/format_*.cpp) and one entry in
+/// CloudFormats(). readers.NAME and writers.NAME are made from it.
+struct CloudFormat {
+  std::string name;                     ///< "pcd"
+  std::string description;              ///< one line
+  std::vector<std::string> extensions;  ///< lower case, with the dot; the first is the usual one
+  /// Reads a checked, readable file; fills the header's encoding and fields.
+  std::function<PointCloud(const std::string& path, CloudFileHeader* header)> read;
+  /// Writes to `path` (a temporary name; WriteCloud renames it into place).
+  std::function<void(const std::string& path, const PointCloud& cloud, const WriteOptions& options)> write;
+  std::vector<std::string> write_options;  ///< which of WriteOptions::Table() apply
+};
+
+/// Every format, in the order messages list them.
+const std::vector<CloudFormat>& CloudFormats();
+
+/// ".pcd, .ply or .xyz": every format's usual extension, for messages and help.
+std::string CloudExtensionList();
+
+/// The format of a file name's extension; throws Error naming the file and the known extensions.
+const CloudFormat& FormatFromPath(const std::string& path);
 
 /// Writes atomically (temporary file + rename); throws Error naming the file.
 void WriteCloud(const std::string& path, const PointCloud& cloud, const WriteOptions& options = {});

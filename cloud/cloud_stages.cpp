@@ -1,6 +1,7 @@
 // The built-in readers.*, writers.* and filters.* stages: thin adapters from
 // declared options to the free functions in cloud_io.hpp and filters.hpp.
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -38,13 +39,13 @@ void AddReader(Registry& r, const std::string& name, const std::string& what, st
 }
 
 void AddWriter(Registry& r, const std::string& name, const std::string& what, std::vector<std::string> exts,
-               std::vector<OptionSpec> extra, std::function<WriteOptions(const Options&)> to_write_options) {
+               std::vector<OptionSpec> extra) {
   StageInfo info{name, "Writes the 'cloud' artifact as " + what + " (atomically: temporary file, then rename)",
                  {StringOption("filename", "", "file to write")}, {"cloud"}, {}, exts};
   for (auto& e : extra) info.options.push_back(std::move(e));
-  const StageFactory run = MakeFactory([to_write_options](const Options& o, Context& ctx) {
+  const StageFactory run = MakeFactory([](const Options& o, Context& ctx) {
     const PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-    WriteCloud(o.GetString("filename"), cloud, to_write_options(o));
+    WriteCloud(o.GetString("filename"), cloud, WriteOptions::Table().FromOptions(o));
     ctx.Note("points", static_cast<std::int64_t>(cloud.size()));
     ctx.Note("filename", o.GetString("filename"));
   });
@@ -65,32 +66,17 @@ void AddWriter(Registry& r, const std::string& name, const std::string& what, st
 }  // namespace
 
 void RegisterCloudStages(Registry& r) {
-  AddReader(r, "readers.pcd", "PCD (ascii, binary, binary_compressed)", {".pcd"});
-  AddReader(r, "readers.ply", "PLY (ascii or binary)", {".ply"});
-  AddReader(r, "readers.xyz", "text 'x y z [r g b]' per line", {".xyz", ".txt", ".csv"});
-
-  AddWriter(r, "writers.pcd", "PCD", {".pcd"},
-            {StringOption("encoding", "binary", "PCD data encoding").Choices({"ascii", "binary", "binary_compressed"})},
-            [](const Options& o) {
-              WriteOptions w;
-              const std::string& e = o.GetString("encoding");
-              w.pcd_encoding = e == "ascii" ? PcdEncoding::kAscii
-                               : e == "binary" ? PcdEncoding::kBinary
-                                               : PcdEncoding::kBinaryCompressed;
-              return w;
-            });
-  AddWriter(r, "writers.ply", "PLY", {".ply"}, {BoolOption("binary", true, "binary little-endian (else ascii)")},
-            [](const Options& o) {
-              WriteOptions w;
-              w.ply_binary = o.GetBool("binary");
-              return w;
-            });
-  AddWriter(r, "writers.xyz", "text 'x y z [r g b]'", {".xyz", ".txt", ".csv"},
-            {IntOption("precision", 8, "significant digits", "digits").Range(1, 17)}, [](const Options& o) {
-              WriteOptions w;
-              w.ascii_precision = static_cast<int>(o.GetInt("precision"));
-              return w;
-            });
+  // readers.NAME and writers.NAME for every format of the table (cloud_io.hpp).
+  for (const CloudFormat& f : CloudFormats()) {
+    AddReader(r, "readers." + f.name, f.description, f.extensions);
+    std::vector<OptionSpec> extra;
+    for (const auto& spec : WriteOptions::Table().Specs()) {
+      if (std::find(f.write_options.begin(), f.write_options.end(), spec.name) != f.write_options.end()) {
+        extra.push_back(spec);
+      }
+    }
+    AddWriter(r, "writers." + f.name, f.description, f.extensions, extra);
+  }
 
   r.Add(StageInfo{"filters.nonfinite", "Drops points with a NaN or Inf coordinate and says how many", {}, {"cloud"}, {"cloud"}, {}},
         MakeFactory([](const Options&, Context& ctx) {

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "cloud/cloud_io.hpp"
 #include "cloud/point_cloud.hpp"
 #include "cloud/version.hpp"
 
@@ -125,7 +126,7 @@ Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& sou
       const StageDescriptor* d = registry.ForExtension(filename, writer);
       if (d == nullptr) {
         throw Error(where + ": no " + std::string(writer ? "writer" : "reader") + " for '" + filename +
-                    "'; use .pcd, .ply or .xyz, or give \"type\"");
+                    "'; use " + CloudExtensionList() + ", or give \"type\"");
       }
       p.type = d->info.name;
       p.given["filename"] = filename;
