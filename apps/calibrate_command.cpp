@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/parse.hpp"
 #include "stereo/calibration.hpp"
 
 namespace hedgefit::apps {
@@ -29,12 +30,7 @@ std::vector<std::string> Glob(const std::string& pattern, const char* option) {
 }
 
 cv::Size ParseBoard(const std::string& text) {
-  int w = 0, h = 0;
-  char x = 0;
-  std::istringstream ss(text);
-  if (!(ss >> w >> x >> h) || (x != 'x' && x != 'X') || w < 2 || h < 2 || !ss.eof()) {
-    throw Error("--board '" + text + "': give inner corners as COLSxROWS, e.g. 9x6");
-  }
+  const auto [w, h] = ParseCount2(text, "--board", 2, "inner corners as COLSxROWS", "9x6");
   return {w, h};
 }
 

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "fitting/evaluation.hpp"
 #include "fitting/methods.hpp"
@@ -107,10 +108,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
       o.views.clear();
       std::stringstream vs(a->view == "all" ? std::string("front,side,top,iso") : a->view);
       for (std::string v; std::getline(vs, v, ',');) o.views.push_back(render::ParseView(v));
-      int w = 0, h = 0;
-      char x = 0;
-      std::istringstream ss(a->size);
-      if (!(ss >> w >> x >> h) || x != 'x') throw Error("--size '" + a->size + "': give WxH, e.g. 1024x768");
+      const auto [w, h] = ParseCount2(a->size, "--size", 1, "WIDTHxHEIGHT in px", "1024x768");
       o.width = w;
       o.height = h;
       int r = -1, g = -1, b = -1;

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/parse.hpp"
 #include "stereo/rig.hpp"
 
 namespace hedgefit::apps {
@@ -29,12 +30,7 @@ void AddRigCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("-o,--output", a->output, "rig file to write (YAML)")->required();
   cmd->callback([=]() {
     *run = [=]() {
-      int w = 0, h = 0;
-      char x = 0;
-      std::istringstream ss(a->size);
-      if (!(ss >> w >> x >> h) || (x != 'x' && x != 'X') || w <= 0 || h <= 0) {
-        throw Error("--size '" + a->size + "': give WIDTHxHEIGHT in px, e.g. 640x480");
-      }
+      const auto [w, h] = ParseCount2(a->size, "--size", 1, "WIDTHxHEIGHT in px", "640x480");
       stereo::StereoRig rig;
       try {
         rig = stereo::RigForRectifiedPair(cv::Size(w, h), a->focal, a->cx, a->cy, a->baseline);

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "stereo/simulator.hpp"
 
@@ -15,23 +16,6 @@ namespace hedgefit::apps {
 
 namespace {
 
-std::vector<double> Numbers(const std::string& text, std::size_t n, const char* option) {
-  std::vector<double> v;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      throw Error(std::string(option) + " '" + text + "': '" + item + "' is not a number");
-    }
-  }
-  if (v.size() != n) {
-    throw Error(std::string(option) + " '" + text + "': expected " + std::to_string(n) + " comma-separated numbers");
-  }
-  return v;
-}
 
 void SaveImage(const std::filesystem::path& path, const cv::Mat& img) {
   const auto tmp = path.parent_path() / ("." + path.filename().string() + ".tmp.png");
@@ -93,42 +77,27 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       const stereo::SimRig rig = stereo::PaperRig(a->scale);
       cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
       if (!a->sphere.empty()) {
-        const auto v = Numbers(a->sphere, 4, "--sphere");
+        const auto v = ParseNumbers(a->sphere, 4, "--sphere");
         if (!(v[3] > 0) || !(v[2] > v[3])) throw Error("--sphere: need R > 0 and the sphere in front of the camera (Z > R)");
         stereo::SphereScene sc;
         sc.center = cv::Vec3d(v[0], v[1], v[2]);
         sc.radius = v[3];
         SaveImage(fs::path(a->out) / "sphere_left.png", stereo::RenderSphere(rig, false, sc, ro));
         SaveImage(fs::path(a->out) / "sphere_right.png", stereo::RenderSphere(rig, true, sc, ro));
-        char truth[256];
-        std::snprintf(truth, sizeof(truth),
-                      "{\"center_mm\": [%.3f, %.3f, %.3f], \"radius_mm\": %.3f, \"frame\": \"unrectified left camera\"}\n",
-                      v[0], v[1], v[2], v[3]);
-        cloud::WriteTextFileAtomic((fs::path(a->out) / "sphere.truth.json").string(), truth);
+        stereo::WriteSphereTruth((fs::path(a->out) / "sphere.truth.json").string(), sc);
       } else {
-        const auto v = Numbers(a->board, 6, "--board");
+        const auto v = ParseNumbers(a->board, 6, "--board");
         stereo::BoardScene b;
         cv::Matx33d R;
         cv::Rodrigues(cv::Vec3d(v[0], v[1], v[2]), R);
         b.rotation = R;
         b.translation = cv::Vec3d(v[3], v[4], v[5]);
-        int cols = 0, rows = 0;
-        char x = 0;
-        std::istringstream sq(a->squares);
-        if (!(sq >> cols >> x >> rows) || x != 'x' || cols < 3 || rows < 3) {
-          throw Error("--squares '" + a->squares + "': give squares as COLSxROWS, at least 3x3, e.g. 13x12");
-        }
+        const auto [cols, rows] = ParseCount2(a->squares, "--squares", 3, "squares as COLSxROWS", "13x12");
         b.squares = cv::Size(cols, rows);
         b.square_mm = a->square;
         SaveImage(fs::path(a->out) / "board_left.png", stereo::RenderBoard(rig, false, b, ro));
         SaveImage(fs::path(a->out) / "board_right.png", stereo::RenderBoard(rig, true, b, ro));
-        char truth[512];
-        std::snprintf(truth, sizeof(truth),
-                      "{\"squares\": [%d, %d], \"square_mm\": %.3f, \"inner_corners\": [%d, %d], \"rotation_vector\": "
-                      "[%.9f, %.9f, %.9f], \"translation_mm\": [%.6f, %.6f, %.6f], \"frame\": "
-                      "\"left_camera_from_board; board origin at the first inner corner\"}\n",
-                      cols, rows, a->square, cols - 1, rows - 1, v[0], v[1], v[2], v[3], v[4], v[5]);
-        cloud::WriteTextFileAtomic((fs::path(a->out) / "board.truth.json").string(), truth);
+        stereo::WriteBoardTruth((fs::path(a->out) / "board.truth.json").string(), b);
       }
       std::printf("wrote a %dx%d pair to %s in %.2f s\n", rig.left.size.width, rig.left.size.height, a->out.c_str(),
                   seconds());

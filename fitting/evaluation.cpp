@@ -1,5 +1,7 @@
 #include "fitting/evaluation.hpp"
 
+#include "cloud/truth_file.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -11,27 +13,10 @@
 namespace hedgefit::fitting {
 
 Sphere ReadTruthFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the truth file; check the path");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception&) {
-    throw Error(path + ": invalid JSON; a truth file is {\"center_mm\": [x, y, z], \"radius_mm\": r}");
-  }
-  const auto bad = [&] {
-    return Error(path + ": needs \"center_mm\": [x, y, z] and \"radius_mm\": r (numbers, mm)");
-  };
-  if (!j.is_object() || !j.contains("center_mm") || !j.contains("radius_mm")) throw bad();
-  const auto& c = j["center_mm"];
-  if (!c.is_array() || c.size() != 3 || !j["radius_mm"].is_number()) throw bad();
+  const cloud::SphereTruth t = cloud::ReadSphereTruth(path);
   Sphere s;
-  for (std::size_t k = 0; k < 3; ++k) {
-    if (!c[k].is_number()) throw bad();
-    s.center_mm[static_cast<Eigen::Index>(k)] = c[k].get<double>();
-  }
-  s.radius_mm = j["radius_mm"].get<double>();
-  if (!(s.radius_mm > 0) || !s.center_mm.allFinite()) throw bad();
+  s.center_mm = t.center_mm;
+  s.radius_mm = t.radius_mm;
   return s;
 }
 

@@ -1,5 +1,6 @@
 #include "stereo/simulator.hpp"
 
+#include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -15,6 +16,7 @@
 #include "cloud/error.hpp"
 
 #include "cloud/parallel.hpp"
+#include "cloud/truth_file.hpp"
 namespace hedgefit::stereo {
 
 namespace {
@@ -341,6 +343,28 @@ std::string RigJson(const SimRig& rig) {
          ", \"T\": " + t + ", \"frame\": \"right_from_left, mm\"}";
 }
 
+void WriteSphereTruth(const std::string& path, const SphereScene& scene) {
+  cloud::SphereTruth t;
+  t.center_mm = Eigen::Vector3d(scene.center[0], scene.center[1], scene.center[2]);
+  t.radius_mm = scene.radius;
+  cloud::WriteSphereTruth(path, t);
+}
+
+void WriteBoardTruth(const std::string& path, const BoardScene& b) {
+  nlohmann::json j;
+  j["squares"] = {b.squares.width, b.squares.height};
+  j["square_mm"] = b.square_mm;
+  j["inner_corners"] = {b.squares.width - 1, b.squares.height - 1};
+  const cv::Matx33d& R = b.rotation;
+  j["rotation"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)}, {R(2, 0), R(2, 1), R(2, 2)}};
+  cv::Vec3d rvec;
+  cv::Rodrigues(R, rvec);
+  j["rotation_vector"] = {rvec[0], rvec[1], rvec[2]};
+  j["translation_mm"] = {b.translation[0], b.translation[1], b.translation[2]};
+  j["frame"] = "left_camera_from_board; board origin at the first inner corner";
+  cloud::WriteTextFileAtomic(path, j.dump() + "\n");
+}
+
 std::vector<std::string> WritePaperLab(const std::string& dir, double scale, const RenderOptions& options) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -374,15 +398,7 @@ std::vector<std::string> WritePaperLab(const std::string& dir, double scale, con
     std::snprintf(name, sizeof(name), "board_%02d", i + 1);
     save(std::string(name) + "_left.png", RenderBoard(rig, false, b, options));
     save(std::string(name) + "_right.png", RenderBoard(rig, true, b, options));
-    char truth[512];
-    std::snprintf(truth, sizeof(truth),
-                  "{\"squares\": [%d, %d], \"square_mm\": %.3f, \"inner_corners\": [%d, %d], \"rotation\": "
-                  "[[%.9f, %.9f, %.9f], [%.9f, %.9f, %.9f], [%.9f, %.9f, %.9f]], \"translation_mm\": [%.6f, %.6f, %.6f], "
-                  "\"frame\": \"left_camera_from_board; board origin at the first inner corner\"}\n",
-                  b.squares.width, b.squares.height, b.square_mm, b.squares.width - 1, b.squares.height - 1, R(0, 0),
-                  R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2), b.translation[0],
-                  b.translation[1], b.translation[2]);
-    cloud::WriteTextFileAtomic((fs::path(dir) / (std::string(name) + ".truth.json")).string(), truth);
+    WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), b);
   }
   for (int z = 2000; z <= 2600; z += 100) {
     SphereScene sc;
@@ -391,12 +407,7 @@ std::vector<std::string> WritePaperLab(const std::string& dir, double scale, con
     std::snprintf(name, sizeof(name), "sphere_%04d", z);
     save(std::string(name) + "_left.png", RenderSphere(rig, false, sc, options));
     save(std::string(name) + "_right.png", RenderSphere(rig, true, sc, options));
-    char truth[256];
-    std::snprintf(truth, sizeof(truth),
-                  "{\"center_mm\": [%.3f, %.3f, %.3f], \"radius_mm\": %.3f, \"frame\": \"unrectified left camera, x "
-                  "right, y down, z forward\"}\n",
-                  sc.center[0], sc.center[1], sc.center[2], sc.radius);
-    cloud::WriteTextFileAtomic((fs::path(dir) / (std::string(name) + ".truth.json")).string(), truth);
+    WriteSphereTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), sc);
     written.push_back((fs::path(dir) / (std::string(name) + ".truth.json")).string());
   }
   return written;

@@ -68,6 +68,13 @@ cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& scene, co
 /// The board's inner corners in the world frame.
 std::vector<cv::Point3d> BoardInnerCornersWorld(const BoardScene& board);
 
+/// The sphere's truth file (cloud/truth_file.hpp), in the left camera frame.
+void WriteSphereTruth(const std::string& path, const SphereScene& scene);
+
+/// A board's truth: squares, square size, left_camera_from_board rotation (matrix and
+/// Rodrigues vector) and translation (mm).
+void WriteBoardTruth(const std::string& path, const BoardScene& board);
+
 /// Writes the paper's laboratory test into `dir`: 16 board pairs (board_NN_left/right.png)
 /// and the r = 300 mm sphere at Z = 2000, 2100, ..., 2600 mm (sphere_ZZZZ_left/right.png),
 /// each with a truth JSON, plus rig_truth.json. Returns the files written.

@@ -46,7 +46,7 @@ TEST(CalibrateCli, BadArgumentsAreOneLine) {
   EXPECT_EQ(r.err, "hedgefit: --left 'nothing*.png': no file matches; check the pattern (quote it)\n");
   r = RunHedgefit("calibrate --list pairs.txt --board 9by6", dir);
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.err, "hedgefit: --board '9by6': give inner corners as COLSxROWS, e.g. 9x6\n");
+  EXPECT_EQ(r.err, "hedgefit: --board '9by6': give inner corners as COLSxROWS, each at least 2, e.g. 9x6\n");
   std::ofstream(dir / "pairs.txt") << "a.png b.png\nc.png\n";
   r = RunHedgefit("calibrate --list pairs.txt", dir);
   EXPECT_EQ(r.code, 1);
