@@ -123,18 +123,19 @@ CameraSetup CameraFor(View view, const std::array<double, 6>& b) {
   return cam;
 }
 
-void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
-                 const RenderOptions& options, const std::string& png_path) {
-  options.Check();
-  namespace fs = std::filesystem;
-  const fs::path target(png_path);
-  std::error_code ec;
-  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-  if (!fs::is_directory(dir, ec)) throw Error(png_path + ": directory '" + dir.string() + "' does not exist; create it first");
-  EnsureDisplay();
-  vtkObject::GlobalWarningDisplayOff();
+namespace {
 
-  // Points, and what colours them.
+// The cloud as one actor, coloured as asked, and the scene's bounds (points and spheres).
+struct CloudLayer {
+  vtkSmartPointer<vtkActor> actor;
+  vtkSmartPointer<vtkColorTransferFunction> lut;  // null for the points' own colours
+  std::string bar_title;
+  std::array<double, 6> bounds = {1e300, -1e300, 1e300, -1e300, 1e300, -1e300};
+};
+
+CloudLayer MakeCloudLayer(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
+                          const RenderOptions& options, const std::string& png_path) {
+  CloudLayer layer;
   vtkNew<vtkPoints> points;
   vtkNew<vtkCellArray> verts;
   vtkNew<vtkUnsignedCharArray> rgb;
@@ -147,7 +148,7 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
   const fitting::Sphere ref = options.distance_sphere ? *options.distance_sphere
                               : spheres.empty()       ? fitting::Sphere{}
                                                       : spheres.front().sphere;
-  std::array<double, 6> bounds = {1e300, -1e300, 1e300, -1e300, 1e300, -1e300};
+  auto& bounds = layer.bounds;
   auto grow = [&](double x, double y, double z) {
     bounds[0] = std::min(bounds[0], x), bounds[1] = std::max(bounds[1], x);
     bounds[2] = std::min(bounds[2], y), bounds[3] = std::max(bounds[3], y);
@@ -182,12 +183,11 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
   poly->SetVerts(verts);
   vtkNew<vtkPolyDataMapper> mapper;
   mapper->SetInputData(poly);
-  vtkNew<vtkColorTransferFunction> lut;
-  std::string bar_title;
   if (options.color == ColorMode::kOwn) {
     poly->GetPointData()->SetScalars(rgb);
     mapper->SetColorModeToDirectScalars();
   } else {
+    layer.lut = vtkSmartPointer<vtkColorTransferFunction>::New();
     poly->GetPointData()->SetScalars(scalar);
     double lo, hi;
     if (options.color == ColorMode::kDistance) {
@@ -200,31 +200,40 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
       }
       lo = -range, hi = range;
       // Cool-warm diverging map: inside blue, on the sphere white, outside red.
-      lut->AddRGBPoint(lo, 0.23, 0.30, 0.75);
-      lut->AddRGBPoint(0.0, 0.87, 0.87, 0.87);
-      lut->AddRGBPoint(hi, 0.71, 0.02, 0.15);
-      bar_title = "signed distance (mm)";
+      layer.lut->AddRGBPoint(lo, 0.23, 0.30, 0.75);
+      layer.lut->AddRGBPoint(0.0, 0.87, 0.87, 0.87);
+      layer.lut->AddRGBPoint(hi, 0.71, 0.02, 0.15);
+      layer.bar_title = "signed distance (mm)";
     } else {
       lo = bounds[4], hi = std::max(bounds[4] + 1, bounds[5]);
       const double pts[5][3] = {{0.27, 0.00, 0.33}, {0.23, 0.32, 0.55}, {0.13, 0.57, 0.55}, {0.37, 0.79, 0.38},
                                 {0.99, 0.91, 0.15}};  // viridis
-      for (int k = 0; k < 5; ++k) lut->AddRGBPoint(lo + (hi - lo) * k / 4.0, pts[k][0], pts[k][1], pts[k][2]);
-      bar_title = "depth z (mm)";
+      for (int k = 0; k < 5; ++k) layer.lut->AddRGBPoint(lo + (hi - lo) * k / 4.0, pts[k][0], pts[k][1], pts[k][2]);
+      layer.bar_title = "depth z (mm)";
     }
-    lut->ClampingOn();
-    mapper->SetLookupTable(lut);
+    layer.lut->ClampingOn();
+    mapper->SetLookupTable(layer.lut);
     mapper->SetScalarRange(lo, hi);
     mapper->SetColorModeToMapScalars();
   }
   mapper->ScalarVisibilityOn();
-  vtkNew<vtkActor> cloud_actor;
-  cloud_actor->SetMapper(mapper);
-  cloud_actor->GetProperty()->SetPointSize(static_cast<float>(options.point_size));
-  cloud_actor->GetProperty()->LightingOff();
+  layer.actor = vtkSmartPointer<vtkActor>::New();
+  layer.actor->SetMapper(mapper);
+  layer.actor->GetProperty()->SetPointSize(static_cast<float>(options.point_size));
+  layer.actor->GetProperty()->LightingOff();
+  return layer;
+}
 
-  // Spheres and their legend.
-  std::vector<vtkSmartPointer<vtkActor>> sphere_actors;
-  vtkNew<vtkLegendBoxActor> legend;
+// The spheres (fitted: coloured; truth: black wireframe) and their legend.
+struct SphereLayer {
+  std::vector<vtkSmartPointer<vtkActor>> actors;
+  vtkSmartPointer<vtkLegendBoxActor> legend;
+};
+
+SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const RenderOptions& options) {
+  SphereLayer layer;
+  layer.legend = vtkSmartPointer<vtkLegendBoxActor>::New();
+  vtkLegendBoxActor* legend = layer.legend;
   legend->SetNumberOfEntries(static_cast<int>(spheres.size()));
   std::size_t fitted = 0;
   for (std::size_t i = 0; i < spheres.size(); ++i) {
@@ -250,7 +259,7 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
     } else {
       actor->GetProperty()->SetOpacity(options.sphere_opacity);
     }
-    sphere_actors.push_back(actor);
+    layer.actors.push_back(actor);
     char text[200];
     std::snprintf(text, sizeof(text), "%s  r %.1f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.sphere.radius_mm,
                   s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
@@ -265,34 +274,43 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
   legend->GetPosition2Coordinate()->SetValue(0.55, 0.045 * double(spheres.size()));
   legend->BorderOff();
   legend->GetEntryTextProperty()->SetColor(1 - options.background[0], 1 - options.background[1], 1 - options.background[2]);
+  return layer;
+}
 
-  vtkNew<vtkScalarBarActor> bar;
-  if (options.color != ColorMode::kOwn) {
-    bar->SetLookupTable(lut);
-    bar->SetTitle(bar_title.c_str());
-    bar->SetNumberOfLabels(5);
-    bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
-    bar->GetPositionCoordinate()->SetValue(0.87, 0.1);
-    bar->SetWidth(0.11);
-    bar->SetHeight(0.8);
-    const double tc = options.background[0] + options.background[1] + options.background[2] > 1.5 ? 0.0 : 1.0;
-    bar->GetTitleTextProperty()->SetColor(tc, tc, tc);
-    bar->GetLabelTextProperty()->SetColor(tc, tc, tc);
-  }
+// The colour bar of a mapped colouring, in the background's contrasting grey.
+vtkSmartPointer<vtkScalarBarActor> MakeScalarBar(const CloudLayer& cloud, const RenderOptions& options) {
+  auto bar = vtkSmartPointer<vtkScalarBarActor>::New();
+  bar->SetLookupTable(cloud.lut);
+  bar->SetTitle(cloud.bar_title.c_str());
+  bar->SetNumberOfLabels(5);
+  bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+  bar->GetPositionCoordinate()->SetValue(0.87, 0.1);
+  bar->SetWidth(0.11);
+  bar->SetHeight(0.8);
+  const double tc = options.background[0] + options.background[1] + options.background[2] > 1.5 ? 0.0 : 1.0;
+  bar->GetTitleTextProperty()->SetColor(tc, tc, tc);
+  bar->GetLabelTextProperty()->SetColor(tc, tc, tc);
+  return bar;
+}
 
-  // One renderer per view, tiled.
-  const int n = static_cast<int>(options.views.size());
-  const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
-  const int rows = (n + cols - 1) / cols;
-  // One window (one X connection, one GL context) for the whole process: creating a fresh
-  // GLX window for every render intermittently aborts inside VTK under load.
+// One window (one X connection, one GL context) for the whole process: creating a fresh
+// GLX window for every render intermittently aborts inside VTK under load.
+vtkRenderWindow* SharedWindow() {
   static vtkSmartPointer<vtkRenderWindow> shared_window;
   if (!shared_window) {
     shared_window = vtkSmartPointer<vtkRenderWindow>::New();
     shared_window->SetOffScreenRendering(1);
     shared_window->SetMultiSamples(0);
   }
-  vtkRenderWindow* window = shared_window;
+  return shared_window;
+}
+
+// One renderer per view, tiled; the legend and the bar on the first.
+void RenderViews(const CloudLayer& cloud, const SphereLayer& spheres, vtkScalarBarActor* bar,
+                 const RenderOptions& options, vtkRenderWindow* window) {
+  const int n = static_cast<int>(options.views.size());
+  const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
+  const int rows = (n + cols - 1) / cols;
   window->GetRenderers()->RemoveAllItems();
   window->SetSize(options.width * cols, options.height * rows);
   for (int k = 0; k < n; ++k) {
@@ -300,13 +318,13 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
     const int c = k % cols, r = k / cols;
     ren->SetViewport(double(c) / cols, 1.0 - double(r + 1) / rows, double(c + 1) / cols, 1.0 - double(r) / rows);
     ren->SetBackground(options.background[0], options.background[1], options.background[2]);
-    ren->AddActor(cloud_actor);
-    for (auto& a : sphere_actors) ren->AddActor(a);
+    ren->AddActor(cloud.actor);
+    for (auto& a : spheres.actors) ren->AddActor(a);
     if (k == 0) {
-      if (!spheres.empty()) ren->AddViewProp(legend);
-      if (options.color != ColorMode::kOwn) ren->AddViewProp(bar);
+      if (!spheres.actors.empty()) ren->AddViewProp(spheres.legend);
+      if (bar != nullptr) ren->AddViewProp(bar);
     }
-    const CameraSetup cam = CameraFor(options.views[std::size_t(k)], bounds);
+    const CameraSetup cam = CameraFor(options.views[std::size_t(k)], cloud.bounds);
     vtkCamera* camera = ren->GetActiveCamera();
     camera->SetPosition(cam.position.data());
     camera->SetFocalPoint(cam.focal_point.data());
@@ -316,6 +334,26 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
     window->AddRenderer(ren);
   }
   window->Render();
+}
+
+}  // namespace
+
+void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
+                 const RenderOptions& options, const std::string& png_path) {
+  options.Check();
+  namespace fs = std::filesystem;
+  const fs::path target(png_path);
+  std::error_code ec;
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  if (!fs::is_directory(dir, ec)) throw Error(png_path + ": directory '" + dir.string() + "' does not exist; create it first");
+  EnsureDisplay();
+  vtkObject::GlobalWarningDisplayOff();
+  const CloudLayer points = MakeCloudLayer(cloud, spheres, options, png_path);
+  const SphereLayer overlays = MakeSphereLayer(spheres, options);
+  vtkSmartPointer<vtkScalarBarActor> bar;
+  if (points.lut) bar = MakeScalarBar(points, options);
+  vtkRenderWindow* window = SharedWindow();
+  RenderViews(points, overlays, bar, options, window);
   WriteWindowPng(window, png_path);
 }
 
