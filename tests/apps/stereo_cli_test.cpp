@@ -143,4 +143,35 @@ TEST(ConvertCli, RealGreyPairSegmentedByDepthInABox) {
   }
 }
 
+// convert's stage flags come from the stages' declarations, so a bad value is reported with
+// the flag as typed and the declared range, before any file is read.
+TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const std::string one = "convert --left l.png --right r.png --rig rig.yaml -o o.pcd ";
+  Result r = RunHedgefit(one + "--block-size 40", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --block-size: 40 is out of range; use a value in [1, 31] px\n");
+  r = RunHedgefit(one + "--block-size 4", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --block-size: must be odd (1, 3, 5, ... 31 px)\n");
+  r = RunHedgefit(one + "--mode hhh", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --mode: 'hhh' is not one of hh, sgbm, 3way, hh4 (did you mean 'hh'?)\n");
+  r = RunHedgefit(one + "--mask m.png --box 1,2,30,40", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --mask and --box: give one way to find the hedge, not both\n");
+  r = RunHedgefit(one + "--input somewhere", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --input and --left/--right: give one capture or a batch, not both\n");
+  // The equivalent pipeline, printed without reading anything.
+  r = RunHedgefit(one + "--box 1,2,30,40 --erode 2 --print-pipeline", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j.size(), 6u);
+  EXPECT_EQ(j[2]["type"], "stereo.segment_depth");
+  EXPECT_EQ(j[2]["box"], nlohmann::json({1.0, 2.0, 30.0, 40.0}));
+  EXPECT_EQ(j[2]["erode"], 2);
+  EXPECT_EQ(j[5]["filename"], "o.pcd");
+}
+
 }  // namespace

@@ -8,6 +8,7 @@
 #include "cloud/cloud_io.hpp"
 #include "cloud/pipeline.hpp"
 #include "fitting/evaluation.hpp"
+#include "fitting/methods.hpp"
 #include "tests/fitting/synthetic.hpp"
 #include "tests/test_data.hpp"
 
@@ -112,6 +113,61 @@ TEST(Evaluation, PaperStatistics) {
   EXPECT_DOUBLE_EQ(s.rmse_radius_mm, 1.5);
   EXPECT_DOUBLE_EQ(s.mean_ld_mm, 2.5);
   EXPECT_DOUBLE_EQ(s.max_ld_mm, 5.0);
+}
+
+// The method table is the one list: every row has its stage, compare's names are the table's,
+// and an unknown name is an error with a suggestion.
+TEST(MethodTable, EveryMethodIsAStageAndUnknownNamesAreErrors) {
+  for (const FitMethod& m : FitMethods()) {
+    const cloud::StageDescriptor* d = Registry().Find(m.stage);
+    ASSERT_NE(d, nullptr) << m.name;
+    EXPECT_EQ(d->info.description, m.description);
+    for (const auto& spec : m.options) EXPECT_NE(d->info.FindOption(spec.name), nullptr) << m.name << " " << spec.name;
+  }
+  EXPECT_EQ(FitMethodNames().size(), 7u);
+  EXPECT_EQ(ParseMethodList("all", "--methods"), FitMethodNames());
+  EXPECT_EQ(ParseMethodList("hyper,ransac", "--methods"), (std::vector<std::string>{"hyper", "ransac"}));
+  try {
+    ParseMethodList("hyper,ransack", "--methods");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--methods: unknown method 'ransack' (did you mean 'ransac'?); choose from kasa,", 0),
+              0u)
+        << e.what();
+  }
+  EXPECT_EQ(MostTrusted({"kasa", "ransac", "hyper"})->name, "ransac");
+  EXPECT_EQ(MostTrusted({"truth"}), nullptr);
+}
+
+// RunFitMethod and the stage give the same sphere for the same options (one implementation),
+// and options a method does not declare are ignored rather than misapplied.
+TEST(MethodTable, RunFitMethodMatchesTheStage) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  std::mt19937_64 rng(9);
+  auto pts = hedgefit::testing::Cap(Eigen::Vector3d(10, -20, 2100), 400, 70, Eigen::Vector3d(0, 0, -1), 3000, 2.0, rng);
+  hedgefit::testing::AddOutliers(&pts, 0.2, 300, rng);
+  cloud::PointCloud c;
+  for (const auto& p : pts) c.points_mm.push_back(p.cast<float>());
+  c.Flatten();
+  cloud::WriteCloud((dir / "cap.pcd").string(), c);
+  const std::vector<Eigen::Vector3d> as_read = ToDouble(c.points_mm);
+  const std::map<std::string, cloud::OptionValue> given = {
+      {"distance_threshold", 8.0}, {"min_radius", 100.0}, {"max_radius", 1000.0}, {"loss", std::string("huber")}};
+  const SphereFitResult direct = RunFitMethod("ransac_geometric", as_read, given, 42);
+  cloud::Pipeline p = cloud::Pipeline::FromJson(
+      "[\"" + (dir / "cap.pcd").string() +
+          R"(", {"type": "fitters.ransac_geometric", "distance_threshold": 8, "min_radius": 100, "max_radius": 1000}])",
+      "p", Registry());
+  cloud::Context ctx;
+  p.Run(ctx);
+  const auto& fits = ctx.Get<std::vector<SphereFitResult>>("fits");
+  ASSERT_TRUE(direct.converged);
+  ASSERT_TRUE(fits.at(0).converged);
+  EXPECT_EQ(direct.sphere.center_mm, fits[0].sphere.center_mm);
+  EXPECT_EQ(direct.sphere.radius_mm, fits[0].sphere.radius_mm);
+  // 2 mm noise on 3000 points: the robust fit recovers the sphere to well under a millimetre.
+  EXPECT_NEAR(direct.sphere.radius_mm, 400.0, 1.0);
+  EXPECT_LT((direct.sphere.center_mm - Eigen::Vector3d(10, -20, 2100)).norm(), 1.5);
 }
 
 }  // namespace
