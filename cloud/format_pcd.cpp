@@ -144,7 +144,7 @@ void WritePcd(const std::string& path, const PointCloud& cloud, const WriteOptio
 }  // namespace
 
 CloudFormat PcdFormat() {
-  return {"pcd", "PCD (ascii, binary, binary_compressed)", {".pcd"}, ReadPcd, WritePcd, {"encoding"}};
+  return {"pcd", "PCD (ascii, binary, binary_compressed)", {".pcd"}, ReadPcd, WritePcd, {"encoding", "precision"}};
 }
 
 }  // namespace hedgefit::cloud::internal

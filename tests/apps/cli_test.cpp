@@ -124,3 +124,32 @@ TEST(Cli, PluginsListsStagesAndReportsBrokenPlugins) {
 }
 
 }  // namespace
+
+namespace {
+
+// README's stage table names every built-in stage and every option it declares, so the
+// documentation cannot silently fall behind the declarations.
+TEST(Cli, ReadmeNamesEveryStageAndOption) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const Result r = RunHedgefit("plugins --json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(std::string(HEDGEFIT_SOURCE_DIR) + "/README.md");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string readme = ss.str();
+  const std::string table = readme.substr(readme.find("### Built-in stages"));
+  for (const auto& stage : nlohmann::json::parse(r.out)["stages"]) {
+    const std::string name = stage["name"];
+    const auto row = table.find("`" + name + "`");
+    ASSERT_NE(row, std::string::npos) << name << " is not in README's stage table";
+    const std::string line = table.substr(row, table.find('\n', row) - row);
+    for (const auto& option : stage["options"]) {
+      const std::string o = option["name"];
+      // RANSAC-based fitters list "RANSAC's options" once, under fitters.ransac.
+      if (name == "fitters.ransac_geometric" && o != "keep_inliers") continue;
+      EXPECT_NE(line.find("`" + o + "`"), std::string::npos) << name << " option " << o << " is not in README";
+    }
+  }
+}
+
+}  // namespace
