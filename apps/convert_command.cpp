@@ -1,5 +1,6 @@
 // hedgefit convert: stereo captures -> PCD files (rectify, segment, match, reproject).
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -80,7 +81,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       "Every stage option below is the stereo.* stage's own (see `hedgefit plugins`); one flag sets it in\n"
       "every stage that has it (--erode, --min-z, ...).\n");
   struct Args {
-    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask;
+    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask, matcher = "stereo.sgbm";
     int threads = 0;
     bool debug = false, quiet = false, full_frame = false, print_pipeline = false;
     StageFlags flags;
@@ -92,6 +93,9 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--rig", a->rig, "rig file from `hedgefit calibrate`")->required();
   cmd->add_option("-o,--output", a->output, "PCD for a single capture");
   cmd->add_option("--output-dir", a->output_dir, "directory for NAME.pcd (batch)")->capture_default_str();
+  cmd->add_option("--matcher", a->matcher,
+                  "the matching stage: stereo.sgbm, or a plugin's stage that makes 'disparity' (default options)")
+      ->capture_default_str();
   cmd->add_option("--mask", a->mask, "segment with this mask image (drawn on the left view) instead of by colour");
   // The stages' own options, declared once in their tables.
   a->flags.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"});
@@ -109,8 +113,12 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
   cmd->callback([=]() {
     *run = [=]() {
       namespace fs = std::filesystem;
-      PrepareRegistry(false);
+      PrepareRegistry(true);  // a plugin may bring the matcher
       const cloud::Registry& registry = cloud::Registry::Global();
+      const cloud::StageDescriptor& matcher = registry.Get(a->matcher, "--matcher: ");
+      if (std::find(matcher.info.outputs.begin(), matcher.info.outputs.end(), "disparity") == matcher.info.outputs.end()) {
+        throw Error("--matcher " + a->matcher + ": this stage makes no 'disparity'; give a matching stage such as stereo.sgbm");
+      }
       // Options: each stage's declared options, as typed (messages name the flag).
       stereo::ConvertOptions o;
       const auto given = a->flags.Given();
@@ -129,6 +137,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       bind(stereo::MatchOptions::Table(), &o.match, "stereo.sgbm");
       bind(stereo::ReprojectOptions::Table(), &o.reproject, "stereo.reproject");
       if (a->full_frame) o.match.region_only = false;
+      o.matcher = a->matcher;
       if (!a->mask.empty() && given.count("box")) throw Error("--mask and --box: give one way to find the hedge, not both");
       if (!a->mask.empty()) {
         o.mode = stereo::SegmentMode::kMask;
@@ -209,7 +218,8 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
             cv::imwrite(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
             cv::imwrite(base.string() + "_disparity.png", stereo::ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
           }
-          const double matched = double(ctx.Get<cv::Rect>("matched_region").area()) / double(left_rect.total());
+          const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");
+          const double matched = region ? double(region->area()) / double(left_rect.total()) : 1.0;
           char buf[512];
           std::snprintf(buf, sizeof(buf), "%-24s %8zu points %7.0f ms  matched %.1f%% of the frame  -> %s", c.name.c_str(),
                         cloud.size() - cloud::CountNonFinite(cloud), report.total_ms, 100 * matched, out.c_str());

@@ -77,6 +77,7 @@ void ConvertOptions::Check() const {
   }
   match.Check();
   reproject.Check();
+  if (matcher.empty()) throw Error("option 'matcher': name the matching stage, e.g. stereo.sgbm");
 }
 
 std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left, const std::string& right,
@@ -97,7 +98,8 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
       p.push_back(stage("stereo.segment_depth", DepthSegmentOptions::Table().Values(o.depth)));
       break;
   }
-  p.push_back(stage("stereo.sgbm", MatchOptions::Table().Values(o.match)));
+  p.push_back(o.matcher == "stereo.sgbm" ? stage("stereo.sgbm", MatchOptions::Table().Values(o.match))
+                                         : json{{"type", o.matcher}});
   p.push_back(stage("stereo.reproject", ReprojectOptions::Table().Values(o.reproject)));
   if (!output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", output}, {"encoding", "binary_compressed"}});
   return p.dump(2);
@@ -123,13 +125,14 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   r.right_rect = ctx.Get<cv::Mat>("right_image");
   r.mask = ctx.Get<cv::Mat>("mask");
   r.disparity = ctx.Get<cv::Mat>("disparity");
-  r.filled = ctx.Get<cv::Mat>("filled");
-  r.disparity_sigma = ctx.Get<cv::Mat>("disparity_sigma");
-  r.matched_region = ctx.Get<cv::Rect>("matched_region");
+  if (const cv::Mat* filled = ctx.Find<cv::Mat>("filled")) r.filled = *filled;
+  if (const cv::Mat* sigma = ctx.Find<cv::Mat>("disparity_sigma")) r.disparity_sigma = *sigma;
+  const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");
+  r.matched_region = region ? *region : cv::Rect(0, 0, r.left_rect.cols, r.left_rect.rows);
   r.matched_fraction = double(r.matched_region.area()) / double(r.left_rect.total());
   for (const auto& s : report.stages) {
     if (s.type == "stereo.rectify") r.stage_ms.rectify += s.wall_ms;
-    else if (s.type == "stereo.sgbm") r.stage_ms.match += s.wall_ms;
+    else if (s.type == options.matcher) r.stage_ms.match += s.wall_ms;
     else if (s.type == "stereo.reproject") r.stage_ms.reproject += s.wall_ms;
     else r.stage_ms.segment += s.wall_ms;
   }

@@ -59,7 +59,11 @@ struct ConvertOptions {
   SegmentOptions segment;     ///< kColour
   MaskOptions mask;           ///< kMask
   DepthSegmentOptions depth;  ///< kDepth
-  MatchOptions match;
+  MatchOptions match;         ///< for the built-in matcher, stereo.sgbm
+  /// The matching slot: stereo.sgbm, or any registered stage (a plugin's) that turns the
+  /// rectified pair into 'disparity' (and optionally 'filled', 'disparity_sigma'); it runs
+  /// with its default options.
+  std::string matcher = "stereo.sgbm";
   ReprojectOptions reproject;
   void Check() const;
 };

@@ -358,5 +358,38 @@ TEST(StereoStages, ConvertAndTheEquivalentPipelineGiveTheSamePoints) {
   }
 }
 
+// The matching slot: a plugin's matcher runs in place of stereo.sgbm with no change to
+// convert. StereoBM (integer-ish disparities, no refinement) is far coarser, so the check is
+// only that the cloud lies on the true sphere to within StereoBM's 1/16 px steps and its
+// block-size fattening at the rim: the median |distance to the true sphere| under 15 mm.
+TEST(StereoStages, APluginMatcherFillsTheMatchingSlot) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const SimRig sim = PaperRig(0.5);
+  WriteRig((dir / "rig.yaml").string(), TrueRig(sim));
+  SphereScene scene;
+  RenderOptions ro;
+  ro.supersample = 2;
+  cv::imwrite((dir / "l.png").string(), RenderSphere(sim, false, scene, ro));
+  cv::imwrite((dir / "r.png").string(), RenderSphere(sim, true, scene, ro));
+  const std::string cmd = "cd '" + dir.string() + "' && HEDGEFIT_PLUGIN_PATH='" HEDGEFIT_TEST_PLUGIN_DIR
+                          "/block_matcher' '" HEDGEFIT_EXE "' convert --left l.png --right r.png --rig rig.yaml -q "
+                          "--matcher stereo.block_matcher -o bm.pcd";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const cloud::PointCloud c = cloud::ReadCloud((dir / "bm.pcd").string());
+  ASSERT_GT(c.size(), 1000u);
+  EXPECT_EQ(c.fields.count("disparity"), 1u);
+  std::vector<double> d;
+  const Eigen::Vector3d centre(scene.center[0], scene.center[1], scene.center[2]);
+  for (const auto& p : c.points_mm) d.push_back(std::abs((p.cast<double>() - centre).norm() - scene.radius));
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  EXPECT_LT(d[d.size() / 2], 15.0);
+  // Without the plugin on the search path the name is unknown, with a suggestion.
+  const std::string bad = "cd '" + dir.string() + "' && HEDGEFIT_PLUGIN_PATH=/nonexistent '" HEDGEFIT_EXE
+                          "' convert --left l.png --right r.png --rig rig.yaml -q --matcher stereo.block_matcher "
+                          "-o bm2.pcd 2>/dev/null";
+  EXPECT_NE(std::system(bad.c_str()), 0);
+  EXPECT_FALSE(std::filesystem::exists(dir / "bm2.pcd"));
+}
+
 }  // namespace
 }  // namespace hedgefit::stereo
