@@ -63,6 +63,24 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       ro.noise_sigma = a->noise;
       ro.seed = a->seed;
       namespace fs = std::filesystem;
+      // Every argument is checked before anything is created or written.
+      stereo::SphereScene sc;
+      stereo::BoardScene b;
+      if (a->preset.empty() && !a->sphere.empty()) {
+        const auto v = ParseNumbers(a->sphere, 4, "--sphere");
+        if (!(v[3] > 0) || !(v[2] > v[3])) throw Error("--sphere: need R > 0 and the sphere in front of the camera (Z > R)");
+        sc.center = cv::Vec3d(v[0], v[1], v[2]);
+        sc.radius = v[3];
+      } else if (a->preset.empty()) {
+        const auto v = ParseNumbers(a->board, 6, "--board");
+        cv::Matx33d R;
+        cv::Rodrigues(cv::Vec3d(v[0], v[1], v[2]), R);
+        b.rotation = R;
+        b.translation = cv::Vec3d(v[3], v[4], v[5]);
+        const auto [cols, rows] = ParseCount2(a->squares, "--squares", 3, "squares as COLSxROWS", "13x12");
+        b.squares = cv::Size(cols, rows);
+        b.square_mm = a->square;
+      }
       std::error_code ec;
       fs::create_directories(a->out, ec);
       if (!fs::is_directory(a->out, ec)) throw Error(a->out + ": cannot create the output directory");
@@ -75,30 +93,18 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         return kExitOk;
       }
       const stereo::SimRig rig = stereo::PaperRig(a->scale);
-      cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
       if (!a->sphere.empty()) {
-        const auto v = ParseNumbers(a->sphere, 4, "--sphere");
-        if (!(v[3] > 0) || !(v[2] > v[3])) throw Error("--sphere: need R > 0 and the sphere in front of the camera (Z > R)");
-        stereo::SphereScene sc;
-        sc.center = cv::Vec3d(v[0], v[1], v[2]);
-        sc.radius = v[3];
-        SaveImage(fs::path(a->out) / "sphere_left.png", stereo::RenderSphere(rig, false, sc, ro));
-        SaveImage(fs::path(a->out) / "sphere_right.png", stereo::RenderSphere(rig, true, sc, ro));
+        const cv::Mat l = stereo::RenderSphere(rig, false, sc, ro), r = stereo::RenderSphere(rig, true, sc, ro);
+        SaveImage(fs::path(a->out) / "sphere_left.png", l);
+        SaveImage(fs::path(a->out) / "sphere_right.png", r);
         stereo::WriteSphereTruth((fs::path(a->out) / "sphere.truth.json").string(), sc);
       } else {
-        const auto v = ParseNumbers(a->board, 6, "--board");
-        stereo::BoardScene b;
-        cv::Matx33d R;
-        cv::Rodrigues(cv::Vec3d(v[0], v[1], v[2]), R);
-        b.rotation = R;
-        b.translation = cv::Vec3d(v[3], v[4], v[5]);
-        const auto [cols, rows] = ParseCount2(a->squares, "--squares", 3, "squares as COLSxROWS", "13x12");
-        b.squares = cv::Size(cols, rows);
-        b.square_mm = a->square;
-        SaveImage(fs::path(a->out) / "board_left.png", stereo::RenderBoard(rig, false, b, ro));
-        SaveImage(fs::path(a->out) / "board_right.png", stereo::RenderBoard(rig, true, b, ro));
+        const cv::Mat l = stereo::RenderBoard(rig, false, b, ro), r = stereo::RenderBoard(rig, true, b, ro);
+        SaveImage(fs::path(a->out) / "board_left.png", l);
+        SaveImage(fs::path(a->out) / "board_right.png", r);
         stereo::WriteBoardTruth((fs::path(a->out) / "board.truth.json").string(), b);
       }
+      cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
       std::printf("wrote a %dx%d pair to %s in %.2f s\n", rig.left.size.width, rig.left.size.height, a->out.c_str(),
                   seconds());
       return kExitOk;

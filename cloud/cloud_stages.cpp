@@ -45,7 +45,7 @@ void AddWriter(Registry& r, const std::string& name, const std::string& what, st
   for (auto& e : extra) info.options.push_back(std::move(e));
   const StageFactory run = MakeFactory([](const Options& o, Context& ctx) {
     const PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-    WriteCloud(o.GetString("filename"), cloud, WriteOptions::Table().FromOptions(o));
+    WriteCloud(ctx.OutputPath(o.GetString("filename")), cloud, WriteOptions::Table().FromOptions(o));
     ctx.Note("points", static_cast<std::int64_t>(cloud.size()));
     ctx.Note("filename", o.GetString("filename"));
   });

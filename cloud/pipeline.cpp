@@ -188,8 +188,16 @@ Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& sou
                     (in == "cloud" ? "; start the pipeline with a reader, e.g. \"input.pcd\"" : ""));
       }
     }
-    for (const std::string& out : d.info.outputs) available.insert(out);
     planned.options = ResolveOptions(d.info, p.given, planned.label);
+    if (d.option_inputs) {
+      for (const auto& [in, why] : d.option_inputs(planned.options)) {
+        if (!available.count(in)) {
+          throw Error(source + ": stage '" + planned.label + "': " + why + " needs a '" + in +
+                      "' artifact but no earlier stage makes one");
+        }
+      }
+    }
+    for (const std::string& out : d.info.outputs) available.insert(out);
     planned.stage = d.make(planned.options);  // may reject option combinations
     pipeline.stages_.push_back(std::move(planned));
   }
@@ -200,6 +208,19 @@ RunReport Pipeline::Run(Context& ctx) {
   RunReport report;
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
+  // Outputs are staged beside their targets and renamed into place only when every stage
+  // has succeeded: a failed run leaves every existing file as it was.
+  ctx.stage_outputs = true;
+  ctx.staged_outputs.clear();
+  struct Discard {
+    Context& ctx;
+    ~Discard() {
+      std::error_code ec;
+      for (const auto& [staged, final_path] : ctx.staged_outputs) std::filesystem::remove(staged, ec);
+      ctx.staged_outputs.clear();
+      ctx.stage_outputs = false;
+    }
+  } discard{ctx};
   for (auto& s : stages_) {
     StageReport r;
     r.label = s.label;
@@ -218,6 +239,14 @@ RunReport Pipeline::Run(Context& ctx) {
     if (const auto* c = ctx.Find<PointCloud>("cloud")) r.points_out = static_cast<std::int64_t>(c->size());
     r.notes = ctx.notes[s.label];
     report.stages.push_back(std::move(r));
+  }
+  for (const auto& [staged, final_path] : ctx.staged_outputs) {
+    std::error_code ec;
+    std::filesystem::rename(staged, final_path, ec);
+    if (ec) {
+      throw Error(final_path + ": cannot be replaced (" + ec.message() + "); the pipeline's other outputs were " +
+                  "written");
+    }
   }
   report.total_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   return report;

@@ -18,7 +18,7 @@ void Registry::Add(StageInfo info, StageFactory make, const std::string& origin)
     // A default that fails its own validation is a programming error in the stage.
     ResolveOptions(info, {{spec.name, spec.default_value}}, info.name);
   }
-  stages_.push_back(StageDescriptor{std::move(info), std::move(make), origin});
+  stages_.push_back(StageDescriptor{std::move(info), std::move(make), origin, {}});
 }
 
 const StageDescriptor* Registry::Find(const std::string& name) const {
@@ -33,6 +33,16 @@ std::vector<std::string> Registry::Names() const {
   for (const auto& d : stages_) names.push_back(d.info.name);
   std::sort(names.begin(), names.end());
   return names;
+}
+
+void Registry::SetOptionInputs(const std::string& name, OptionInputs fn) {
+  for (auto& d : stages_) {
+    if (d.info.name == name) {
+      d.option_inputs = std::move(fn);
+      return;
+    }
+  }
+  throw Error("internal: no stage '" + name + "' to give option inputs");
 }
 
 const StageDescriptor& Registry::Get(const std::string& name, const std::string& where) const {

@@ -10,10 +10,15 @@
 
 namespace hedgefit::cloud {
 
+/// Inputs a stage needs only with some options, each with why (fitters.geometric with
+/// initial = previous needs 'fits'); a pipeline checks them like StageInfo::inputs.
+using OptionInputs = std::function<std::vector<std::pair<std::string, std::string>>(const Options&)>;
+
 struct StageDescriptor {
   StageInfo info;
   StageFactory make;
   std::string origin = "builtin";  ///< "builtin" or the plugin file that added it
+  OptionInputs option_inputs;      ///< may be empty
 };
 
 /// What happened to one plugin file on the search path.
@@ -30,6 +35,8 @@ class Registry {
  public:
   /// Adds a stage; throws Error if the name is taken or the declaration is invalid.
   void Add(StageInfo info, StageFactory make, const std::string& origin = "builtin");
+  /// Declares the inputs stage `name` needs only with some options (see OptionInputs).
+  void SetOptionInputs(const std::string& name, OptionInputs fn);
   /// nullptr if unknown.
   const StageDescriptor* Find(const std::string& name) const;
   /// Throws Error with a "did you mean" when `name` is unknown; `where` prefixes the message.

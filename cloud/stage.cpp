@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace hedgefit::cloud {
 
@@ -306,6 +309,16 @@ OptionValue ParseOptionString(const OptionSpec& spec, const std::string& text, c
     }
   }
   throw bad();
+}
+
+std::string Context::OutputPath(const std::string& path) {
+  if (!stage_outputs) return path;
+  const std::filesystem::path target(path);
+  const std::filesystem::path staged =
+      target.parent_path() / ("." + target.stem().string() + ".staged" + std::to_string(::getpid()) + "_" +
+                              std::to_string(staged_outputs.size()) + target.extension().string());
+  staged_outputs.emplace_back(staged.string(), path);
+  return staged.string();
 }
 
 StageFactory MakeFactory(LambdaStage::Fn fn) {

@@ -135,6 +135,12 @@ class Context {
   }
   void Erase(const std::string& name) { artifacts_.erase(name); }
 
+  /// Where a writer should write `path`: while a pipeline runs, a hidden file beside it (same
+  /// extension) that Pipeline::Run renames to `path` only once every stage has succeeded, and
+  /// removes otherwise, so a failed run leaves every existing file as it was. Outside a
+  /// pipeline run, `path` itself.
+  std::string OutputPath(const std::string& path);
+
   /// Records a fact about the current stage for the run's metadata.
   void Note(const std::string& key, OptionValue value) { notes[current_stage][key] = std::move(value); }
 
@@ -142,6 +148,8 @@ class Context {
   std::uint64_t seed = 42;    ///< base seed; stages that draw random numbers derive theirs from it
   bool quiet = false;         ///< stages print nothing when true
   std::map<std::string, std::map<std::string, OptionValue>> notes;
+  bool stage_outputs = false;  ///< set by Pipeline::Run: OutputPath stages files until the end
+  std::vector<std::pair<std::string, std::string>> staged_outputs;  ///< (hidden file, final path)
 
  private:
   std::map<std::string, std::any> artifacts_;

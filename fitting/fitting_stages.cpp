@@ -34,8 +34,8 @@ void RegisterFittingStages(cloud::Registry& r) {
   for (const FitMethod& m : FitMethods()) {
     std::vector<OptionSpec> options = m.options;
     if (m.has_inliers) options.push_back(BoolOption("keep_inliers", false, "replace 'cloud' by the inliers, for later stages"));
-    r.Add(StageInfo{m.stage, m.description, options, {"cloud"}, {"fits"}, {}},
-          [m](const Options& o) -> std::unique_ptr<Stage> {
+    StageInfo info{m.stage, m.description, options, {"cloud"}, {"fits"}, {}};
+    r.Add(info, [m](const Options& o) -> std::unique_ptr<Stage> {
             BoundFit fit;
             try {
               fit = m.bind(o);
@@ -75,6 +75,10 @@ void RegisterFittingStages(cloud::Registry& r) {
             });
           });
   }
+  r.SetOptionInputs("fitters.geometric", [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
+    if (o.GetString("initial") == "previous") return {{"fits", "option 'initial' = previous (start from an earlier fit)"}};
+    return {};
+  });
 }
 
 }  // namespace hedgefit::fitting

@@ -48,7 +48,7 @@ void RegisterRenderStages(cloud::Registry& r) {
       }
       RenderOptions run = ro;
       if (!spheres.empty()) run.distance_sphere = spheres.back().sphere;  // the pipeline's last fit
-      RenderToPng(ctx.Get<PointCloud>("cloud"), spheres, run, file);
+      RenderToPng(ctx.Get<PointCloud>("cloud"), spheres, run, ctx.OutputPath(file));
       ctx.Note("filename", file);
       ctx.Note("spheres", static_cast<std::int64_t>(spheres.size()));
     });

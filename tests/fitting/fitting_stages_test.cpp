@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "cloud/cloud_io.hpp"
 #include "cloud/pipeline.hpp"
 #include "fitting/evaluation.hpp"
@@ -85,10 +88,66 @@ TEST(FittingStages, PreviousWithoutAnEarlierFitFailsClearly) {
   }
   c.Flatten();
   cloud::WriteCloud((dir / "c.pcd").string(), c);
+  // Found when the pipeline is built, before anything runs (so no writer has written yet).
+  try {
+    cloud::Pipeline::FromJson("[\"" + (dir / "c.pcd").string() +
+                                  R"(", {"type": "fitters.geometric", "initial": "previous"}])",
+                              "p", Registry());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "p: stage 'fitters.geometric': option 'initial' = previous (start from an earlier fit) needs a 'fits' "
+              "artifact but no earlier stage makes one");
+  }
+  // An earlier fit that did not converge is still a clear error when the stage runs.
+  cloud::Pipeline q = cloud::Pipeline::FromJson(
+      "[\"" + (dir / "c.pcd").string() +
+          R"(", {"type": "fitters.ransac", "min_radius": 2000, "max_radius": 3000}, {"type": "fitters.geometric", "initial": "previous"}])",
+      "q", Registry());
+  cloud::Context ctx;
+  EXPECT_THROW(q.Run(ctx), Error);
+}
+
+// A pipeline that fails leaves every existing file as it was, even a writer that names the
+// reader's own file: outputs are staged and renamed into place only when every stage succeeds.
+TEST(FittingStages, AFailedPipelineClobbersNothing) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  cloud::PointCloud c;
+  std::mt19937_64 rng(2);
+  for (const auto& p : hedgefit::testing::Cap(Eigen::Vector3d(0, 0, 2000), 300, 60, Eigen::Vector3d(0, 0, -1), 200, 1, rng)) {
+    c.points_mm.push_back(p.cast<float>());
+  }
+  c.Flatten();
+  const std::string in = (dir / "c.pcd").string(), out = (dir / "out.pcd").string();
+  cloud::WriteOptions ascii;
+  ascii.pcd_encoding = cloud::PcdEncoding::kAscii;
+  cloud::WriteCloud(in, c, ascii);
+  std::ofstream(out) << "precious";
+  const auto slurp = [](const std::string& f) {
+    std::ifstream s(f, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(s), {});
+  };
+  const std::string before = slurp(in);
+  // RANSAC cannot converge with these radius limits, so the geometric fit from 'previous' fails
+  // after both writers have run.
   cloud::Pipeline p = cloud::Pipeline::FromJson(
-      "[\"" + (dir / "c.pcd").string() + R"(", {"type": "fitters.geometric", "initial": "previous"}])", "p", Registry());
+      "[\"" + in + R"(", {"type": "writers.pcd", "filename": ")" + out + R"("}, {"type": "writers.pcd", "filename": ")" +
+          in + R"(", "encoding": "binary"}, {"type": "fitters.ransac", "min_radius": 2000, "max_radius": 3000},
+          {"type": "fitters.geometric", "initial": "previous"}])",
+      "p", Registry());
   cloud::Context ctx;
   EXPECT_THROW(p.Run(ctx), Error);
+  EXPECT_EQ(slurp(out), "precious");
+  EXPECT_EQ(slurp(in), before);
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    EXPECT_EQ(e.path().filename().string().find(".staged"), std::string::npos) << e.path();  // nothing left behind
+  }
+  // The same pipeline without the failing stage writes both.
+  cloud::Pipeline ok = cloud::Pipeline::FromJson(
+      "[\"" + in + R"(", {"type": "writers.pcd", "filename": ")" + out + R"("}])", "ok", Registry());
+  cloud::Context ctx2;
+  ok.Run(ctx2);
+  EXPECT_EQ(cloud::ReadCloud(out).size(), c.size());
 }
 
 TEST(Evaluation, PaperStatistics) {
