@@ -148,13 +148,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       try {
         o.Check();
       } catch (const Error& e) {
-        // "option 'block_size': why" -> "--block-size: why", as typed on the command line.
-        std::string msg = e.what();
-        if (msg.rfind("option '", 0) == 0) {
-          const auto end = msg.find('\'', 8);
-          msg = cloud::FlagName(msg.substr(8, end - 8)) + msg.substr(end + 1);
-        }
-        throw Error(msg);
+        throw Error(AsFlagMessage(e.what()));  // as typed on the command line
       }
       const bool single = !a->left.empty() || !a->right.empty();
       if (single && !a->input.empty()) throw Error("--input and --left/--right: give one capture or a batch, not both");

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/stage_flags.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "fitting/evaluation.hpp"
@@ -77,55 +78,51 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit render sample_clouds/cap_z2300_a60_o30.pcd --fits build/fits.json --color distance --view all\n"
       "No display is needed: without DISPLAY, hedgefit runs its own virtual X server (Xvfb).\n");
   struct Args {
-    std::string cloud, fits, truth, output = "render.png", color = "own", view = "front", size = "1024x768",
-                background = "255,255,255";
-    double point_size = 2.0, scale = 1.0, range = 0.0;
-    bool wireframe = false;
+    std::string cloud, fits, truth, output = "render.png", size = "1024x768", background = "255,255,255";
+    double scale = 1.0;
     std::vector<std::string> methods;
+    StageFlags flags;  // the render options, as declared in RenderOptions::Table()
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("CLOUD", a->cloud, "cloud file (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_option("--fits", a->fits, "fits to draw: the output of `hedgefit compare --format json`");
   cmd->add_option("--truth", a->truth, "true sphere JSON to draw (black wireframe)");
   cmd->add_option("-o,--output", a->output, "PNG to write")->capture_default_str();
-  cmd->add_option("--color", a->color, "own, distance (signed, to the best fit drawn) or depth")
-      ->check(CLI::IsMember({"own", "distance", "depth"}))
-      ->capture_default_str();
-  cmd->add_option("--view", a->view, "front (the left camera's view), side, top, iso, a comma list, or all (tiled)")
-      ->capture_default_str();
+  // --size and --background are the command line's spellings of width/height and background.
+  a->flags.Add(cmd, render::RenderOptions::Table().Specs(),
+               {"color", "view", "point_size", "wireframe", "sphere_opacity", "distance_range"});
   cmd->add_option("--size", a->size, "WxH of each view, px")->capture_default_str();
   cmd->add_option("--background", a->background, "R,G,B in 0..255")->capture_default_str();
-  cmd->add_option("--point-size", a->point_size, "px")->capture_default_str();
-  cmd->add_option("--distance-range", a->range, "colour-map half range for --color distance, mm (0 = automatic)")
-      ->capture_default_str();
   cmd->add_option("--methods", a->methods, "draw only these fits (comma-separated)")->delimiter(',');
-  cmd->add_flag("--wireframe", a->wireframe, "draw fitted spheres as wireframes");
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
   cmd->callback([=]() {
     *run = [=]() {
       render::RenderOptions o;
-      o.color = render::ParseColorMode(a->color);
-      o.views.clear();
-      std::stringstream vs(a->view == "all" ? std::string("front,side,top,iso") : a->view);
-      for (std::string v; std::getline(vs, v, ',');) o.views.push_back(render::ParseView(v));
+      try {
+        const auto specs = render::RenderOptions::Table().Specs();
+        o = render::RenderOptions::Table().FromOptions(
+            cloud::ResolveOptions(cloud::StageInfo{"render", "", specs, {}, {}, {}}, a->flags.Given(), "render"));
+      } catch (const Error& e) {
+        throw Error(AsFlagMessage(e.what()));
+      }
       const auto [w, h] = ParseCount2(a->size, "--size", 1, "WIDTHxHEIGHT in px", "1024x768");
       o.width = w;
       o.height = h;
-      int r = -1, g = -1, b = -1;
-      char c1 = 0, c2 = 0;
-      std::istringstream bs(a->background);
-      if (!(bs >> r >> c1 >> g >> c2 >> b) || c1 != ',' || c2 != ',' || r < 0 || r > 255 || g < 0 || g > 255 ||
-          b < 0 || b > 255) {
-        throw Error("--background '" + a->background + "': give R,G,B in 0..255, e.g. 255,255,255");
+      const auto rgb = ParseNumbers(a->background, 3, "--background");
+      for (int k = 0; k < 3; ++k) {
+        if (!(rgb[std::size_t(k)] >= 0 && rgb[std::size_t(k)] <= 255)) {
+          throw Error("--background '" + a->background + "': give R,G,B in 0..255, e.g. 255,255,255");
+        }
+        o.background[std::size_t(k)] = rgb[std::size_t(k)] / 255.0;
       }
-      o.background = {r / 255.0, g / 255.0, b / 255.0};
-      o.point_size = a->point_size;
-      o.wireframe = a->wireframe;
-      o.distance_range_mm = a->range;
       try {
         o.Check();
       } catch (const Error& e) {
-        throw Error(std::string("--") + e.what());
+        const std::string msg = e.what();
+        if (msg.rfind("option 'width'", 0) == 0 || msg.rfind("option 'height'", 0) == 0) {
+          throw Error("--size '" + a->size + "': each side must be 16..8192 px");
+        }
+        throw Error(AsFlagMessage(msg));
       }
       cloud::ReadOptions ro;
       ro.scale = a->scale;

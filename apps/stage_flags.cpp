@@ -22,6 +22,13 @@ std::string Help(const cloud::OptionSpec& spec) {
 
 }  // namespace
 
+std::string AsFlagMessage(const std::string& msg) {
+  if (msg.rfind("option '", 0) != 0) return msg;
+  const auto end = msg.find('\'', 8);
+  if (end == std::string::npos) return msg;
+  return cloud::FlagName(msg.substr(8, end - 8)) + msg.substr(end + 1);
+}
+
 void StageFlags::Add(CLI::App* cmd, const std::vector<cloud::OptionSpec>& specs, const std::vector<std::string>& only) {
   for (const auto& spec : specs) {
     if (!only.empty() && std::find(only.begin(), only.end(), spec.name) == only.end()) continue;

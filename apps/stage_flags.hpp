@@ -14,6 +14,10 @@
 
 namespace hedgefit::apps {
 
+/// "option 'block_size': why" -> "--block-size: why": a declaration's message as the command
+/// line spells the option. Other messages are returned as they are.
+std::string AsFlagMessage(const std::string& message);
+
 class StageFlags {
  public:
   /// Adds a flag for each of `specs` (all, or only those named in `only`). An option already

@@ -73,6 +73,20 @@ class OptionTable {
     return Push(std::move(b));
   }
 
+  /// An option with its own conversion, for a field whose type is not a plain one (a list of
+  /// enum values, an array): `set` may throw hedgefit::Error("option 'NAME': ...").
+  OptionTable& AddCustom(std::string name, OptionType type, std::string help, std::string unit,
+                         std::function<OptionValue(const P&)> get, std::function<void(P&, const OptionValue&)> set) {
+    Binding b;
+    b.spec.name = std::move(name);
+    b.spec.type = type;
+    b.spec.help = std::move(help);
+    b.spec.unit = std::move(unit);
+    b.get = std::move(get);
+    b.set = std::move(set);
+    return Push(std::move(b));
+  }
+
   /// Adds `inner`'s options, bound to the nested struct `field` (except those named in `skip`).
   template <class Q>
   OptionTable& Nest(const OptionTable<Q>& inner, Q P::*field, const std::vector<std::string>& skip = {}) {

@@ -28,6 +28,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
 #include <unistd.h>
 
 #include "cloud/error.hpp"
@@ -50,7 +51,7 @@ ColorMode ParseColorMode(const std::string& name) {
   if (name == "own") return ColorMode::kOwn;
   if (name == "distance") return ColorMode::kDistance;
   if (name == "depth") return ColorMode::kDepth;
-  throw Error("color: '" + name + "' is not one of own, distance, depth");
+  throw Error("'" + name + "' is not a colouring; use own, distance or depth");
 }
 
 View ParseView(const std::string& name) {
@@ -58,18 +59,59 @@ View ParseView(const std::string& name) {
   if (name == "side") return View::kSide;
   if (name == "top") return View::kTop;
   if (name == "iso") return View::kIso;
-  throw Error("view: '" + name + "' is not one of front, side, top, iso");
+  throw Error("'" + name + "' is not a view; use front, side, top, iso, a comma list of them, or all");
+}
+
+const cloud::OptionTable<RenderOptions>& RenderOptions::Table() {
+  using O = RenderOptions;
+  static const char* const kViewNames[] = {"front", "side", "top", "iso"};
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("width", &O::width, "width of each view", "px").Range(16, 8192)
+          .Add("height", &O::height, "height of each view", "px").Range(16, 8192)
+          .AddEnum("color", &O::color,
+                   {{"own", ColorMode::kOwn}, {"distance", ColorMode::kDistance}, {"depth", ColorMode::kDepth}},
+                   "point colours: own, distance (signed, to the best fit drawn) or depth")
+          .AddCustom(
+              "view", cloud::OptionType::kString, "front (the left camera's view), side, top, iso, a comma list, or all (tiled)",
+              "",
+              [](const O& o) -> cloud::OptionValue {
+                std::string out;
+                for (View v : o.views) out += (out.empty() ? "" : ",") + std::string(kViewNames[int(v)]);
+                return out;
+              },
+              [](O& o, const cloud::OptionValue& v) {
+                const std::string& text = std::get<std::string>(v);
+                std::stringstream vs(text == "all" ? std::string("front,side,top,iso") : text);
+                o.views.clear();
+                try {
+                  for (std::string name; std::getline(vs, name, ',');) o.views.push_back(ParseView(name));
+                } catch (const Error& e) {
+                  throw Error(std::string("option 'view': ") + e.what());
+                }
+              })
+          .Add("point_size", &O::point_size, "point size", "px").Range(0.1, 50)
+          .Add("wireframe", &O::wireframe, "draw fitted spheres as wireframes")
+          .Add("sphere_opacity", &O::sphere_opacity, "opacity of translucent spheres").Range(0.01, 1)
+          .Add("distance_range", &O::distance_range_mm, "colour-map half range for color distance (0 = automatic)", "mm")
+          .Min(0)
+          .AddCustom(
+              "background", cloud::OptionType::kDoubleList, "background colour [r, g, b], each in [0, 1]", "",
+              [](const O& o) -> cloud::OptionValue {
+                return std::vector<double>{o.background[0], o.background[1], o.background[2]};
+              },
+              [](O& o, const cloud::OptionValue& v) {
+                const auto& l = std::get<std::vector<double>>(v);
+                for (std::size_t k = 0; k < 3 && k < l.size(); ++k) o.background[k] = l[k];
+              })
+          .Range(0, 1)
+          .ListSize(3);
+  return table;
 }
 
 void RenderOptions::Check() const {
-  if (width < 16 || height < 16 || width > 8192 || height > 8192) throw Error("size: each side must be 16..8192 px");
-  if (views.empty()) throw Error("view: give at least one view");
-  for (double c : background) {
-    if (!(c >= 0 && c <= 1)) throw Error("background: components must be in [0, 1]");
-  }
-  if (!(point_size > 0 && point_size <= 50)) throw Error("point_size: must be in (0, 50] px");
-  if (!(sphere_opacity > 0 && sphere_opacity <= 1)) throw Error("sphere_opacity: must be in (0, 1]");
-  if (distance_range_mm < 0) throw Error("distance_range: must be >= 0 mm (0 = automatic)");
+  Table().Validate(*this);
+  if (views.empty()) throw Error("option 'view': give at least one view");
 }
 
 std::array<double, 3> OverlayColor(std::size_t index) {

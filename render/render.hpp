@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 #include "fitting/sphere_fit.hpp"
 
@@ -32,13 +33,14 @@ struct RenderOptions {
   ColorMode color = ColorMode::kOwn;   ///< point colours
   /// Sphere for ColorMode::kDistance (signed distance |p - c| - r); default: the first overlay.
   std::optional<fitting::Sphere> distance_sphere;
-  double distance_range_mm = 0;        ///< colour-map half range; 0 = 98th percentile of |d|
+  double distance_range_mm = 0;        ///< colour-map half range, mm; 0 = 3 robust sigmas of |d|
   std::vector<View> views{View::kFront};  ///< several are tiled into one image
   std::array<double, 3> background{1, 1, 1};  ///< RGB in [0, 1]
   double point_size = 2.0;             ///< px
   bool wireframe = false;              ///< fitted spheres as wireframes (else translucent)
   double sphere_opacity = 0.25;        ///< translucent spheres
-  void Check() const;                  ///< throws hedgefit::Error naming the field
+  void Check() const;                  ///< throws hedgefit::Error naming the option
+  static const cloud::OptionTable<RenderOptions>& Table();  ///< the options, declared once
 };
 
 /// The colour used for the i-th fitted sphere (RGB in [0, 1]).

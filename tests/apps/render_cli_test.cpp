@@ -73,9 +73,9 @@ TEST(RenderCli, BadArgumentsAreOneLine) {
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
   r = RunHedgefit("render sample_clouds/cap_z2300_a60_o10.pcd --size 12x10 -o x.png", dir);
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.err, "hedgefit: --size: each side must be 16..8192 px\n");
+  EXPECT_EQ(r.err, "hedgefit: --size '12x10': each side must be 16..8192 px\n");
   r = RunHedgefit("render sample_clouds/cap_z2300_a60_o10.pcd --view below -o x.png", dir);
-  EXPECT_EQ(r.err, "hedgefit: view: 'below' is not one of front, side, top, iso\n");
+  EXPECT_EQ(r.err, "hedgefit: --view: 'below' is not a view; use front, side, top, iso, a comma list of them, or all\n");
   r = RunHedgefit("render sample_clouds/cap_z2300_a60_o10.pcd --color distance -o '" + (dir / "x.png").string() + "'", dir);
   EXPECT_EQ(r.err, "hedgefit: color: 'distance' needs a fitted sphere; give --fits (or --truth)\n");
   EXPECT_FALSE(fs::exists(dir / "x.png"));
