@@ -103,6 +103,8 @@ std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFi
     const auto& e = *f.std_error_mm;
     out.emplace_back("std_error_mm", std::vector<double>{e[0], e[1], e[2], e[3]});
   }
+  if (f.converged && f.surface_radius_mm) out.emplace_back("surface_radius_mm", *f.surface_radius_mm);
+  if (f.converged && f.leaf_depth_mm) out.emplace_back("leaf_depth_mm", *f.leaf_depth_mm);
   return out;
 }
 

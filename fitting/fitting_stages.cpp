@@ -75,10 +75,12 @@ void RegisterFittingStages(cloud::Registry& r) {
             });
           });
   }
-  r.SetOptionInputs("fitters.geometric", [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
-    if (o.GetString("initial") == "previous") return {{"fits", "option 'initial' = previous (start from an earlier fit)"}};
-    return {};
-  });
+  for (const char* stage : {"fitters.geometric", "fitters.envelope"}) {
+    r.SetOptionInputs(stage, [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
+      if (o.GetString("initial") == "previous") return {{"fits", "option 'initial' = previous (start from an earlier fit)"}};
+      return {};
+    });
+  }
 }
 
 }  // namespace hedgefit::fitting

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "fitting/algebraic_fit.hpp"
+#include "fitting/envelope_fit.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
 
@@ -107,9 +108,57 @@ std::vector<FitMethod> MakeTable() {
                    return r;
                  };
                }});
+  {
+    std::vector<OptionSpec> options = cloud::TableOptions<EnvelopeFitOptions>(
+        {cloud::StringOption("initial", "ransac_geometric",
+                             "start from this fit, or 'previous' (the last fit before this one)")
+             .Choices({"geometric", "ransac_geometric", "previous"})});
+    t.push_back({"envelope", "fitters.envelope",
+                 "Leafy shell: outer envelope radius (where the leaves end) and mean leaf-surface radius about one "
+                 "centre, by maximum likelihood of leaf depth seen along the view ray plus noise",
+                 options, false, [](const Options& o) -> BoundFit {
+                   const EnvelopeFitOptions p = EnvelopeFitOptions::Table().FromOptions(o);
+                   p.Check();
+                   const std::string initial = o.GetString("initial");
+                   return [p, initial](const FitInputs& in) {
+                     SphereFitResult start;
+                     if (initial == "previous") {
+                       if (in.previous == nullptr) {
+                         throw Error("option 'initial': 'previous' needs a converged fit from an earlier stage");
+                       }
+                       start.sphere = *in.previous;
+                       start.converged = true;
+                     } else {
+                       FitInputs sub = in;
+                       sub.inliers = nullptr;
+                       start = FindFitMethod(initial, "initial").bind(cloud::Options(
+                           [&] {
+                             std::map<std::string, cloud::OptionValue> v;
+                             for (const auto& spec : FindFitMethod(initial, "initial").options) v[spec.name] = spec.default_value;
+                             return v;
+                           }()))(sub);
+                     }
+                     if (!start.converged) {
+                       SphereFitResult failed = start;
+                       failed.method = "envelope";
+                       failed.message = "no starting sphere: " + start.message;
+                       return failed;
+                     }
+                     const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere);
+                     SphereFitResult r = e.fit;
+                     r.wall_ms += start.wall_ms;
+                     if (r.converged) {
+                       r.surface_radius_mm = e.surface_radius_mm;
+                       r.leaf_depth_mm = e.leaf_depth_mm;
+                     }
+                     return r;
+                   };
+                 }});
+  }
   // Robust and geometric before algebraic; among algebraic, the least biased first.
-  const std::map<std::string, int> trust = {{"ransac_geometric", 6}, {"geometric", 5}, {"ransac", 4},
-                                            {"hyper", 3},            {"taubin", 2},    {"pratt", 1}};
+  const std::map<std::string, int> trust = {{"envelope", 7}, {"ransac_geometric", 6}, {"geometric", 5},
+                                            {"ransac", 4},   {"hyper", 3},            {"taubin", 2},
+                                            {"pratt", 1}};
   for (auto& m : t) m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
   return t;
 }

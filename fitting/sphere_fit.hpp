@@ -15,7 +15,7 @@ struct Sphere {
 
 /// What a fitter found, and whether it can be trusted. Failing is a result, not an exception.
 struct SphereFitResult {
-  std::string method;           ///< "kasa", "pratt", "taubin", "hyper", "ransac", "geometric"
+  std::string method;           ///< a name from the method table (fitting/methods.hpp)
   Sphere sphere;                ///< meaningful only when converged
   bool converged = false;       ///< false: `message` says why
   double rms_mm = 0.0;          ///< RMS of |p - c| - r over the points used (inliers for RANSAC), mm
@@ -26,6 +26,10 @@ struct SphereFitResult {
   /// Standard errors of (cx, cy, cz, r), mm, where the method provides them.
   std::optional<Eigen::Vector4d> std_error_mm;
   std::string message;          ///< empty, or why the fit failed, or a warning
+  /// Shell fits (method "envelope"): `sphere` is the outer envelope; these are the mean
+  /// leaf-surface radius and the mean leaf depth below the envelope, mm.
+  std::optional<double> surface_radius_mm;
+  std::optional<double> leaf_depth_mm;
 };
 
 /// Why a point set cannot determine a sphere, or nullopt if it can: fewer than 4

@@ -183,7 +183,7 @@ TEST(MethodTable, EveryMethodIsAStageAndUnknownNamesAreErrors) {
     EXPECT_EQ(d->info.description, m.description);
     for (const auto& spec : m.options) EXPECT_NE(d->info.FindOption(spec.name), nullptr) << m.name << " " << spec.name;
   }
-  EXPECT_EQ(FitMethodNames().size(), 7u);
+  EXPECT_EQ(FitMethodNames().size(), 8u);
   EXPECT_EQ(ParseMethodList("all", "--methods"), FitMethodNames());
   EXPECT_EQ(ParseMethodList("hyper,ransac", "--methods"), (std::vector<std::string>{"hyper", "ransac"}));
   try {

@@ -49,4 +49,28 @@ inline void AddOutliers(std::vector<Eigen::Vector3d>* pts, double fraction, doub
   }
 }
 
+/// A leafy ball seen by a camera at the origin: points on the envelope (radius `radius`) where
+/// it faces the camera (normal within `half_angle_deg` of the direction to the camera), then
+/// deeper along the line of sight by an exponential leaf depth of mean `leaf_depth_mm` (the
+/// gaps one sees into), then noise of `sigma_mm` along the ray, as stereo gives it.
+inline std::vector<Eigen::Vector3d> LeafyCap(const Eigen::Vector3d& center, double radius, double leaf_depth_mm,
+                                             double half_angle_deg, std::size_t n, double sigma_mm,
+                                             std::mt19937_64& rng) {
+  const Eigen::Vector3d to_camera = (-center).normalized();
+  std::vector<Eigen::Vector3d> normals = Cap(Eigen::Vector3d::Zero(), 1.0, half_angle_deg, to_camera, n, 0.0, rng);
+  std::exponential_distribution<double> depth(1.0 / leaf_depth_mm);
+  std::normal_distribution<double> noise(0.0, sigma_mm);
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(n);
+  for (const Eigen::Vector3d& nrm : normals) {
+    const Eigen::Vector3d hit = center + radius * nrm;
+    const Eigen::Vector3d ray = hit.normalized();
+    // Leaves stop where the ray leaves the ball again (the chord).
+    const double chord = 2.0 * std::max(0.0, -ray.dot(nrm)) * radius;
+    const double u = std::min(depth(rng), chord);
+    pts.push_back(hit + (u + noise(rng)) * ray);
+  }
+  return pts;
+}
+
 }  // namespace hedgefit::testing

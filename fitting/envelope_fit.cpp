@@ -1,0 +1,158 @@
+#include "fitting/envelope_fit.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "cloud/error.hpp"
+#include "fitting/algebraic_fit.hpp"
+#include "fitting/geometric_fit.hpp"
+
+namespace hedgefit::fitting {
+
+namespace {
+
+// log(erfc(z)), accurate where erfc underflows (z > 5: the asymptotic series).
+template <class T>
+T LogErfc(const T& z) {
+  using std::log;
+  using std::sqrt;
+  if (z > T(5)) {
+    const T z2 = z * z;
+    return -z2 - log(z * T(std::sqrt(M_PI))) + log(T(1) - T(0.5) / z2 + T(0.75) / (z2 * z2));
+  }
+  using std::erfc;
+  return log(erfc(z));
+}
+
+// Negative log-likelihood of the shell model over all points, parameters: centre (3), R,
+// log mu, log sigma. Points are centred on their mean (double precision far from the origin).
+struct ShellLikelihood {
+  const std::vector<Eigen::Vector3d>* pts;
+  Eigen::Vector3d view;      // viewpoint, in the centred frame
+  double log_outlier;        // log(share / width of the uniform outlier density)
+  double log_inlier_share;   // log(1 - share)
+
+  template <class T>
+  bool operator()(const T* p, T* cost) const {
+    using std::exp;
+    using std::log;
+    using std::max;
+    using std::sqrt;
+    const T cx = p[0], cy = p[1], cz = p[2], R = p[3], mu0 = exp(p[4]), sigma = exp(p[5]);
+    T total(0);
+    for (const Eigen::Vector3d& q : *pts) {
+      const T dx = T(q.x()) - cx, dy = T(q.y()) - cy, dz = T(q.z()) - cz;
+      const T s = sqrt(dx * dx + dy * dy + dz * dz);
+      // Depth is seen along the view ray: its radial share is cos(theta) at the point.
+      const T rx = T(q.x() - view.x()), ry = T(q.y() - view.y()), rz = T(q.z() - view.z());
+      const T rn = sqrt(rx * rx + ry * ry + rz * rz);
+      T cos_t = -(rx * dx + ry * dy + rz * dz) / (rn * s + T(1e-12));
+      if (cos_t < T(0.1)) cos_t = T(0.1);
+      // Leaf depth and stereo noise both lie along the ray: in the radial direction both are
+      // scaled by cos(theta), so x / cos(theta) follows the face-on model.
+      const T lambda = T(1) / mu0;
+      const T x = (R - s) / cos_t;  // depth below the envelope, along the ray
+      // Exponentially modified Gaussian density of x (exponential depth plus N(0, sigma^2)),
+      // and the Jacobian of the radial-to-ray scaling.
+      const T log_emg = log(lambda / T(2)) + lambda / T(2) * (lambda * sigma * sigma - T(2) * x) +
+                        LogErfc((lambda * sigma * sigma - x) / (T(std::sqrt(2.0)) * sigma)) - log(cos_t);
+      const T a = T(log_inlier_share) + log_emg, b = T(log_outlier);
+      const T m = a > b ? a : b;
+      total -= m + log(exp(a - m) + exp(b - m));
+    }
+    cost[0] = total / T(double(pts->size()));
+    return true;
+  }
+};
+
+}  // namespace
+
+const cloud::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
+  using O = EnvelopeFitOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("viewpoint", &O::viewpoint_mm, "the camera's position in the cloud's frame", "mm")
+          .Add("outlier_share", &O::outlier_share, "prior share of outliers (uniform)").Range(1e-6, 0.5)
+          .Add("max_iterations", &O::max_iterations, "LBFGS iterations at most", "iterations").Range(1, 10000);
+  return table;
+}
+
+void EnvelopeFitOptions::Check() const { Table().Validate(*this); }
+
+EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
+                        const Sphere* initial) {
+  options.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  EnvelopeFit out;
+  SphereFitResult& r = out.fit;
+  r.method = "envelope";
+  r.points_used = points_mm.size();
+  if (auto why = DegeneracyReason(points_mm)) {
+    r.message = *why;
+    return out;
+  }
+  // Start: the geometric fit (mean leaf), with the envelope a little outside it.
+  SphereFitResult start;
+  if (initial != nullptr) {
+    start.sphere = *initial;
+    start.converged = true;
+  } else {
+    GeometricFitOptions go;
+    go.compute_covariance = false;
+    start = FitSphereGeometric(points_mm, go);
+  }
+  if (!start.converged) {
+    r.message = "no starting sphere: " + start.message;
+    return out;
+  }
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points_mm) mean += p;
+  mean /= double(points_mm.size());
+  std::vector<Eigen::Vector3d> centred(points_mm.size());
+  std::vector<double> res(points_mm.size());
+  for (std::size_t i = 0; i < points_mm.size(); ++i) {
+    centred[i] = points_mm[i] - mean;
+    res[i] = (points_mm[i] - start.sphere.center_mm).norm() - start.sphere.radius_mm;
+  }
+  // Robust spread of the residuals: the scale of the leaf layer and the noise together.
+  std::vector<double> abs_res(res.size());
+  for (std::size_t i = 0; i < res.size(); ++i) abs_res[i] = std::abs(res[i]);
+  std::nth_element(abs_res.begin(), abs_res.begin() + std::ptrdiff_t(abs_res.size() / 2), abs_res.end());
+  const double spread = std::max(0.05, 1.4826 * abs_res[abs_res.size() / 2]);
+  const double width = std::max(10 * spread, 0.5 * start.sphere.radius_mm);  // where outliers may fall
+  ShellLikelihood model{&centred, options.viewpoint_mm - mean, std::log(options.outlier_share / width),
+                        std::log(1 - options.outlier_share)};
+  double p[6] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
+                 start.sphere.center_mm.z() - mean.z(), start.sphere.radius_mm + spread, std::log(spread),
+                 std::log(0.5 * spread)};
+  ceres::GradientProblem problem(new ceres::AutoDiffFirstOrderFunction<ShellLikelihood, 6>(new ShellLikelihood(model)));
+  ceres::GradientProblemSolver::Options so;
+  so.max_num_iterations = options.max_iterations;
+  so.logging_type = ceres::SILENT;
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-10;
+  ceres::GradientProblemSolver::Summary summary;
+  ceres::Solve(so, problem, p, &summary);
+  r.iterations = static_cast<int>(summary.iterations.size());
+  r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double mu = std::exp(p[4]), sigma = std::exp(p[5]);
+  if (!summary.IsSolutionUsable() || !std::isfinite(p[3]) || !(p[3] > 0) || !std::isfinite(mu)) {
+    r.message = "the shell model did not converge: " + summary.message;
+    return out;
+  }
+  r.sphere.center_mm = Eigen::Vector3d(p[0], p[1], p[2]) + mean;
+  r.sphere.radius_mm = p[3];
+  r.converged = true;
+  r.rms_mm = RmsResidual(points_mm, r.sphere);
+  // Inliers: points the model explains better than the outlier density.
+  r.inliers = points_mm.size();
+  out.leaf_depth_mm = mu;
+  out.noise_mm = sigma;
+  out.surface_radius_mm = p[3] - mu;
+  return out;
+}
+
+}  // namespace hedgefit::fitting

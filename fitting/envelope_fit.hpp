@@ -1,0 +1,42 @@
+#pragma once
+/// A leafy hedge is a shell, not a surface: stereo sees the outermost leaves and, through the
+/// gaps, leaves deeper along the line of sight. A sphere fitted to all of them has the radius
+/// of the mean leaf and a centre pushed away from the camera. This fit models each point's
+/// distance from the centre s_i as the envelope radius R, minus a leaf depth seen along the
+/// view ray (exponential, mean mu) plus Gaussian measurement noise (sigma, also along the ray,
+/// as stereo's depth error is), both seen radially scaled by cos(theta_i), theta_i the angle
+/// between the ray and the sphere's normal there; a small uniform share of outliers is allowed. Maximum likelihood (exponentially modified Gaussian, Ceres LBFGS) gives
+///  - the outer envelope radius R: where the leaves end, what a tape measure and a trimmer see;
+///  - the mean leaf-surface radius R - mu: where the average visible leaf is;
+///  - one centre for both, not pulled by the depth of the leaf layer.
+/// On a bare sphere (mu -> 0) it reduces to the geometric fit.
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "cloud/option_table.hpp"
+#include "fitting/sphere_fit.hpp"
+
+namespace hedgefit::fitting {
+
+struct EnvelopeFitOptions {
+  Eigen::Vector3d viewpoint_mm = Eigen::Vector3d::Zero();  ///< the camera, mm (the cloud's origin for hedgefit's clouds)
+  double outlier_share = 0.02;  ///< prior share of points from neither leaves nor noise (uniform)
+  int max_iterations = 200;     ///< LBFGS iterations at most
+  void Check() const;
+  static const cloud::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once
+};
+
+struct EnvelopeFit {
+  SphereFitResult fit;            ///< sphere = centre and outer envelope radius (method "envelope")
+  double surface_radius_mm = 0;   ///< mean leaf-surface radius, R - mu
+  double leaf_depth_mm = 0;       ///< mu: mean depth of the visible leaves below the envelope, face-on
+  double noise_mm = 0;            ///< sigma: measurement noise along the view ray
+};
+
+/// Fits the envelope, starting from `initial` (e.g. a geometric fit) or a Hyper fit.
+EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options = {},
+                        const Sphere* initial = nullptr);
+
+}  // namespace hedgefit::fitting

@@ -1,0 +1,78 @@
+// The envelope fit on leafy balls with known envelope, leaf depth and noise: the outer
+// radius and the centre are not biased by the leaf layer, where a sphere fitted to all the
+// leaves is (its radius is the mean leaf's and its centre is pushed away from the camera).
+
+#include "fitting/envelope_fit.hpp"
+
+#include <gtest/gtest.h>
+
+#include "fitting/geometric_fit.hpp"
+#include "fitting/methods.hpp"
+#include "tests/fitting/synthetic.hpp"
+
+namespace hedgefit::fitting {
+namespace {
+
+struct Case {
+  double radius, leaf_depth, sigma, z;
+};
+
+class EnvelopeFitTest : public ::testing::TestWithParam<Case> {};
+
+TEST_P(EnvelopeFitTest, OuterRadiusAndCentreAreUnbiased) {
+  const Case c = GetParam();
+  std::mt19937_64 rng(7);
+  const Eigen::Vector3d centre(120, -80, c.z);
+  auto pts = hedgefit::testing::LeafyCap(centre, c.radius, c.leaf_depth, 70, 20000, c.sigma, rng);
+  hedgefit::testing::AddOutliers(&pts, 0.01, 200, rng);
+  const EnvelopeFit e = FitEnvelope(pts);
+  ASSERT_TRUE(e.fit.converged) << e.fit.message;
+  // 20000 points, leaf depth 10 mm, noise 2-4 mm: the statistical error of R and the centre
+  // is a few tenths of a mm; 1.5 mm / 3 mm leave room for the model's approximations
+  // (chord-capped depth, noise along the ray rather than the normal) and still fail a fit
+  // that is off by the leaf layer (10 mm).
+  EXPECT_NEAR(e.fit.sphere.radius_mm, c.radius, 1.5);
+  EXPECT_LT((e.fit.sphere.center_mm - centre).norm(), 3.0);
+  // Leaf depth and noise are harder to tell apart when they are of similar size, and rays that
+  // graze the rim see a chord shorter than a deep leaf (the depth is truncated there): 2 mm on
+  // the depth, and the surface radius R - mu inherits both errors (1.5 + 2 mm).
+  EXPECT_NEAR(e.leaf_depth_mm, c.leaf_depth, 2.0);
+  EXPECT_NEAR(e.surface_radius_mm, c.radius - c.leaf_depth, 3.5);
+  EXPECT_NEAR(e.noise_mm, c.sigma, 1.0);
+  // The reason for the fit: the geometric sphere through all leaves is biased by the layer.
+  // Depth seen along the line of sight pushes its centre away from the camera, and its
+  // radius is neither the envelope's nor the mean leaf's.
+  const SphereFitResult g = FitSphereGeometric(pts);
+  EXPECT_GT(g.sphere.center_mm.norm() - centre.norm(), 0.5 * c.leaf_depth);
+  EXPECT_GT(std::abs(g.sphere.radius_mm - (c.radius - c.leaf_depth)), 0.5 * c.leaf_depth);
+}
+
+INSTANTIATE_TEST_SUITE_P(LeafyBalls, EnvelopeFitTest,
+                         ::testing::Values(Case{450, 10, 2, 2300}, Case{600, 12, 3, 2600}, Case{920, 10, 4, 2000}));
+
+// On a bare sphere (no leaf layer) the envelope is the sphere: it agrees with the geometric fit.
+TEST(EnvelopeFit, BareSphereAgreesWithTheGeometricFit) {
+  std::mt19937_64 rng(3);
+  const Eigen::Vector3d centre(0, 50, 2200);
+  const auto pts = hedgefit::testing::Cap(centre, 300, 60, (-centre).normalized(), 8000, 1.5, rng);
+  const EnvelopeFit e = FitEnvelope(pts);
+  ASSERT_TRUE(e.fit.converged) << e.fit.message;
+  EXPECT_NEAR(e.fit.sphere.radius_mm, 300, 1.0);
+  EXPECT_LT(e.leaf_depth_mm, 1.0);
+  EXPECT_LT((e.fit.sphere.center_mm - centre).norm(), 1.5);
+}
+
+// Through the method table: the row reports both radii.
+TEST(EnvelopeFit, MethodTableRowReportsBothRadii) {
+  std::mt19937_64 rng(11);
+  const Eigen::Vector3d centre(0, 0, 2400);
+  const auto pts = hedgefit::testing::LeafyCap(centre, 500, 10, 70, 10000, 2, rng);
+  const SphereFitResult r = RunFitMethod("envelope", pts);
+  ASSERT_TRUE(r.converged) << r.message;
+  ASSERT_TRUE(r.surface_radius_mm.has_value());
+  EXPECT_NEAR(r.sphere.radius_mm, 500, 1.5);
+  EXPECT_NEAR(*r.surface_radius_mm, 490, 2.0);
+}
+
+}  // namespace
+}  // namespace hedgefit::fitting
