@@ -156,7 +156,7 @@ std::vector<FitMethod> MakeTable() {
                  }});
   }
   // Robust and geometric before algebraic; among algebraic, the least biased first.
-  const std::map<std::string, int> trust = {{"envelope", 7}, {"ransac_geometric", 6}, {"geometric", 5},
+  const std::map<std::string, int> trust = {{"ransac_geometric", 7}, {"envelope", 6}, {"geometric", 5},
                                             {"ransac", 4},   {"hyper", 3},            {"taubin", 2},
                                             {"pratt", 1}};
   for (auto& m : t) m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
