@@ -2,6 +2,7 @@
 
 #include <opencv2/core/persistence.hpp>
 
+#include <cmath>
 #include <filesystem>
 
 #include "cloud/cloud_io.hpp"
@@ -9,10 +10,56 @@
 
 namespace hedgefit::stereo {
 
+std::string RigProblem(const StereoRig& rig) {
+  auto finite = [](const cv::Mat& m) { return m.empty() || cv::checkRange(m, true, nullptr, -1e12, 1e12); };
+  const auto& sz = rig.image_size;
+  if (sz.width < 16 || sz.height < 16 || sz.width > 100000 || sz.height > 100000) {
+    return "image size " + std::to_string(sz.width) + "x" + std::to_string(sz.height) + " is not 16..100000 px a side";
+  }
+  const std::pair<const char*, const cv::Mat*> mats[] = {{"K1", &rig.K1}, {"K2", &rig.K2}, {"D1", &rig.D1},
+                                                         {"D2", &rig.D2}, {"R", &rig.R},   {"T", &rig.T},
+                                                         {"R1", &rig.R1}, {"R2", &rig.R2}, {"P1", &rig.P1},
+                                                         {"P2", &rig.P2}, {"Q", &rig.Q}};
+  for (const auto& [name, m] : mats) {
+    if (!finite(*m)) return std::string("'") + name + "' holds a NaN, an infinity or a number beyond 1e12";
+  }
+  for (const auto& [name, K] : {std::pair<const char*, const cv::Mat*>{"K1", &rig.K1}, {"K2", &rig.K2}}) {
+    if (K->rows != 3 || K->cols != 3) return std::string("'") + name + "' is not 3x3";
+    const double fx = K->at<double>(0, 0), fy = K->at<double>(1, 1), cx = K->at<double>(0, 2), cy = K->at<double>(1, 2);
+    if (!(fx >= 1 && fx <= 1e6 && fy >= 1 && fy <= 1e6)) {
+      return std::string("'") + name + "' has focal lengths " + std::to_string(fx) + ", " + std::to_string(fy) +
+             " px; they must be in 1..1e6 px";
+    }
+    if (!(cx > -sz.width && cx < 2.0 * sz.width && cy > -sz.height && cy < 2.0 * sz.height)) {
+      return std::string("'") + name + "' has its principal point (" + std::to_string(cx) + ", " + std::to_string(cy) +
+             ") px far outside the image";
+    }
+  }
+  if (rig.R.rows != 3 || rig.R.cols != 3 || cv::norm(rig.R.t() * rig.R - cv::Mat::eye(3, 3, CV_64F)) > 1e-3 ||
+      std::abs(cv::determinant(rig.R) - 1) > 1e-3) {
+    return "'R' is not a rotation matrix";
+  }
+  const double b = rig.T.total() == 3 ? cv::norm(rig.T) : 0.0;
+  if (!(b >= 0.1 && b <= 1e5)) {
+    return "the baseline |T| is " + std::to_string(b) + " mm; it must be 0.1 mm..100 m (T = 0 puts every point at infinity)";
+  }
+  const bool any = !rig.R1.empty() || !rig.R2.empty() || !rig.P1.empty() || !rig.P2.empty() || !rig.Q.empty();
+  if (any) {
+    if (rig.R1.size() != cv::Size(3, 3) || rig.R2.size() != cv::Size(3, 3) || rig.P1.size() != cv::Size(4, 3) ||
+        rig.P2.size() != cv::Size(4, 3) || rig.Q.size() != cv::Size(4, 4)) {
+      return "the rectification is incomplete: R1 and R2 (3x3), P1 and P2 (3x4) and Q (4x4) go together";
+    }
+    const double f = rig.P1.at<double>(0, 0);
+    if (!(f >= 1 && f <= 1e6)) return "'P1' has a rectified focal length of " + std::to_string(f) + " px; it must be 1..1e6";
+  }
+  return "";
+}
+
 StereoRig RigForRectifiedPair(const cv::Size& image_size, double f, double cx, double cy, double baseline_mm) {
   if (image_size.width <= 0 || image_size.height <= 0) throw Error("size: must be positive, e.g. 640x480");
-  if (!(f > 0)) throw Error("focal: must be > 0 px");
-  if (!(baseline_mm > 0)) throw Error("baseline: must be > 0 mm");
+  if (!(f >= 1 && f <= 1e6)) throw Error("focal: must be in 1..1e6 px");
+  if (!(std::isfinite(cx) && std::isfinite(cy))) throw Error("cx/cy: must be finite numbers (px)");
+  if (!(baseline_mm >= 0.1 && baseline_mm <= 1e5)) throw Error("baseline: must be in 0.1..100000 mm");
   StereoRig rig;
   rig.image_size = image_size;
   rig.K1 = (cv::Mat_<double>(3, 3) << f, 0, cx, 0, f, cy, 0, 0, 1);
@@ -32,6 +79,7 @@ StereoRig RigForRectifiedPair(const cv::Size& image_size, double f, double cx, d
   rig.P2 = (cv::Mat_<double>(3, 4) << f, 0, cx, -f * baseline_mm, 0, f, cy, 0, 0, 0, 1, 0);
   // cv::stereoRectify's Q for equal principal points: (x, y, d) -> (X, Y, Z, W).
   rig.Q = (cv::Mat_<double>(4, 4) << 1, 0, 0, -cx, 0, 1, 0, -cy, 0, 0, 0, f, 0, 0, 1.0 / baseline_mm, 0);
+  if (const std::string why = RigProblem(rig); !why.empty()) throw Error(why);
   return rig;
 }
 
@@ -100,6 +148,9 @@ StereoRig ReadRig(const std::string& path) {
   fs["rms_left_px"] >> rig.rms_left_px;
   fs["rms_right_px"] >> rig.rms_right_px;
   fs["rms_stereo_px"] >> rig.rms_stereo_px;
+  if (const std::string why = RigProblem(rig); !why.empty()) {
+    throw Error(path + ": " + why + "; recalibrate with `hedgefit calibrate` or fix the file");
+  }
   return rig;
 }
 

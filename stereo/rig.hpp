@@ -38,11 +38,17 @@ struct StereoRig {
 StereoRig RigForRectifiedPair(const cv::Size& image_size, double focal_px, double cx_px, double cy_px,
                               double baseline_mm);
 
+/// Why `rig` cannot be used, or "" if it can: every number finite; image sides 16..100000 px;
+/// focal lengths 1..1e6 px; principal points within the image's size of it; R a rotation;
+/// baseline 0.1 mm..100 m; the rectification (R1, R2: 3x3, P1, P2: 3x4, Q: 4x4) complete and
+/// finite when present, with a rectified focal length in 1..1e6 px.
+std::string RigProblem(const StereoRig& rig);
+
 /// Writes `rig` as OpenCV FileStorage YAML, atomically; throws hedgefit::Error naming the file.
 void WriteRig(const std::string& path, const StereoRig& rig);
 
 /// Reads a rig written by WriteRig (or by hand with the same keys); throws hedgefit::Error
-/// naming the file and the missing or malformed key.
+/// naming the file and the missing, malformed or unusable key (see RigProblem).
 StereoRig ReadRig(const std::string& path);
 
 }  // namespace hedgefit::stereo

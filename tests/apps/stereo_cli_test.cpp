@@ -174,4 +174,37 @@ TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
   EXPECT_EQ(j[5]["filename"], "o.pcd");
 }
 
+// Every number of a rig is checked when it is made or read: non-finite or absurd values are one
+// line naming the option or the key, never a crash later in convert.
+TEST(RigCli, NonFiniteAndAbsurdNumbersAreRejected) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const std::string base = "rig --size 640x480 -o rig.yaml";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {" --focal 368 --cx 318 --cy 224 --baseline inf", "hedgefit: --baseline: must be in 0.1..100000 mm\n"},
+      {" --focal 368 --cx 318 --cy 224 --baseline 1e300", "hedgefit: --baseline: must be in 0.1..100000 mm\n"},
+      {" --focal 368 --cx 318 --cy 224 --baseline 0", "hedgefit: --baseline: must be in 0.1..100000 mm\n"},
+      {" --focal 368 --cx nan --cy 224 --baseline 838", "hedgefit: --cx/cy: must be finite numbers (px)\n"},
+      {" --focal 1e-300 --cx 318 --cy 224 --baseline 838", "hedgefit: --focal: must be in 1..1e6 px\n"}};
+  for (const auto& [args, err] : cases) {
+    const Result r = RunHedgefit(base + args, dir);
+    EXPECT_EQ(r.code, 1) << args;
+    EXPECT_EQ(r.err, err) << args;
+    EXPECT_FALSE(fs::exists(dir / "rig.yaml")) << args;
+  }
+  // A rig file with a NaN in T, or T = 0, is refused when read, before any image is touched.
+  Result r = RunHedgefit(base + " --focal 368 --cx 318 --cy 224 --baseline 838", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string good = Slurp(dir / "rig.yaml");
+  for (const std::string& t : {std::string(".nan, 0., 0."), std::string("0., 0., 0.")}) {
+    std::string bad = good;
+    const auto at = bad.find("data: [", bad.find("\nT: "));
+    bad.replace(at, bad.find(']', at) - at + 1, "data: [ " + t + " ]");
+    std::ofstream(dir / "bad.yaml") << bad;
+    r = RunHedgefit("convert --left l.png --right r.png --rig bad.yaml -o x.pcd", dir);
+    EXPECT_EQ(r.code, 1) << t;
+    EXPECT_EQ(r.err.rfind("hedgefit: bad.yaml: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(t[0] == '.' ? "'T' holds a NaN" : "the baseline |T| is 0.000000 mm"), std::string::npos) << r.err;
+  }
+}
+
 }  // namespace
