@@ -70,7 +70,7 @@ void CheckPcdHeader(const std::string& path) {
     }
     return static_cast<std::uint64_t>(v);
   };
-  std::uint64_t point_size = 0;
+  std::uint64_t point_size = 0, values_per_point = 0;
   for (std::size_t i = 0; i < nf; ++i) {
     const std::uint64_t size = number(entries["SIZE"][i], "SIZE");
     const std::string& type = entries["TYPE"][i];
@@ -82,6 +82,7 @@ void CheckPcdHeader(const std::string& path) {
                   entries["SIZE"][i]);
     }
     point_size += size * count;
+    values_per_point += count;
   }
   const std::uint64_t width = number(entries["WIDTH"][0], "WIDTH");
   const std::uint64_t height = number(entries["HEIGHT"][0], "HEIGHT");
@@ -95,6 +96,42 @@ void CheckPcdHeader(const std::string& path) {
     throw Error(path + ": truncated: the header promises " + std::to_string(points) + " points (" +
                 std::to_string(points * point_size) + " bytes) but only " + std::to_string(file_size - data_start) +
                 " bytes follow it");
+  }
+  if (data == "ascii") {
+    // Every value takes at least one byte: a header that promises
+    // more points than the file can hold is refused before anything is allocated.
+    if (points * values_per_point > file_size - data_start) {
+      throw Error(path + ": truncated: the header promises " + std::to_string(points) + " points but only " +
+                  std::to_string(file_size - data_start) + " bytes of text follow it");
+    }
+    // PCL reads a token that is not a number as 0 and pads short rows with zeros: check each
+    // row here, so bad values are an error naming the line, not points at the origin.
+    std::string row;
+    std::uint64_t rows = 0;  // line_no is at the DATA line
+    while (std::getline(in, row)) {
+      ++line_no;
+      if (!row.empty() && row.back() == '\r') row.pop_back();
+      if (row.find_first_not_of(" \t") == std::string::npos) continue;
+      std::istringstream ss(row);
+      std::uint64_t n = 0;
+      for (std::string tok; ss >> tok; ++n) {
+        char* end = nullptr;
+        std::strtod(tok.c_str(), &end);
+        const bool nan_word = tok == "nan" || tok == "NaN" || tok == "-nan" || tok == "inf" || tok == "-inf";
+        if (!nan_word && (end == tok.c_str() || *end != '\0')) {
+          throw Error(path + ":" + std::to_string(line_no) + ": '" + tok.substr(0, 20) + "' is not a number");
+        }
+      }
+      if (n != values_per_point) {
+        throw Error(path + ":" + std::to_string(line_no) + ": " + std::to_string(n) + " values, but the header's " +
+                    "fields need " + std::to_string(values_per_point) + " per point");
+      }
+      ++rows;
+    }
+    if (rows != points) {
+      throw Error(path + ": the header promises " + std::to_string(points) + " points but the file holds " +
+                  std::to_string(rows) + " rows; fix POINTS/WIDTH/HEIGHT or the data");
+    }
   }
   if (data == "binary_compressed" && points > 0) {
     std::uint32_t sizes[2] = {0, 0};

@@ -169,7 +169,38 @@ TEST(CloudIo, BadFilesGiveOneLineErrors) {
   ExpectReadError((dir / "bad_header.pcd").string(), "PCD");
   WriteText(dir / "short_ascii.pcd",
             "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA ascii\n1 2 3\n");
-  ExpectReadError((dir / "short_ascii.pcd").string(), "PCD");
+  ExpectReadError((dir / "short_ascii.pcd").string(), "the header promises 3 points");
+  // Bad values are errors naming the line, never points at the origin (PCL reads "x" as 0
+  // and pads a short row with zeros).
+  const std::string head3 = "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA ascii\n";
+  WriteText(dir / "word.pcd", head3 + "1 2 3\n4 x 6\n7 8 9\n");
+  ExpectReadError((dir / "word.pcd").string(), "word.pcd:11: 'x' is not a number");
+  WriteText(dir / "short_row.pcd", head3 + "1 2 3\n4 6\n7 8 9\n");
+  ExpectReadError((dir / "short_row.pcd").string(), "short_row.pcd:11: 2 values, but the header's fields need 3 per point");
+  WriteText(dir / "extra_rows.pcd", head3 + "1 2 3\n4 5 6\n7 8 9\n1 1 1\n");
+  ExpectReadError((dir / "extra_rows.pcd").string(), "promises 3 points but the file holds 4 rows");
+  // A 200-byte file claiming a billion points is refused before anything is allocated.
+  WriteText(dir / "huge.pcd", "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000000000\n"
+                              "HEIGHT 1\nPOINTS 1000000000\nDATA ascii\n1 2 3\n");
+  ExpectReadError((dir / "huge.pcd").string(), "the header promises 1000000000 points");
+  // PLY: the same classes, each with its own message.
+  const auto ply = [](int n) {
+    return "ply\nformat ascii 1.0\nelement vertex " + std::to_string(n) +
+           "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  };
+  WriteText(dir / "word.ply", ply(2) + "1 2 3\nabc 5 6\n");
+  ExpectReadError((dir / "word.ply").string(), "word.ply:9: 'abc' is not a number");
+  WriteText(dir / "few.ply", ply(2) + "1 2 3\n4 5 6\n7 8 9\n");
+  ExpectReadError((dir / "few.ply").string(), "more rows than the 2 vertices the header lists");
+  WriteText(dir / "many.ply", ply(3) + "1 2 3\n4 5 6\n");
+  ExpectReadError((dir / "many.ply").string(), "the header lists 3 vertices but the file holds 2 rows");
+  WriteText(dir / "short.ply", ply(2) + "1 2 3\n4 5\n");
+  ExpectReadError((dir / "short.ply").string(), "short.ply:9: 2 values, but a vertex has 3 properties");
+  WriteText(dir / "huge.ply", ply(500000000) + "1 2 3\n");
+  ExpectReadError((dir / "huge.ply").string(), "the header promises 500000000 vertices");
+  WriteText(dir / "huge_bin.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 500000000\nproperty float x\n"
+                                  "property float y\nproperty float z\nend_header\n0123456789");
+  ExpectReadError((dir / "huge_bin.ply").string(), "truncated: the header promises 500000000 vertices");
   WriteText(dir / "zero.pcd",
             "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 0\nHEIGHT 1\nPOINTS 0\nDATA ascii\n");
   ExpectReadError((dir / "zero.pcd").string(), "no points");
