@@ -4,7 +4,15 @@
 
 #include "fitting/sphere_fit.hpp"
 #include "cloud/option_table.hpp"
+#include "cloud/cloud_io.hpp"
+#include "render/overlay.hpp"
 #include "render/render.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cctype>
+#include <filesystem>
 
 namespace hedgefit::render {
 
@@ -41,6 +49,43 @@ void RegisterRenderStages(cloud::Registry& r) {
       ctx.Note("spheres", static_cast<std::int64_t>(spheres.size()));
     });
   });
+
+  // The operator's picture from a capture pipeline: mask outline and fitted spheres drawn on
+  // the rectified left image.
+  const std::string overlay = "writers.overlay";
+  r.Add(StageInfo{overlay,
+                  "Draws the mask's outline and every converged fit (projected outline, centre, label, radius) on the "
+                  "rectified left image, to PNG",
+                  {StringOption("filename", "", "PNG to write"),
+                   IntOption("line_width", 2, "line width", "px").Range(1, 20),
+                   BoolOption("crop", false, "crop to the drawn spheres plus a quarter of their size around them")},
+                  {"left_image", "rig", "fits"},
+                  {},
+                  {}},
+        [overlay](const Options& o) -> std::unique_ptr<Stage> {
+          const std::string file = o.GetString("filename");
+          if (file.empty()) throw Error("stage '" + overlay + "', option 'filename': give the PNG to write");
+          std::string ext = std::filesystem::path(file).extension().string();
+          for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+          if (ext != ".png") {
+            throw Error("stage '" + overlay + "', option 'filename': '" + file + "' must end in .png");
+          }
+          return std::make_unique<LambdaStage>(o, [file](const Options& opts, Context& ctx) {
+            std::vector<SphereOverlay> spheres;
+            for (const auto& f : ctx.Get<std::vector<fitting::SphereFitResult>>("fits")) {
+              if (f.converged) spheres.push_back(SphereOverlay{f.method, f.sphere, false});
+            }
+            const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
+            const cv::Mat picture = DrawOverlay(ctx.Get<cv::Mat>("left_image"), ctx.Get<stereo::StereoRig>("rig"),
+                                                mask ? *mask : cv::Mat(), spheres, int(opts.GetInt("line_width")),
+                                                opts.GetBool("crop"));
+            std::vector<std::uint8_t> png;
+            if (!cv::imencode(".png", picture, png)) throw Error(file + ": cannot encode the overlay as PNG");
+            cloud::WriteTextFileAtomic(ctx.OutputPath(file), std::string(png.begin(), png.end()));
+            ctx.Note("filename", file);
+            ctx.Note("spheres", static_cast<std::int64_t>(spheres.size()));
+          });
+        });
 }
 
 }  // namespace hedgefit::render

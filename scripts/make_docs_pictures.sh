@@ -19,6 +19,11 @@ $H convert --left $L/sphere_2300_left.png --right $L/sphere_2300_right.png --rig
 $H compare build/docs/sphere_2300.pcd --methods kasa,ransac_geometric --format json > build/docs/fits_sphere.json
 $H render build/docs/sphere_2300.pcd --fits build/docs/fits_sphere.json --truth $L/sphere_2300.truth.json \
   --color distance --view front,side --size 640x480 --wireframe -o docs/reconstruction_z2300.png
+# The operator's overlay of the same capture, from the capture-to-fit pipeline.
+$H pipeline examples/capture_to_fit.json -q \
+  --set readers.stereo.left=$L/sphere_2300_left.png --set readers.stereo.right=$L/sphere_2300_right.png \
+  --set readers.stereo.rig=build/docs/rig.yaml --set writers.overlay.filename=docs/overlay_z2300.png \
+  --set writers.pcd.filename=build/docs/sphere_2300_pipeline.pcd --set writers.png.filename=build/docs/pipeline.png
 # PCL's real outdoor pair (grey): the round shrub, segmented by depth inside a box.
 D=../shared/data/stereo_plants/pcl_outdoor_stereo_pair
 if [ -f $D/stereo_left.png ]; then

@@ -1,0 +1,74 @@
+// The operator's overlay: a sphere's projected outline lies on the silhouette that the
+// simulator's ray caster (an independent projection) renders for the same sphere, and the
+// drawing marks those pixels.
+
+#include "render/overlay.hpp"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "stereo/rectification.hpp"
+#include "stereo/simulator.hpp"
+
+namespace hedgefit::render {
+namespace {
+
+TEST(Overlay, OutlineFollowsTheRenderedSilhouette) {
+  const stereo::SimRig sim = stereo::PaperRig(0.5);
+  const stereo::StereoRig rig = stereo::RigFromSimulation(sim);
+  stereo::SphereScene scene;
+  scene.center = cv::Vec3d(70, 50, 2300);
+  stereo::RenderOptions lo;
+  lo.labels = true;
+  lo.supersample = 3;
+  const cv::Mat truth = stereo::RectifyLeftMask(rig, stereo::RenderSphere(sim, false, scene, lo) == stereo::kLabelSphere);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(truth.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  ASSERT_EQ(contours.size(), 1u);
+  fitting::Sphere s;
+  s.center_mm = Eigen::Vector3d(70, 50, 2300);
+  s.radius_mm = scene.radius;
+  const std::vector<cv::Point2d> outline = SphereOutline(rig, s);
+  ASSERT_EQ(outline.size(), 180u);
+  // The contour runs through the outermost mask pixels' centres, half a pixel inside the
+  // silhouette; nearest-neighbour rectification moves it by up to 0.71 px (diagonally); a
+  // label pixel is the sphere's only when most of its supersamples are (up to 0.5 px): every
+  // outline point within 2 px of it, on average within 1 px.
+  double sum = 0, worst = 0;
+  for (const auto& p : outline) {
+    double best = 1e9;
+    for (const auto& q : contours[0]) best = std::min(best, std::hypot(p.x - q.x, p.y - q.y));
+    sum += best;
+    worst = std::max(worst, best);
+  }
+  EXPECT_LT(sum / double(outline.size()), 1.0);
+  EXPECT_LT(worst, 2.0);
+  // A sphere 10 % larger does not fit the silhouette: the test can tell.
+  s.radius_mm *= 1.1;
+  double off = 0;
+  for (const auto& p : SphereOutline(rig, s)) {
+    double best = 1e9;
+    for (const auto& q : contours[0]) best = std::min(best, std::hypot(p.x - q.x, p.y - q.y));
+    off += best;
+  }
+  EXPECT_GT(off / 180.0, 3.0);
+  // Drawn: the outline's pixels take the first fit's colour.
+  s.radius_mm = scene.radius;
+  const cv::Mat grey(rig.image_size, CV_8UC3, cv::Scalar(128, 128, 128));
+  const cv::Mat picture = DrawOverlay(grey, rig, truth, {SphereOverlay{"geometric", s, false}}, 2);
+  const auto c = OverlayColor(0);
+  const cv::Vec3b want(cv::saturate_cast<uchar>(255 * c[2]), cv::saturate_cast<uchar>(255 * c[1]),
+                       cv::saturate_cast<uchar>(255 * c[0]));
+  int hits = 0;
+  for (const auto& p : outline) {
+    const cv::Vec3b got = picture.at<cv::Vec3b>(cvRound(p.y), cvRound(p.x));
+    if (cv::norm(cv::Vec3i(got) - cv::Vec3i(want)) < 40) ++hits;
+  }
+  EXPECT_GT(hits, 150);
+  // Behind the camera or around it: nothing to draw.
+  s.center_mm = Eigen::Vector3d(0, 0, 100);
+  EXPECT_TRUE(SphereOutline(rig, s).empty());
+}
+
+}  // namespace
+}  // namespace hedgefit::render
