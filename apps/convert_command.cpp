@@ -170,6 +170,13 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
         if (!dir.empty() && !fs::is_directory(dir, ec)) {
           throw Error("-o " + a->output + ": directory '" + dir.string() + "' does not exist; create it first");
         }
+        // A missing or unreadable image is bad input (exit 1), found before any work.
+        for (const std::string& image : {a->left, a->right}) {
+          if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
+          if (!cv::haveImageReader(image)) {
+            throw Error(image + ": not an image OpenCV can read; give a PNG or JPEG file");
+          }
+        }
         captures.push_back({fs::path(a->output).stem().string(), a->left, a->right});
       } else {
         captures = ListCaptures(a->input);

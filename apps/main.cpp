@@ -1,6 +1,8 @@
 // hedgefit: measure spherical hedges from a binocular camera.
 // A table of subcommands, each in its own file; errors become one line on stderr.
 
+#include <opencv2/core/utils/logger.hpp>
+
 #include <iostream>
 
 #include "apps/commands.hpp"
@@ -9,6 +11,8 @@
 
 int main(int argc, char** argv) {
   using namespace hedgefit::apps;
+  // hedgefit reports problems itself, one line each: OpenCV's own warnings would come first.
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   CLI::App app{"hedgefit " + std::string(hedgefit::kVersion) +
                ": reconstruct and measure spherical hedges from stereo images and point clouds"};
   app.set_version_flag("--version", std::string("hedgefit ") + hedgefit::kVersion);

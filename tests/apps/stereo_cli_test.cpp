@@ -195,6 +195,14 @@ TEST(RigCli, NonFiniteAndAbsurdNumbersAreRejected) {
   Result r = RunHedgefit(base + " --focal 368 --cx 318 --cy 224 --baseline 838", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string good = Slurp(dir / "rig.yaml");
+  // A missing or unreadable image of a single capture is bad input (exit 1), not a failure.
+  std::ofstream(dir / "notes.png") << "not a png";
+  r = RunHedgefit("convert --left missing.png --right notes.png --rig rig.yaml -o x.pcd", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: missing.png: no such image file; check the path\n");
+  r = RunHedgefit("convert --left notes.png --right notes.png --rig rig.yaml -o x.pcd", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: notes.png: not an image OpenCV can read; give a PNG or JPEG file\n");
   for (const std::string& t : {std::string(".nan, 0., 0."), std::string("0., 0., 0.")}) {
     std::string bad = good;
     const auto at = bad.find("data: [", bad.find("\nT: "));
