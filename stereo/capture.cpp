@@ -57,6 +57,13 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   r.disparity_sigma = cv::Mat(size, CV_32F, cv::Scalar(nan));
   if (!d.sigma.empty()) d.sigma.copyTo(r.disparity_sigma(roi));
   r.filled_count = d.filled;
+  // SGBM searches a few pixels beyond the working range, and filling and refinement can move a
+  // value further: no point outside [min_z, max_z] leaves the matcher.
+  const double fb = rig.P1.at<double>(0, 0) * rig.baseline_mm;
+  const float d_lo = float(fb / options.max_z_mm), d_hi = float(fb / options.min_z_mm);
+  r.disparity.forEach<float>([&](float& v, const int*) {
+    if (v < d_lo || v > d_hi) v = std::numeric_limits<float>::quiet_NaN();
+  });
   return r;
 }
 

@@ -391,5 +391,32 @@ TEST(StereoStages, APluginMatcherFillsTheMatchingSlot) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bm2.pcd"));
 }
 
+// Whatever the images, no point leaves the matcher outside the working range: on two unrelated
+// noise images (nothing to match) every disparity written lies within f b / max_z..f b / min_z.
+TEST(StereoStages, NoPointOutsideTheWorkingRange) {
+  const StereoRig rig = TrueRig(PaperRig(0.25));
+  cv::Mat l(rig.image_size, CV_8UC3), r(rig.image_size, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(l, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(r, cv::RNG::UNIFORM, 0, 256);
+  const auto dir = hedgefit::testing::ScratchDir();
+  cv::imwrite((dir / "all.png").string(), cv::Mat(rig.image_size, CV_8U, cv::Scalar(255)));
+  ConvertOptions o;
+  o.mode = SegmentMode::kMask;
+  o.mask.filename = (dir / "all.png").string();
+  o.match.min_z_mm = 1800;
+  o.match.max_z_mm = 2600;
+  o.reproject.keep_filled = true;  // filled values too
+  // Noise matches somewhere at every disparity: without the range check SGBM's padded search
+  // and the filling put points beyond it.
+  const ConvertResult res = ConvertCapture(l, r, rig, o);
+  ASSERT_GT(res.cloud.size(), 100u);
+  const double fb = rig.P1.at<double>(0, 0) * rig.baseline_mm;
+  for (float d : res.cloud.fields.at("disparity")) {
+    ASSERT_GE(d, fb / 2600 - 1e-4);
+    ASSERT_LE(d, fb / 1800 + 1e-4);
+  }
+}
+
 }  // namespace
 }  // namespace hedgefit::stereo
