@@ -134,6 +134,25 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
     if (best == 0) mask.setTo(0);
   }
   if (o.fill_holes) mask = FillHoles(mask);
+  // Otsu always splits the image in two, green or not: what it selects must be green, and must
+  // not be the whole frame (a green background, or one colour everywhere), or there is no hedge.
+  const int selected = cv::countNonZero(mask);
+  if (selected == 0) {
+    throw Error("no hedge found: excess green selects nothing (one colour everywhere?); give a mask (--mask) or a "
+                "box around the hedge (--box)");
+  }
+  {
+    cv::Scalar mean_bgr = cv::mean(bgr, mask);
+    const double mean_exg = 2 * mean_bgr[1] - mean_bgr[2] - mean_bgr[0];
+    if (mean_exg < 5.0) {
+      throw Error("no hedge found: the region excess green selects is not green (mean 2G-R-B = " +
+                  std::to_string(int(std::lround(mean_exg))) + "); give a mask (--mask) or a box around the hedge (--box)");
+    }
+    if (selected > 0.95 * double(mask.total())) {
+      throw Error("no hedge found: excess green selects the whole frame (a green background?); give a mask "
+                  "(--mask) or a box around the hedge (--box)");
+    }
+  }
   return ErodeMask(mask, o.erode_px);
 }
 

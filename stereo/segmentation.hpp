@@ -29,6 +29,8 @@ struct SegmentOptions {
 };
 
 /// The paper's hedge mask: ExG = 2G - R - B, bilateral filter, gamma, Otsu; CV_8U 0/255.
+/// Throws hedgefit::Error ("no hedge found: ...") when the selected region is empty, not green
+/// (mean 2G - R - B under 5 levels) or more than 95 % of the frame.
 cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& options);
 
 struct MaskOptions {

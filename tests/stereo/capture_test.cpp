@@ -146,6 +146,33 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
   EXPECT_GT(iou, 0.9);
 }
 
+// Excess green's Otsu split selects something in any colour image: a blue checkerboard or a
+// frame that is green everywhere must be "no hedge", not a hedge filling the frame.
+TEST(Capture, ColourSegmentationRefusesNonGreenAndWholeFrameRegions) {
+  cv::Mat board(240, 320, CV_8UC3);
+  for (int y = 0; y < board.rows; ++y) {
+    for (int x = 0; x < board.cols; ++x) {
+      board.at<cv::Vec3b>(y, x) = ((x / 40 + y / 40) % 2) ? cv::Vec3b(230, 60, 20) : cv::Vec3b(120, 30, 10);
+    }
+  }
+  try {
+    SegmentHedge(board, SegmentOptions{});
+    FAIL() << "a blue checkerboard gave a hedge";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("no hedge found: the region excess green selects is not green", 0), 0u)
+        << e.what();
+  }
+  // One green everywhere (a wall of hedge, a lens cap's green reflection): the whole frame.
+  // (A textured lawn around a hedge is the garden issue: colour alone cannot tell them apart.)
+  const cv::Mat green(240, 320, CV_8UC3, cv::Scalar(40, 150, 40));
+  try {
+    SegmentHedge(green, SegmentOptions{});
+    FAIL() << "a frame that is green everywhere gave a hedge";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no hedge found"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Capture, NoHedgeIsAClearError) {
   const StereoRig rig = TrueRig(PaperRig(0.25));
   const cv::Mat brown(rig.image_size, CV_8UC3, cv::Scalar(60, 90, 140));  // no green anywhere
