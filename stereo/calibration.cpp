@@ -150,9 +150,21 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
       index.push_back(i);
     }
     if (static_cast<int>(object.size()) < options.min_pairs) {
-      throw Error("only " + std::to_string(object.size()) + " of " + std::to_string(pairs.size()) +
-                  " pairs are usable (need " + std::to_string(options.min_pairs) +
-                  "); check --board (inner corners, e.g. 9x6) and the images");
+      // Say why, from the pairs themselves: unreadable images are not a board problem.
+      std::size_t unreadable = 0;
+      std::string first_unreadable;
+      for (const auto& p : rig.pairs) {
+        if (!p.used && p.status.rfind("cannot read", 0) == 0) {
+          if (unreadable++ == 0) first_unreadable = p.status;
+        }
+      }
+      const std::string head = "only " + std::to_string(object.size()) + " of " + std::to_string(pairs.size()) +
+                               " pairs are usable (need " + std::to_string(options.min_pairs) + ")";
+      if (unreadable > 0) {
+        throw Error(head + ": " + std::to_string(unreadable) + " pair(s) cannot be read (" + first_unreadable +
+                    "); check that the files are PNG or JPEG images");
+      }
+      throw Error(head + "; check --board (inner corners, e.g. 9x6) and the images");
     }
     // Zhang's method per camera (fx = fy fixed at 1 ratio only when asked).
     cv::Mat K1 = cv::Mat::eye(3, 3, CV_64F), K2 = cv::Mat::eye(3, 3, CV_64F), D1, D2;
