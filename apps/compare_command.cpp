@@ -110,7 +110,9 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--pipeline", a->pipeline, "JSON array of cleaning stages replacing the default (nonfinite + statistical_outlier)");
   std::string method_list;
   for (const auto& m : fitting::FitMethodNames()) method_list += m + ",";
-  cmd->add_option("--methods", a->methods, "comma-separated: " + method_list + " or all")->capture_default_str();
+  cmd->add_option("--methods", a->methods,
+                  "comma-separated: " + method_list + " or all (every sphere fit; all,ellipsoid adds the ellipsoid)")
+      ->capture_default_str();
   cmd->add_option("--format", a->format, "table, json or csv")->check(CLI::IsMember({"table", "json", "csv"}))->capture_default_str();
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
   // RANSAC's options, as declared in its table; each applies to every method that has it.

@@ -67,7 +67,7 @@ LabResult RunLab(const LabOptions& a) {
       if (cloud::IsFinite(p)) pts.push_back(p.cast<double>());
     }
     row.points = pts.size();
-    for (const auto& m : fitting::FitMethodNames()) {
+    for (const auto& m : fitting::SphereMethodNames()) {
       row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions));
       summary.Add(m, row.fits.back(), row.truth);
     }
@@ -85,7 +85,7 @@ void PrintLab(const LabResult& r) {
     std::printf("calibrated from the simulated boards: stereo RMS %.3f px, baseline %.3f mm\n", r.rms_stereo_px,
                 r.baseline_mm);
   }
-  const std::vector<std::string> methods = fitting::FitMethodNames();
+  const std::vector<std::string> methods = fitting::SphereMethodNames();
   for (std::size_t k = 0; k < methods.size(); ++k) {
     std::printf("\n%s\n  %6s %8s %8s %8s %7s %26s %26s %7s\n", methods[k].c_str(), "Z mm", "AR mm", "MR mm", "AER mm",
                 "RER %", "AL (x, y, z) mm", "ML (x, y, z) mm", "LD mm");
@@ -122,7 +122,7 @@ void PrintLab(const LabResult& r) {
 std::string LabJson(const LabResult& r) {
   nlohmann::json out;
   out["rig"] = {{"rms_stereo_px", r.rms_stereo_px}, {"baseline_mm", r.baseline_mm}, {"exact", r.exact_rig}};
-  const std::vector<std::string> methods = fitting::FitMethodNames();
+  const std::vector<std::string> methods = fitting::SphereMethodNames();
   out["rows"] = nlohmann::json::array();
   for (std::size_t k = 0; k < methods.size(); ++k) {
     for (const auto& row : r.rows) {

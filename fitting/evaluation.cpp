@@ -105,6 +105,11 @@ std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFi
   }
   if (f.converged && f.surface_radius_mm) out.emplace_back("surface_radius_mm", *f.surface_radius_mm);
   if (f.converged && f.leaf_depth_mm) out.emplace_back("leaf_depth_mm", *f.leaf_depth_mm);
+  if (f.converged && f.axes_mm) {
+    out.emplace_back("axes_mm", std::vector<double>{(*f.axes_mm)[0], (*f.axes_mm)[1], (*f.axes_mm)[2]});
+  }
+  if (f.converged && f.vertical_axis_mm) out.emplace_back("vertical_axis_mm", *f.vertical_axis_mm);
+  if (f.converged && f.horizontal_axis_mm) out.emplace_back("horizontal_axis_mm", *f.horizontal_axis_mm);
   return out;
 }
 

@@ -1,9 +1,11 @@
 #include "fitting/methods.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "fitting/algebraic_fit.hpp"
+#include "fitting/ellipsoid_fit.hpp"
 #include "fitting/envelope_fit.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
@@ -155,11 +157,38 @@ std::vector<FitMethod> MakeTable() {
                    };
                  }});
   }
+  t.push_back({"ellipsoid", "fitters.ellipsoid",
+               "General ellipsoid (Li & Griffiths 2004 direct least squares): axes, the vertical against the "
+               "horizontal ones, to tell a ball from a dome",
+               {}, false, [](const Options&) -> BoundFit {
+                 return [](const FitInputs& in) {
+                   const EllipsoidFit e = FitEllipsoid(*in.points_mm);
+                   SphereFitResult r;
+                   r.method = "ellipsoid";
+                   r.points_used = in.points_mm->size();
+                   r.inliers = r.points_used;
+                   r.wall_ms = e.wall_ms;
+                   r.converged = e.converged;
+                   r.message = e.message;
+                   if (e.converged) {
+                     r.sphere.center_mm = e.center_mm;
+                     r.sphere.radius_mm = std::cbrt(e.axes_mm.prod());
+                     r.rms_mm = e.rms_mm;
+                     r.axes_mm = e.axes_mm;
+                     r.vertical_axis_mm = e.vertical_axis_mm;
+                     r.horizontal_axis_mm = e.horizontal_axis_mm;
+                   }
+                   return r;
+                 };
+               }});
   // Robust and geometric before algebraic; among algebraic, the least biased first.
   const std::map<std::string, int> trust = {{"ransac_geometric", 7}, {"envelope", 6}, {"geometric", 5},
                                             {"ransac", 4},   {"hyper", 3},            {"taubin", 2},
                                             {"pratt", 1}};
-  for (auto& m : t) m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
+  for (auto& m : t) {
+    m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
+    m.sphere = m.name != "ellipsoid";
+  }
   return t;
 }
 
@@ -198,11 +227,26 @@ const FitMethod& FindFitMethod(const std::string& name, const std::string& where
               "; choose from " + list + ", or all");
 }
 
+std::vector<std::string> SphereMethodNames() {
+  std::vector<std::string> out;
+  for (const auto& m : FitMethods()) {
+    if (m.sphere) out.push_back(m.name);
+  }
+  return out;
+}
+
 std::vector<std::string> ParseMethodList(const std::string& text, const std::string& where) {
-  if (text == "all") return FitMethodNames();
   std::vector<std::string> out;
   std::stringstream ss(text);
-  for (std::string m; std::getline(ss, m, ',');) out.push_back(FindFitMethod(m, where).name);
+  for (std::string m; std::getline(ss, m, ',');) {
+    if (m == "all") {
+      for (const auto& n : SphereMethodNames()) {
+        if (std::find(out.begin(), out.end(), n) == out.end()) out.push_back(n);
+      }
+    } else if (std::find(out.begin(), out.end(), m) == out.end()) {
+      out.push_back(FindFitMethod(m, where).name);
+    }
+  }
   if (out.empty()) throw Error(where + ": name at least one method, or all");
   return out;
 }

@@ -35,6 +35,9 @@ struct FitMethod {
   /// Builds the fit from resolved options; throws hedgefit::Error naming a bad option.
   std::function<BoundFit(const cloud::Options&)> bind;
   int trust = 0;  ///< higher = preferred when one fit must stand for the cloud
+  /// A sphere fit. false for shape diagnostics (the ellipsoid), whose "radius" is a summary:
+  /// they run when named, not in "all" or the Table 2 benches.
+  bool sphere = true;
 };
 
 /// Every method, in the order tables and plots list them.
@@ -43,6 +46,9 @@ const std::vector<FitMethod>& FitMethods();
 /// Their names, in the same order.
 std::vector<std::string> FitMethodNames();
 
+/// The names of the sphere fits (what "all" means), in the same order.
+std::vector<std::string> SphereMethodNames();
+
 /// The method called `name`; throws hedgefit::Error "`where`: unknown method 'x' (did you mean
 /// 'y'?); choose from ..." otherwise.
 const FitMethod& FindFitMethod(const std::string& name, const std::string& where);
@@ -50,7 +56,8 @@ const FitMethod& FindFitMethod(const std::string& name, const std::string& where
 /// Of the methods named in `names`, the one with the highest trust; nullptr if none is a method.
 const FitMethod* MostTrusted(const std::vector<std::string>& names);
 
-/// "all" or a comma-separated list of names, each checked by FindFitMethod.
+/// A comma-separated list of names, each checked by FindFitMethod; "all" stands for
+/// SphereMethodNames() ("all,ellipsoid" adds the ellipsoid).
 std::vector<std::string> ParseMethodList(const std::string& text, const std::string& where);
 
 /// Runs one method with `given` options (the rest at their defaults; options the method does

@@ -30,6 +30,12 @@ struct SphereFitResult {
   /// leaf-surface radius and the mean leaf depth below the envelope, mm.
   std::optional<double> surface_radius_mm;
   std::optional<double> leaf_depth_mm;
+  /// Ellipsoid fits (method "ellipsoid"): semi-axes (largest first), the vertical one and the
+  /// horizontal one across the line of sight, mm; `sphere` holds the centre and the axes'
+  /// geometric mean.
+  std::optional<Eigen::Vector3d> axes_mm;
+  std::optional<double> vertical_axis_mm;
+  std::optional<double> horizontal_axis_mm;
 };
 
 /// Why a point set cannot determine a sphere, or nullopt if it can: fewer than 4

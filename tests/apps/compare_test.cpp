@@ -24,13 +24,14 @@ Result RunHedgefit(const std::string& args, const fs::path& scratch) {
 TEST(Compare, JsonHasEveryMethodAndTheTruthColumns) {
   const auto dir = hedgefit::testing::ScratchDir();
   const Result r = RunHedgefit(
-      "compare sample_clouds/cap_z2300_a60_o0.pcd sample_clouds/cap_z2600_a60_o10.pcd --format json", dir);
+      "compare sample_clouds/cap_z2300_a60_o0.pcd sample_clouds/cap_z2600_a60_o10.pcd --format json "
+      "--methods all,ellipsoid", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j["clouds"].size(), 2u);
   const auto& c = j["clouds"][0];
   EXPECT_EQ(c["truth"]["radius_mm"], 300.0);
-  ASSERT_EQ(c["fits"].size(), 8u);  // every row of the method table
+  ASSERT_EQ(c["fits"].size(), 9u);  // every row of the method table
   for (const auto& f : c["fits"]) {
     ASSERT_TRUE(f["converged"].get<bool>()) << f["method"] << ": " << f["message"];
     // AER is measured minus true radius, LD the centre distance: recompute them.
@@ -40,7 +41,18 @@ TEST(Compare, JsonHasEveryMethodAndTheTruthColumns) {
     const double dx = f["center_mm"][0].get<double>() - 80, dy = f["center_mm"][1].get<double>() + 40,
                  dz = f["center_mm"][2].get<double>() - 2300;
     EXPECT_NEAR(f["errors"]["ld_mm"].get<double>(), std::sqrt(dx * dx + dy * dy + dz * dz), 1e-9);
-    // Sample clouds carry sigma_Z ~ 4 mm at 2.3 m on ~4000 points: every method is within 5 mm.
+    // Sample clouds carry sigma_Z ~ 4 mm at 2.3 m on ~4000 points: every sphere method is within
+    // 5 mm. The ellipsoid's depth axis is loose on a 60-degree cap under depth noise, so its
+    // "radius" (the axes' geometric mean) is not compared; its axes across the line of sight are.
+    // Its direct least squares, like Kasa's, is biased small under noise and the outliers the
+    // cleaning leaves (about 4 % here); what it is for, vertical against horizontal, is not.
+    if (f["method"] == "ellipsoid") {
+      const double v = f["vertical_axis_mm"].get<double>(), h = f["horizontal_axis_mm"].get<double>();
+      EXPECT_NEAR(v, 300.0, 15.0);
+      EXPECT_NEAR(h, 300.0, 15.0);
+      EXPECT_NEAR(v / h, 1.0, 0.03);  // a ball, not a dome
+      continue;
+    }
     EXPECT_LT(std::abs(aer), 5.0) << f["method"];
   }
   EXPECT_EQ(j["summary"]["hyper"]["clouds"], 2);
