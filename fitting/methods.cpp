@@ -39,9 +39,13 @@ RansacFitOptions BindRansac(const Options& o) {
   return p;
 }
 
-std::uint64_t SeedOf(const Options& o, const FitInputs& in) {
+// RANSAC with the seed option resolved (-1: the caller's seed).
+SphereFitResult RunRansac(const RansacFitOptions& p, const Options& o, const FitInputs& in,
+                          std::vector<std::size_t>* inliers) {
+  RansacFitOptions run = p;
   const std::int64_t seed = o.GetInt("seed");
-  return seed >= 0 ? static_cast<std::uint64_t>(seed) : in.seed;
+  run.seed = seed >= 0 ? static_cast<std::uint64_t>(seed) : in.seed;
+  return FitSphereRansac(*in.points_mm, run, inliers);
 }
 
 std::vector<FitMethod> MakeTable() {
@@ -56,11 +60,7 @@ std::vector<FitMethod> MakeTable() {
                "PCL sample consensus on SACMODEL_SPHERE, seeded, on centred data, radius limits re-checked",
                RansacOptions(), true, [](const Options& o) -> BoundFit {
                  const RansacFitOptions p = BindRansac(o);
-                 return [p, o](const FitInputs& in) {
-                   RansacFitOptions run = p;
-                   run.seed = SeedOf(o, in);
-                   return FitSphereRansac(*in.points_mm, run, in.inliers);
-                 };
+                 return [p, o](const FitInputs& in) { return RunRansac(p, o, in, in.inliers); };
                }});
   {
     std::vector<OptionSpec> options = cloud::TableOptions<GeometricFitOptions>();
@@ -90,10 +90,8 @@ std::vector<FitMethod> MakeTable() {
                RansacOptions(), true, [](const Options& o) -> BoundFit {
                  const RansacFitOptions p = BindRansac(o);
                  return [p, o](const FitInputs& in) {
-                   RansacFitOptions run = p;
-                   run.seed = SeedOf(o, in);
                    std::vector<std::size_t> inliers;
-                   const SphereFitResult coarse = FitSphereRansac(*in.points_mm, run, &inliers);
+                   const SphereFitResult coarse = RunRansac(p, o, in, &inliers);
                    SphereFitResult r;
                    if (!coarse.converged) {
                      r = coarse;

@@ -292,15 +292,21 @@ TEST(ConvertCli, BatchSkipsACorruptCaptureAndFinishesTheRest) {
 namespace hedgefit::stereo {
 namespace {
 
-TEST(StereoStages, CaptureToFitInOnePipeline) {
-  const auto dir = hedgefit::testing::ScratchDir();
-  const SimRig sim = PaperRig(0.5);
+// The true rig as dir/rig.yaml and the default sphere scene as dir/l.png, dir/r.png.
+SphereScene WriteSimulatedCapture(const std::filesystem::path& dir, const SimRig& sim) {
   WriteRig((dir / "rig.yaml").string(), TrueRig(sim));
   SphereScene scene;
   RenderOptions ro;
   ro.supersample = 2;
   cv::imwrite((dir / "l.png").string(), RenderSphere(sim, false, scene, ro));
   cv::imwrite((dir / "r.png").string(), RenderSphere(sim, true, scene, ro));
+  return scene;
+}
+
+TEST(StereoStages, CaptureToFitInOnePipeline) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const SimRig sim = PaperRig(0.5);
+  WriteSimulatedCapture(dir, sim);
   cloud::Registry registry;
   cloud::RegisterCloudStages(registry);
   fitting::RegisterFittingStages(registry);
@@ -339,12 +345,7 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
 TEST(StereoStages, ConvertAndTheEquivalentPipelineGiveTheSamePoints) {
   const auto dir = hedgefit::testing::ScratchDir();
   const SimRig sim = PaperRig(0.5);
-  WriteRig((dir / "rig.yaml").string(), TrueRig(sim));
-  SphereScene scene;
-  RenderOptions ro;
-  ro.supersample = 2;
-  cv::imwrite((dir / "l.png").string(), RenderSphere(sim, false, scene, ro));
-  cv::imwrite((dir / "r.png").string(), RenderSphere(sim, true, scene, ro));
+  const SphereScene scene = WriteSimulatedCapture(dir, sim);
   // The user's mask and box are drawn on the unrectified left image: the label truth.
   RenderOptions lo;
   lo.labels = true;
@@ -392,12 +393,7 @@ TEST(StereoStages, ConvertAndTheEquivalentPipelineGiveTheSamePoints) {
 TEST(StereoStages, APluginMatcherFillsTheMatchingSlot) {
   const auto dir = hedgefit::testing::ScratchDir();
   const SimRig sim = PaperRig(0.5);
-  WriteRig((dir / "rig.yaml").string(), TrueRig(sim));
-  SphereScene scene;
-  RenderOptions ro;
-  ro.supersample = 2;
-  cv::imwrite((dir / "l.png").string(), RenderSphere(sim, false, scene, ro));
-  cv::imwrite((dir / "r.png").string(), RenderSphere(sim, true, scene, ro));
+  const SphereScene scene = WriteSimulatedCapture(dir, sim);
   const std::string cmd = "cd '" + dir.string() + "' && HEDGEFIT_PLUGIN_PATH='" HEDGEFIT_TEST_PLUGIN_DIR
                           "/block_matcher' '" HEDGEFIT_EXE "' convert --left l.png --right r.png --rig rig.yaml -q "
                           "--matcher stereo.block_matcher -o bm.pcd";
