@@ -41,7 +41,8 @@ struct CompareArgs {
 };
 
 struct CloudReport {
-  std::string file;
+  std::string file;  ///< with " hedge N" for one hedge of a capture
+  int hedge_id = 0;
   std::size_t points = 0;
   std::size_t points_cleaned = 0;
   std::optional<Sphere> truth;
@@ -103,7 +104,9 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit compare sample_clouds/*.pcd\n"
       "  hedgefit compare scan.pcd --truth scan.truth.json --methods hyper,ransac_geometric --format json\n"
       "  hedgefit compare ../shared/data/sphere_scans/example2/L1_S1.xyz --scale 1000 --min-radius 250 --max-radius 350\n"
-      "Truth: --truth FILE, or CLOUD.truth.json beside each cloud: {\"center_mm\": [x, y, z], \"radius_mm\": r}.\n");
+      "  hedgefit compare build/garden/row_*.pcd --truth build/garden/garden_row.truth.json --methods ransac,envelope\n"
+      "Truth: --truth FILE, or CLOUD.truth.json beside each cloud: {\"center_mm\": [x, y, z], \"radius_mm\": r}, or\n"
+      "{\"hedges\": [...]} for several; each hedge (a cloud's hedge_id field) is matched to the nearest one.\n");
   auto a = std::make_shared<CompareArgs>();
   cmd->add_option("CLOUD", a->clouds, "cloud files (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_option("--truth", a->truth, "ground-truth JSON for every cloud (default: CLOUD.truth.json if present)");
@@ -129,8 +132,8 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--methods");
       const auto fit_options = a->fit_flags.Given();
       const json cleaning = CleaningStages(*a);
-      std::optional<Sphere> common_truth;
-      if (!a->truth.empty()) common_truth = fitting::ReadTruthFile(a->truth);
+      std::vector<Sphere> common_truth;
+      if (!a->truth.empty()) common_truth = fitting::ReadTruthFiles(a->truth);
       // Validate the cleaning pipeline once, before any cloud is read.
       {
         json probe = json::array({a->clouds.front()});
@@ -141,8 +144,6 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       std::vector<CloudReport> reports;
       int failed = 0;
       for (const std::string& file : a->clouds) {
-        CloudReport rep;
-        rep.file = file;
         try {
           json stages = json::array();
           stages.push_back({{"filename", file}, {"scale", a->scale}});
@@ -151,20 +152,32 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
           cloud::Context ctx;
           ctx.seed = a->seed;
           const cloud::RunReport run_report = p.Run(ctx);
-          rep.points = std::size_t(std::max<std::int64_t>(0, run_report.stages.front().points_out));
+          const std::size_t points_read = std::size_t(std::max<std::int64_t>(0, run_report.stages.front().points_out));
           const cloud::PointCloud& cleaned = ctx.Get<cloud::PointCloud>("cloud");
-          std::vector<Eigen::Vector3d> pts;
-          for (const auto& q : cleaned.points_mm) {
-            if (cloud::IsFinite(q)) pts.push_back(q.cast<double>());
+          std::vector<Sphere> truths = common_truth;
+          if (truths.empty()) {
+            if (auto t = fitting::TruthFileFor(file)) truths = fitting::ReadTruthFiles(*t);
           }
-          rep.points_cleaned = pts.size();
-          if (common_truth) {
-            rep.truth = common_truth;
-          } else if (auto t = fitting::TruthFileFor(file)) {
-            rep.truth = fitting::ReadTruthFile(*t);
+          // A capture with several hedges (hedge_id field): one report per hedge.
+          const auto groups = cloud::HedgeGroups(cleaned);
+          std::vector<CloudReport> mine;
+          for (const auto& g : groups) {
+            CloudReport rep;
+            rep.file = g.id ? file + " hedge " + std::to_string(g.id) : file;
+            rep.hedge_id = g.id;
+            std::vector<Eigen::Vector3d> pts;
+            for (std::size_t i : g.indices) pts.push_back(cleaned.points_mm[i].cast<double>());
+            rep.points = groups.size() == 1 ? points_read : g.indices.size();
+            rep.points_cleaned = pts.size();
+            rep.truth = fitting::TruthForPoints(truths, pts);
+            for (const auto& m : methods) {
+              rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed));
+              rep.fits.back().hedge_id = g.id;
+            }
+            mine.push_back(std::move(rep));
           }
-          for (const auto& m : methods) rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed));
-          reports.push_back(std::move(rep));
+          if (mine.empty()) throw Error(file + ": no point belongs to a hedge (hedge_id >= 1)");
+          for (auto& r : mine) reports.push_back(std::move(r));
         } catch (const Error& e) {
           std::cerr << "hedgefit: " << e.what() << "; skipped\n";
           ++failed;
@@ -218,6 +231,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
         for (const auto& r : reports) {
           json c;
           c["file"] = r.file;
+          if (r.hedge_id) c["hedge_id"] = r.hedge_id;
           c["points"] = r.points;
           c["points_cleaned"] = r.points_cleaned;
           c["truth"] = r.truth ? json{{"center_mm", {r.truth->center_mm.x(), r.truth->center_mm.y(), r.truth->center_mm.z()}},

@@ -77,13 +77,17 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit convert --input build/lab --rig build/lab/rig.yaml --output-dir build/clouds --debug\n"
       "  hedgefit convert --input captures.txt --rig rig.yaml --output-dir out --shard 3/8   # one of 8 machines\n"
       "  hedgefit convert --left L.png --right R.png --rig rig.yaml -o out.pcd --print-pipeline  # the same as JSON\n"
+      "  hedgefit convert --garden --left build/garden/garden_row_left.png --right build/garden/garden_row_right.png \\\n"
+      "      --rig build/garden/rig.yaml -o build/row_#.pcd    # every hedge on the lawn: row_1.pcd, row_2.pcd, ...\n"
       "A directory input takes NAME_left.* / NAME_right.* pairs; a manifest has 'LEFT RIGHT [NAME]' lines.\n"
       "Every stage option below is the stereo.* stage's own (see `hedgefit plugins`); one flag sets it in\n"
-      "every stage that has it (--erode, --min-z, ...).\n");
+      "every stage that has it (--erode, --min-z, ...).\n"
+      "--garden finds every hedge by depth and writes one PCD per hedge: '#' in -o (or _# added before the\n"
+      "extension) becomes the hedge's id, 1, 2, ... left to right.\n");
   struct Args {
     std::string left, right, input, rig, output, output_dir = "clouds", shard, mask, matcher = "stereo.sgbm";
     int threads = 0;
-    bool debug = false, quiet = false, full_frame = false, print_pipeline = false;
+    bool debug = false, quiet = false, full_frame = false, print_pipeline = false, garden = false;
     StageFlags flags;
   };
   auto a = std::make_shared<Args>();
@@ -97,9 +101,12 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
                   "the matching stage: stereo.sgbm, or a plugin's stage that makes 'disparity' (default options)")
       ->capture_default_str();
   cmd->add_option("--mask", a->mask, "segment with this mask image (drawn on the left view) instead of by colour");
+  cmd->add_flag("--garden", a->garden,
+                "find every hedge by depth (lawn, hedge rows, several hedges): stereo.segment_garden; one PCD per hedge");
   // The stages' own options, declared once in their tables.
   a->flags.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"});
   a->flags.Add(cmd, stereo::MatchOptions::Table().Specs());
+  a->flags.Add(cmd, stereo::GardenSegmentOptions::Table().Specs());
   a->flags.Add(cmd, stereo::SegmentOptions::Table().Specs());
   a->flags.Add(cmd, stereo::ReprojectOptions::Table().Specs());
   cmd->add_flag("--full-frame", a->full_frame, "match the whole image, not just the hedge's region");
@@ -135,11 +142,16 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       bind(stereo::MaskOptions::Table(), &o.mask, "stereo.mask");
       bind(stereo::DepthSegmentOptions::Table(), &o.depth, "stereo.segment_depth");
       bind(stereo::MatchOptions::Table(), &o.match, "stereo.sgbm");
+      bind(stereo::GardenSegmentOptions::Table(), &o.garden, "stereo.segment_garden");
       bind(stereo::ReprojectOptions::Table(), &o.reproject, "stereo.reproject");
       if (a->full_frame) o.match.region_only = false;
       o.matcher = a->matcher;
-      if (!a->mask.empty() && given.count("box")) throw Error("--mask and --box: give one way to find the hedge, not both");
-      if (!a->mask.empty()) {
+      if (int(!a->mask.empty()) + int(given.count("box")) + int(a->garden) > 1) {
+        throw Error("--mask, --box and --garden: give one way to find the hedge, not several");
+      }
+      if (a->garden) {
+        o.mode = stereo::SegmentMode::kGarden;
+      } else if (!a->mask.empty()) {
         o.mode = stereo::SegmentMode::kMask;
         o.mask.filename = a->mask;
       } else if (given.count("box")) {
@@ -157,8 +169,11 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       }
       if (!single && a->input.empty()) throw Error("give --left/--right/-o for one capture, or --input DIR|MANIFEST");
       if (a->print_pipeline) {
+        const std::string shown = single ? a->output : "OUTPUT.pcd";
         std::printf("%s\n", stereo::CapturePipelineJson(o, single ? a->left : "LEFT.png", single ? a->right : "RIGHT.png",
-                                                        a->rig, single ? a->output : "OUTPUT.pcd")
+                                                        a->rig, a->garden && shown.find('#') == std::string::npos
+                                                                    ? (fs::path(shown).parent_path() / (fs::path(shown).stem().string() + "_#.pcd")).string()
+                                                                    : shown)
                                 .c_str());
         return kExitOk;
       }
@@ -199,8 +214,14 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       std::string first_error;
       std::size_t done = 0;
       int failed = 0;
+      // Several hedges per capture: one file per hedge, '#' standing for its id.
+      auto per_hedge = [&](const std::string& path) {
+        if (!a->garden || path.find('#') != std::string::npos) return path;
+        const fs::path p(path);
+        return (p.parent_path() / (p.stem().string() + "_#" + p.extension().string())).string();
+      };
       auto convert_one = [&](const Capture& c) {
-        const std::string out = single ? a->output : (fs::path(a->output_dir) / (c.name + ".pcd")).string();
+        const std::string out = per_hedge(single ? a->output : (fs::path(a->output_dir) / (c.name + ".pcd")).string());
         std::string line;
         try {
           // The very pipeline `--print-pipeline` shows.
@@ -212,19 +233,40 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
           const cloud::PointCloud& cloud = ctx.Get<cloud::PointCloud>("cloud");
           const cv::Mat& left_rect = ctx.Get<cv::Mat>("left_image");
           if (a->debug) {
-            const fs::path base = fs::path(out).parent_path() / fs::path(out).stem();
+            std::string stem = fs::path(out).stem().string();  // "row_#" -> "row"
+            if (const auto hash = stem.rfind('#'); hash != std::string::npos) {
+              stem.erase(hash > 0 && (stem[hash - 1] == '_' || stem[hash - 1] == '-') ? hash - 1 : hash,
+                         hash > 0 && (stem[hash - 1] == '_' || stem[hash - 1] == '-') ? 2 : 1);
+            }
+            const fs::path base = fs::path(out).parent_path() / stem;
             cv::Mat pair;
             cv::hconcat(left_rect, ctx.Get<cv::Mat>("right_image"), pair);
             cv::imwrite(base.string() + "_rectified.png", pair);
             cv::imwrite(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
             cv::imwrite(base.string() + "_disparity.png", stereo::ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
           }
+          const int* area = ctx.Find<int>("matched_area");
           const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");
-          const double matched = region ? double(region->area()) / double(left_rect.total()) : 1.0;
+          const double matched =
+              double(area ? *area : (region ? region->area() : int(left_rect.total()))) / double(left_rect.total());
           char buf[512];
           std::snprintf(buf, sizeof(buf), "%-24s %8zu points %7.0f ms  matched %.1f%% of the frame  -> %s", c.name.c_str(),
                         cloud.size() - cloud::CountNonFinite(cloud), report.total_ms, 100 * matched, out.c_str());
           line = buf;
+          if (const auto* hedges = ctx.Find<std::vector<stereo::HedgeRegion>>("hedges")) {
+            const auto groups = cloud::HedgeGroups(cloud);
+            for (const auto& h : *hedges) {
+              std::size_t n = 0;
+              for (const auto& g : groups) n = g.id == h.id ? g.indices.size() : n;
+              std::string file = out;
+              file.replace(file.rfind('#'), 1, std::to_string(h.id));
+              std::snprintf(buf, sizeof(buf), "\n    hedge %d: box %d,%d,%d,%d px, about r %.0f mm at %.2f m%s, %zu points -> %s",
+                            h.id, h.image_box.x, h.image_box.y, h.image_box.width, h.image_box.height,
+                            h.approx_radius_mm, h.approx_center_mm[2] / 1000, h.touches_border ? " (cut by the frame)" : "",
+                            n, file.c_str());
+              line += buf;
+            }
+          }
         } catch (const std::exception& e) {
           std::lock_guard<std::mutex> lock(io);
           ++failed;

@@ -32,6 +32,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit simulate --preset paper-lab -o build/lab          # 16 board pairs + spheres at Z = 2000..2600 mm\n"
       "  hedgefit simulate --sphere 70,50,2300,300 -o build/sphere  # one capture, centre x,y,z and radius (mm)\n"
       "  hedgefit simulate --board 0.3,0.2,0,-150,-150,1200 -o build/board   # rotation vector (rad), translation (mm)\n"
+      "  hedgefit simulate --preset garden -o build/garden         # leafy balls on a lawn: row, single, outdoor\n"
       "The rig is the paper's (1920x1200, f 933.3 px, baseline 140 mm); --scale shrinks it.\n");
   struct Args {
     std::string preset, sphere, board, out = "simulated", squares = "13x12";
@@ -41,7 +42,8 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
     std::uint64_t seed = 1;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("--preset", a->preset, "paper-lab")->check(CLI::IsMember({"paper-lab"}));
+  cmd->add_option("--preset", a->preset, "paper-lab (the paper's lab: boards and spheres) or garden (leafy hedge balls on a lawn)")
+      ->check(CLI::IsMember({"paper-lab", "garden"}));
   cmd->add_option("--sphere", a->sphere, "render a sphere: X,Y,Z,R in mm (left camera frame)");
   cmd->add_option("--board", a->board, "render a board (see --squares, --square): RX,RY,RZ (rad),TX,TY,TZ (mm)");
   cmd->add_option("--squares", a->squares, "board squares COLSxROWS (inner corners are one fewer each way)")
@@ -86,6 +88,15 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       if (!fs::is_directory(a->out, ec)) throw Error(a->out + ": cannot create the output directory");
       const auto t0 = std::chrono::steady_clock::now();
       auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+      if (a->preset == "garden") {
+        const auto names = stereo::GardenPresetNames();
+        const auto files = stereo::WriteGarden(a->out, a->scale, ro, names);
+        std::printf("wrote %zu files to %s in %.1f s (%zu garden captures: ", files.size(), a->out.c_str(), seconds(),
+                    names.size());
+        for (std::size_t i = 0; i < names.size(); ++i) std::printf("%s%s", i ? ", " : "", ("garden_" + names[i]).c_str());
+        std::printf(")\n");
+        return kExitOk;
+      }
       if (!a->preset.empty()) {
         const auto files = stereo::WritePaperLab(a->out, a->scale, ro);
         std::printf("wrote %zu files to %s in %.1f s (23 pairs, %.2f s per pair)\n", files.size(), a->out.c_str(),

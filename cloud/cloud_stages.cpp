@@ -41,13 +41,33 @@ void AddReader(Registry& r, const std::string& name, const std::string& what, st
 void AddWriter(Registry& r, const std::string& name, const std::string& what, std::vector<std::string> exts,
                std::vector<OptionSpec> extra) {
   StageInfo info{name, "Writes the 'cloud' artifact as " + what + " (atomically: temporary file, then rename)",
-                 {StringOption("filename", "", "file to write")}, {"cloud"}, {}, exts};
+                 {StringOption("filename", "", "file to write; a '#' in it writes one file per hedge (hedge_id)")},
+                 {"cloud"}, {}, exts};
   for (auto& e : extra) info.options.push_back(std::move(e));
   const StageFactory run = MakeFactory([](const Options& o, Context& ctx) {
     const PointCloud& cloud = ctx.Get<PointCloud>("cloud");
-    WriteCloud(ctx.OutputPath(o.GetString("filename")), cloud, WriteOptions::Table().FromOptions(o));
-    ctx.Note("points", static_cast<std::int64_t>(cloud.size()));
-    ctx.Note("filename", o.GetString("filename"));
+    const std::string& filename = o.GetString("filename");
+    const auto hash = filename.rfind('#');
+    if (hash == std::string::npos) {
+      WriteCloud(ctx.OutputPath(filename), cloud, WriteOptions::Table().FromOptions(o));
+      ctx.Note("points", static_cast<std::int64_t>(cloud.size()));
+      ctx.Note("filename", filename);
+      return;
+    }
+    // One file per hedge, as PDAL's writers do per view: '#' becomes the hedge's id.
+    if (!cloud.fields.count(kHedgeIdField)) {
+      throw Error("stage '" + ctx.current_stage + "', option 'filename': '" + filename +
+                  "' has a '#' (one file per hedge) but the cloud has no hedge_id field; segment with "
+                  "stereo.segment_garden, or drop the '#'");
+    }
+    std::string files;
+    for (const HedgeGroup& g : HedgeGroups(cloud)) {
+      const std::string path = filename.substr(0, hash) + std::to_string(g.id) + filename.substr(hash + 1);
+      WriteCloud(ctx.OutputPath(path), Select(cloud, g.indices), WriteOptions::Table().FromOptions(o));
+      files += (files.empty() ? "" : ", ") + path;
+    }
+    ctx.Note("points", static_cast<std::int64_t>(cloud.size() - CountNonFinite(cloud)));
+    ctx.Note("filename", files);
   });
   // Checked when the pipeline is built, so a bad output path fails before any work is done.
   r.Add(info, [name, run](const Options& o) {

@@ -7,6 +7,8 @@
 #include <unordered_map>
 
 #include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_parallel_plane.h>
+#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 #include <pcl/sample_consensus/sac_model_plane.h>
 
 #include "cloud/error.hpp"
@@ -346,6 +348,48 @@ FilterResult RemovePlanes(const PointCloud& cloud, const PlaneRemovalOptions& op
   FilterResult r = Finish(cloud, std::move(keep), false);
   r.threshold = planes;
   return r;
+}
+
+std::optional<Plane> FindPlane(const std::vector<Eigen::Vector3f>& points, const PlaneSearch& search) {
+  if (points.size() < 3) return std::nullopt;
+  QuietPcl();
+  // PCL works in float: centre the coordinates first.
+  Eigen::Vector3f mid = Eigen::Vector3f::Zero();
+  for (const auto& p : points) mid += p;
+  mid /= float(points.size());
+  auto pc = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  pc->resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f q = points[i] - mid;
+    (*pc)[i] = pcl::PointXYZ(q.x(), q.y(), q.z());
+  }
+  class SeededModel : public pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ> {
+   public:
+    SeededModel(const PointCloudConstPtr& cloud, std::uint64_t seed)
+        : pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>(cloud, false) {
+      rng_alg_.seed(static_cast<unsigned>(seed ^ (seed >> 32)));
+    }
+  };
+  auto model = std::make_shared<SeededModel>(pc, search.seed);
+  model->setAxis(search.axis.normalized());
+  model->setEpsAngle(search.max_angle_deg * 3.14159265358979323846 / 180.0);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> sac(model, search.distance_threshold_mm);
+  sac.setMaxIterations(search.max_iterations);
+  if (!sac.computeModel()) return std::nullopt;
+  pcl::Indices inliers;
+  sac.getInliers(inliers);
+  if (inliers.size() < 3) return std::nullopt;
+  Eigen::VectorXf coefficients, refined;
+  sac.getModelCoefficients(coefficients);
+  model->optimizeModelCoefficients(inliers, coefficients, refined);
+  Plane plane;
+  plane.normal = refined.head<3>();
+  const float norm = plane.normal.norm();
+  if (!(norm > 0)) return std::nullopt;
+  plane.normal /= norm;
+  plane.d = refined[3] / norm - plane.normal.dot(mid);
+  plane.inliers = inliers.size();
+  return plane;
 }
 
 }  // namespace hedgefit::cloud

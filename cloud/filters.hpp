@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "cloud/option_table.hpp"
@@ -107,5 +108,26 @@ struct PlaneRemovalOptions {
 /// SACMODEL_PLANE (on centred data), so a sphere fit sees the object, not the room.
 /// `threshold` in the result holds the number of planes removed.
 FilterResult RemovePlanes(const PointCloud& cloud, const PlaneRemovalOptions& options);
+
+/// A plane n.p + d = 0 with |n| = 1.
+struct Plane {
+  Eigen::Vector3f normal = Eigen::Vector3f::UnitY();
+  float d = 0;
+  std::size_t inliers = 0;
+  float Distance(const Eigen::Vector3f& p) const { return normal.dot(p) + d; }  ///< signed, mm
+};
+
+struct PlaneSearch {
+  Eigen::Vector3f axis = Eigen::Vector3f::UnitY();  ///< the plane's normal must lie near this axis
+  double max_angle_deg = 35;                         ///< ... within this angle
+  double distance_threshold_mm = 40;
+  int max_iterations = 500;
+  std::uint64_t seed = 42;
+};
+
+/// The plane with most points within the threshold whose normal lies within max_angle of
+/// `axis` (PCL's RANSAC on SACMODEL_PERPENDICULAR_PLANE, then least squares on its inliers),
+/// e.g. the ground seen by a camera. nullopt when fewer than 3 points or no such plane.
+std::optional<Plane> FindPlane(const std::vector<Eigen::Vector3f>& points_mm, const PlaneSearch& search);
 
 }  // namespace hedgefit::cloud

@@ -1,5 +1,7 @@
 #include "cloud/point_cloud.hpp"
 
+#include <cmath>
+
 #include "cloud/error.hpp"
 
 #include <limits>
@@ -39,6 +41,25 @@ PointCloud Select(const PointCloud& cloud, const std::vector<std::size_t>& indic
     for (std::size_t i : indices) dst.push_back(values[i]);
   }
   out.Flatten();
+  return out;
+}
+
+std::vector<HedgeGroup> HedgeGroups(const PointCloud& cloud) {
+  auto it = cloud.fields.find(kHedgeIdField);
+  if (it == cloud.fields.end() || it->second.empty()) {
+    HedgeGroup all;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (IsFinite(cloud.points_mm[i])) all.indices.push_back(i);
+    }
+    return {all};
+  }
+  std::map<int, std::vector<std::size_t>> by_id;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const float id = it->second[i];
+    if (IsFinite(cloud.points_mm[i]) && std::isfinite(id) && id >= 1) by_id[int(std::lround(id))].push_back(i);
+  }
+  std::vector<HedgeGroup> out;
+  for (auto& [id, indices] : by_id) out.push_back(HedgeGroup{id, std::move(indices)});
   return out;
 }
 

@@ -46,6 +46,20 @@ PointCloud Select(const PointCloud& cloud, const std::vector<std::size_t>& indic
 /// the organised structure (PCL's setKeepOrganized behaviour).
 PointCloud MaskOrganized(const PointCloud& cloud, const std::vector<bool>& keep);
 
+/// The per-point field that says which hedge a point belongs to (1, 2, ... left to right),
+/// written by stereo.segment_garden's captures.
+inline constexpr const char* kHedgeIdField = "hedge_id";
+
+/// One hedge's finite points.
+struct HedgeGroup {
+  int id = 0;                        ///< 0 when the cloud has no hedge_id field (one hedge)
+  std::vector<std::size_t> indices;  ///< finite points of this hedge
+};
+
+/// The finite points grouped by hedge id, ascending (points with id 0 belong to no hedge and are
+/// left out); a cloud without the field is one group with id 0.
+std::vector<HedgeGroup> HedgeGroups(const PointCloud& cloud);
+
 /// Number of points with a non-finite coordinate.
 std::size_t CountNonFinite(const PointCloud& cloud);
 

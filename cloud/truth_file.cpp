@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -10,26 +11,18 @@
 
 namespace hedgefit::cloud {
 
-void WriteSphereTruth(const std::string& path, const SphereTruth& t) {
+namespace {
+
+nlohmann::json TruthJson(const SphereTruth& t) {
   nlohmann::json j;
   j["center_mm"] = {t.center_mm.x(), t.center_mm.y(), t.center_mm.z()};
   j["radius_mm"] = t.radius_mm;
-  j["frame"] = t.frame;
-  WriteTextFileAtomic(path, j.dump() + "\n");
+  if (t.surface_radius_mm) j["surface_radius_mm"] = *t.surface_radius_mm;
+  return j;
 }
 
-SphereTruth ReadSphereTruth(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a directory; give a truth .json file");
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the truth file; check the path");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception&) {
-    throw Error(path + ": invalid JSON; a truth file is {\"center_mm\": [x, y, z], \"radius_mm\": r}");
-  }
-  const auto bad = [&] { return Error(path + ": needs \"center_mm\": [x, y, z] and \"radius_mm\": r (numbers, mm)"); };
+SphereTruth ParseTruth(const nlohmann::json& j, const std::string& where) {
+  const auto bad = [&] { return Error(where + ": needs \"center_mm\": [x, y, z] and \"radius_mm\": r (numbers, mm)"); };
   if (!j.is_object() || !j.contains("center_mm") || !j.contains("radius_mm")) throw bad();
   const auto& c = j["center_mm"];
   if (!c.is_array() || c.size() != 3 || !j["radius_mm"].is_number()) throw bad();
@@ -40,8 +33,67 @@ SphereTruth ReadSphereTruth(const std::string& path) {
   }
   t.radius_mm = j["radius_mm"].get<double>();
   if (!(t.radius_mm > 0) || !std::isfinite(t.radius_mm) || !t.center_mm.allFinite()) throw bad();
-  if (j.contains("frame") && j["frame"].is_string()) t.frame = j["frame"].get<std::string>();
+  if (j.contains("surface_radius_mm")) {
+    if (!j["surface_radius_mm"].is_number() || !(j["surface_radius_mm"].get<double>() > 0)) {
+      throw Error(where + ": \"surface_radius_mm\" must be a positive number (mm)");
+    }
+    t.surface_radius_mm = j["surface_radius_mm"].get<double>();
+  }
   return t;
+}
+
+}  // namespace
+
+void WriteSphereTruth(const std::string& path, const SphereTruth& t) {
+  nlohmann::json j = TruthJson(t);
+  j["frame"] = t.frame;
+  WriteTextFileAtomic(path, j.dump() + "\n");
+}
+
+void WriteSphereTruths(const std::string& path, const std::vector<SphereTruth>& truths) {
+  nlohmann::json j;
+  j["hedges"] = nlohmann::json::array();
+  for (const auto& t : truths) j["hedges"].push_back(TruthJson(t));
+  j["frame"] = truths.empty() ? SphereTruth().frame : truths.front().frame;
+  j["order"] = "left to right in the image, as hedgefit numbers hedges";
+  WriteTextFileAtomic(path, j.dump() + "\n");
+}
+
+std::vector<SphereTruth> ReadSphereTruths(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a directory; give a truth .json file");
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": cannot open the truth file; check the path");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception&) {
+    throw Error(path + ": invalid JSON; a truth file is {\"center_mm\": [x, y, z], \"radius_mm\": r}");
+  }
+  std::vector<SphereTruth> out;
+  const std::string frame = j.is_object() && j.contains("frame") && j["frame"].is_string() ? j["frame"].get<std::string>() : "";
+  if (j.is_object() && j.contains("hedges")) {
+    if (!j["hedges"].is_array() || j["hedges"].empty()) {
+      throw Error(path + ": \"hedges\" must be a non-empty array of {\"center_mm\", \"radius_mm\"}");
+    }
+    for (std::size_t i = 0; i < j["hedges"].size(); ++i) {
+      out.push_back(ParseTruth(j["hedges"][i], path + ": hedge " + std::to_string(i + 1)));
+    }
+  } else {
+    out.push_back(ParseTruth(j, path));
+  }
+  if (!frame.empty()) {
+    for (auto& t : out) t.frame = frame;
+  }
+  return out;
+}
+
+SphereTruth ReadSphereTruth(const std::string& path) {
+  std::vector<SphereTruth> all = ReadSphereTruths(path);
+  if (all.size() != 1) {
+    throw Error(path + ": lists " + std::to_string(all.size()) + " hedges; this needs the truth of one sphere");
+  }
+  return all.front();
 }
 
 }  // namespace hedgefit::cloud

@@ -14,6 +14,8 @@ namespace hedgefit::fitting {
 
 namespace {
 
+constexpr double kMinScaleMm = 0.01;
+
 // log(erfc(z)), accurate where erfc underflows (z > 5: the asymptotic series).
 template <class T>
 T LogErfc(const T& z) {
@@ -41,7 +43,11 @@ struct ShellLikelihood {
     using std::log;
     using std::max;
     using std::sqrt;
-    const T cx = p[0], cy = p[1], cz = p[2], R = p[3], mu0 = exp(p[4]), sigma = exp(p[5]);
+    // Floors on the leaf depth and the noise (far below any camera's): without them the
+    // likelihood of a smooth surface grows without bound as sigma -> 0, and a line search step
+    // there overflows.
+    const T cx = p[0], cy = p[1], cz = p[2], R = p[3], mu0 = T(kMinScaleMm) + exp(p[4]),
+            sigma = T(kMinScaleMm) + exp(p[5]);
     T total(0);
     for (const Eigen::Vector3d& q : *pts) {
       const T dx = T(q.x()) - cx, dy = T(q.y()) - cy, dz = T(q.z()) - cz;
@@ -64,7 +70,10 @@ struct ShellLikelihood {
       total -= m + log(exp(a - m) + exp(b - m));
     }
     cost[0] = total / T(double(pts->size()));
-    return true;
+    // A non-finite value or gradient is an invalid point for the line search, which then steps
+    // back, rather than a Ceres CHECK failure.
+    using std::isfinite;
+    return isfinite(cost[0]);
   }
 };
 
@@ -76,7 +85,10 @@ const cloud::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
       cloud::OptionTable<O>()
           .Add("viewpoint", &O::viewpoint_mm, "the camera's position in the cloud's frame", "mm")
           .Add("outlier_share", &O::outlier_share, "prior share of outliers (uniform)").Range(1e-6, 0.5)
-          .Add("max_iterations", &O::max_iterations, "LBFGS iterations at most", "iterations").Range(1, 10000);
+          .Add("max_iterations", &O::max_iterations, "LBFGS iterations at most", "iterations").Range(1, 10000)
+          .Add("max_points", &O::max_points, "the likelihood sums over at most this many points (every n-th); 0 = all",
+               "points")
+          .Range(0, 1e9);
   return table;
 }
 
@@ -123,6 +135,14 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   std::nth_element(abs_res.begin(), abs_res.begin() + std::ptrdiff_t(abs_res.size() / 2), abs_res.end());
   const double spread = std::max(0.05, 1.4826 * abs_res[abs_res.size() / 2]);
   const double width = std::max(10 * spread, 0.5 * start.sphere.radius_mm);  // where outliers may fall
+  // Every n-th point, n the smallest that keeps at most max_points.
+  if (options.max_points > 0 && centred.size() > std::size_t(options.max_points)) {
+    const std::size_t n = (centred.size() + std::size_t(options.max_points) - 1) / std::size_t(options.max_points);
+    std::vector<Eigen::Vector3d> thinned;
+    thinned.reserve(centred.size() / n + 1);
+    for (std::size_t i = 0; i < centred.size(); i += n) thinned.push_back(centred[i]);
+    centred.swap(thinned);
+  }
   ShellLikelihood model{&centred, options.viewpoint_mm - mean, std::log(options.outlier_share / width),
                         std::log(1 - options.outlier_share)};
   double p[6] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
@@ -138,7 +158,7 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   ceres::Solve(so, problem, p, &summary);
   r.iterations = static_cast<int>(summary.iterations.size());
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  const double mu = std::exp(p[4]), sigma = std::exp(p[5]);
+  const double mu = kMinScaleMm + std::exp(p[4]), sigma = kMinScaleMm + std::exp(p[5]);
   if (!summary.IsSolutionUsable() || !std::isfinite(p[3]) || !(p[3] > 0) || !std::isfinite(mu)) {
     r.message = "the shell model did not converge: " + summary.message;
     return out;

@@ -20,6 +20,32 @@ Sphere ReadTruthFile(const std::string& path) {
   return s;
 }
 
+std::vector<Sphere> ReadTruthFiles(const std::string& path) {
+  std::vector<Sphere> out;
+  for (const cloud::SphereTruth& t : cloud::ReadSphereTruths(path)) {
+    Sphere s;
+    s.center_mm = t.center_mm;
+    s.radius_mm = t.radius_mm;
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::optional<Sphere> TruthForPoints(const std::vector<Sphere>& truths, const std::vector<Eigen::Vector3d>& points) {
+  if (truths.empty() || points.empty()) return std::nullopt;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : points) centroid += p;
+  centroid /= double(points.size());
+  const Sphere* best = nullptr;
+  double best_d = 0;
+  for (const Sphere& t : truths) {
+    const double d = (t.center_mm - centroid).norm();
+    if (best == nullptr || d < best_d) best = &t, best_d = d;
+  }
+  if (best_d > best->radius_mm) return std::nullopt;
+  return *best;
+}
+
 std::optional<std::string> TruthFileFor(const std::string& cloud_path) {
   std::filesystem::path p(cloud_path);
   p.replace_extension(".truth.json");
@@ -94,6 +120,7 @@ std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFi
       {"iterations", static_cast<std::int64_t>(f.iterations)},
       {"wall_ms", f.wall_ms},
       {"message", f.message}};
+  if (f.hedge_id != 0) out.emplace_back("hedge_id", static_cast<std::int64_t>(f.hedge_id));
   if (f.converged) {
     out.emplace_back("center_mm", std::vector<double>{f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()});
     out.emplace_back("radius_mm", f.sphere.radius_mm);

@@ -16,6 +16,14 @@ namespace hedgefit::fitting {
 /// Reads a truth JSON {"center_mm": [x, y, z], "radius_mm": r}; throws hedgefit::Error naming the file.
 Sphere ReadTruthFile(const std::string& path);
 
+/// Every sphere of a truth file (one, or a capture's several hedges, cloud/truth_file.hpp).
+std::vector<Sphere> ReadTruthFiles(const std::string& path);
+
+/// The truth a hedge's points belong to: the sphere whose centre is nearest their centroid, if
+/// the centroid lies within that sphere (a hedge's visible points lie on its near side, inside
+/// its radius of the centre); nullopt otherwise.
+std::optional<Sphere> TruthForPoints(const std::vector<Sphere>& truths, const std::vector<Eigen::Vector3d>& points_mm);
+
 /// CLOUD.truth.json beside CLOUD.ext, if it exists.
 std::optional<std::string> TruthFileFor(const std::string& cloud_path);
 

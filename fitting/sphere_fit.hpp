@@ -16,6 +16,7 @@ struct Sphere {
 /// What a fitter found, and whether it can be trusted. Failing is a result, not an exception.
 struct SphereFitResult {
   std::string method;           ///< a name from the method table (fitting/methods.hpp)
+  int hedge_id = 0;             ///< which hedge of a capture (the cloud's hedge_id field); 0 = the cloud is one hedge
   Sphere sphere;                ///< meaningful only when converged
   bool converged = false;       ///< false: `message` says why
   double rms_mm = 0.0;          ///< RMS of |p - c| - r over the points used (inliers for RANSAC), mm

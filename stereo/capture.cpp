@@ -22,7 +22,10 @@ const cloud::OptionTable<MatchOptions>& MatchOptions::Table() {
           .Add("max_z", &O::max_z_mm, "working range, farthest", "mm").Min(1)
           .Add("region_only", &O::region_only, "match only the mask's bounding box")
           .Add("margin", &O::margin_px, "margin around the mask's bounding box", "px").Range(0, 10000)
-          .Add("precise_resampling", &O::precise_resampling, "B-spline rectification of the matched region");
+          .Add("precise_resampling", &O::precise_resampling, "B-spline rectification of the matched region")
+          .Add("max_points", &O::max_points,
+               "per hedge at most: larger regions keep every s-th pixel and row; 0 = all", "points")
+          .Range(0, 1e9);
   return table;
 }
 
@@ -45,10 +48,16 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   cv::Rect roi(0, 0, size.width, size.height);
   if (options.region_only && !mask.empty() && cv::countNonZero(mask) > 0) roi = MatchRegion(mask, sg, options.margin_px);
   r.matched_region = roi;
+  r.matched_area = roi.area();
   if (options.precise_resampling && raw_left != nullptr && raw_right != nullptr) {
     RectifyRegionPrecisely(rig, *raw_left, *raw_right, roi, left_rect, right_rect);
   }
-  const DisparityMap d = ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg, mask.empty() ? cv::Mat() : mask(roi));
+  // Thinning: the smallest stride that keeps the mask's pixels (the whole region without one)
+  // within max_points.
+  const double pixels = mask.empty() ? double(roi.area()) : double(cv::countNonZero(mask));
+  r.stride = options.max_points > 0 ? std::max(1, int(std::ceil(std::sqrt(pixels / options.max_points)))) : 1;
+  const DisparityMap d =
+      ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg, mask.empty() ? cv::Mat() : mask(roi), r.stride);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   r.disparity = cv::Mat(size, CV_32F, cv::Scalar(nan));
   d.disparity.copyTo(r.disparity(roi));
@@ -61,10 +70,54 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   // value further: no point outside [min_z, max_z] leaves the matcher.
   const double fb = rig.P1.at<double>(0, 0) * rig.baseline_mm;
   const float d_lo = float(fb / options.max_z_mm), d_hi = float(fb / options.min_z_mm);
-  r.disparity.forEach<float>([&](float& v, const int*) {
+  r.disparity(roi).forEach<float>([&](float& v, const int*) {  // outside the region: NaN already
     if (v < d_lo || v > d_hi) v = std::numeric_limits<float>::quiet_NaN();
   });
   return r;
+}
+
+MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv::Mat* raw_right, cv::Mat* left_rect,
+                        cv::Mat* right_rect, const cv::Mat& hedge_labels, const MatchOptions& options,
+                        const std::vector<HedgeRegion>& hedges) {
+  double max_id = 0;
+  cv::minMaxLoc(hedge_labels, nullptr, &max_id);
+  MatchResult all;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  all.disparity = cv::Mat(hedge_labels.size(), CV_32F, cv::Scalar(nan));
+  all.filled = cv::Mat::zeros(hedge_labels.size(), CV_8U);
+  all.disparity_sigma = cv::Mat(hedge_labels.size(), CV_32F, cv::Scalar(nan));
+  int matched_area = 0;
+  for (int id = 1; id <= int(max_id); ++id) {
+    const cv::Mat mask = hedge_labels == id;
+    if (cv::countNonZero(mask) == 0) continue;
+    // Each hedge's own depth range, when the segmentation measured one: fewer disparities.
+    MatchOptions own = options;
+    for (const HedgeRegion& h : hedges) {
+      if (h.id == id && h.max_z_mm > h.min_z_mm) {
+        own.min_z_mm = std::max(options.min_z_mm, h.min_z_mm);
+        own.max_z_mm = std::min(options.max_z_mm, h.max_z_mm);
+        if (!(own.max_z_mm > own.min_z_mm)) own = options;
+      }
+    }
+    const MatchResult m = MatchHedge(rig, raw_left, raw_right, left_rect, right_rect, mask, own);
+    m.disparity.copyTo(all.disparity, mask);
+    m.filled.copyTo(all.filled, mask);
+    m.disparity_sigma.copyTo(all.disparity_sigma, mask);
+    all.filled_count += cv::countNonZero(m.filled & mask);
+    all.matched_region = all.matched_region.empty() ? m.matched_region : (all.matched_region | m.matched_region);
+    matched_area += m.matched_region.area();
+    if (all.num_disparities == 0) {
+      all.min_disparity = m.min_disparity;
+      all.num_disparities = m.num_disparities;
+    } else {
+      const int hi = std::max(all.min_disparity + all.num_disparities, m.min_disparity + m.num_disparities);
+      all.min_disparity = std::min(all.min_disparity, m.min_disparity);
+      all.num_disparities = hi - all.min_disparity;
+    }
+    all.stride = std::max(all.stride, m.stride);
+  }
+  all.matched_area = matched_area;
+  return all;
 }
 
 cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px) {
@@ -81,6 +134,7 @@ void ConvertOptions::Check() const {
     case SegmentMode::kColour: segment.Check(); break;
     case SegmentMode::kMask: mask.Check(); break;
     case SegmentMode::kDepth: depth.Check(); break;
+    case SegmentMode::kGarden: garden.Check(); break;
   }
   match.Check();
   reproject.Check();
@@ -103,6 +157,9 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
     case SegmentMode::kMask: p.push_back(stage("stereo.mask", MaskOptions::Table().Values(o.mask))); break;
     case SegmentMode::kDepth:
       p.push_back(stage("stereo.segment_depth", DepthSegmentOptions::Table().Values(o.depth)));
+      break;
+    case SegmentMode::kGarden:
+      p.push_back(stage("stereo.segment_garden", GardenSegmentOptions::Table().Values(o.garden)));
       break;
   }
   p.push_back(o.matcher == "stereo.sgbm" ? stage("stereo.sgbm", MatchOptions::Table().Values(o.match))
@@ -136,7 +193,9 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   if (const cv::Mat* sigma = ctx.Find<cv::Mat>("disparity_sigma")) r.disparity_sigma = *sigma;
   const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");
   r.matched_region = region ? *region : cv::Rect(0, 0, r.left_rect.cols, r.left_rect.rows);
-  r.matched_fraction = double(r.matched_region.area()) / double(r.left_rect.total());
+  if (const auto* hedges = ctx.Find<std::vector<HedgeRegion>>("hedges")) r.hedges = *hedges;
+  const int* area = ctx.Find<int>("matched_area");
+  r.matched_fraction = double(area ? *area : r.matched_region.area()) / double(r.left_rect.total());
   for (const auto& s : report.stages) {
     if (s.type == "stereo.rectify") r.stage_ms.rectify += s.wall_ms;
     else if (s.type == options.matcher) r.stage_ms.match += s.wall_ms;

@@ -11,6 +11,7 @@
 
 #include "cloud/option_table.hpp"
 #include "cloud/point_cloud.hpp"
+#include "stereo/garden.hpp"
 #include "stereo/matching.hpp"
 #include "stereo/rectification.hpp"
 #include "stereo/reprojection.hpp"
@@ -26,6 +27,10 @@ struct MatchOptions {
   bool region_only = true;         ///< match only the mask's bounding box (plus margin)
   int margin_px = 24;              ///< around the mask's bounding box
   bool precise_resampling = true;  ///< B-spline rectification of the matched region
+  /// At most this many points per hedge: a larger region keeps every s-th pixel of every s-th
+  /// row (s the smallest stride that fits), so time and cloud size stay bounded for hedges
+  /// that fill the view. 0 = every pixel.
+  int max_points = 60000;
   void Check() const;
   static const cloud::OptionTable<MatchOptions>& Table();  ///< the options, declared once
 };
@@ -34,10 +39,19 @@ struct MatchResult {
   cv::Mat disparity;        ///< CV_32F px, full rectified size, NaN = none
   cv::Mat filled;           ///< CV_8U, 255 where the disparity was filled, not measured
   cv::Mat disparity_sigma;  ///< CV_32F px, the refinement's standard deviation; NaN = none
-  cv::Rect matched_region;  ///< in the rectified left image
+  cv::Rect matched_region;  ///< in the rectified left image (several hedges: the union's box)
+  int matched_area = 0;     ///< px matched (several hedges: the sum of their regions)
   int filled_count = 0;
+  int stride = 1;           ///< every stride-th pixel and row kept (MatchOptions::max_points)
   int min_disparity = 0, num_disparities = 0;  ///< the search range used
 };
+
+/// MatchHedge for each hedge of `hedge_labels` (CV_32S, id per pixel) over its own region and,
+/// when `hedges` gives one, its own depth range, the results merged: a row of hedges costs the
+/// sum of their regions, not the row's bounding box.
+MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv::Mat* raw_right, cv::Mat* left_rect,
+                        cv::Mat* right_rect, const cv::Mat& hedge_labels, const MatchOptions& options,
+                        const std::vector<HedgeRegion>& hedges = {});
 
 /// Matches the hedge: the mask's region (or the whole frame) of the rectified pair, over the
 /// working range's disparities. With `raw_left`/`raw_right` (the unrectified images) and
@@ -52,13 +66,14 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
 cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px);
 
 /// How the hedge is found.
-enum class SegmentMode { kColour, kMask, kDepth };
+enum class SegmentMode { kColour, kMask, kDepth, kGarden };
 
 struct ConvertOptions {
   SegmentMode mode = SegmentMode::kColour;
   SegmentOptions segment;     ///< kColour
   MaskOptions mask;           ///< kMask
   DepthSegmentOptions depth;  ///< kDepth
+  GardenSegmentOptions garden;  ///< kGarden: every hedge, by depth
   MatchOptions match;         ///< for the built-in matcher, stereo.sgbm
   /// The matching slot: stereo.sgbm, or any registered stage (a plugin's) that turns the
   /// rectified pair into 'disparity' (and optionally 'filled', 'disparity_sigma'); it runs
@@ -82,6 +97,7 @@ struct ConvertResult {
   cv::Mat filled;                  ///< CV_8U, 255 where the disparity was filled, not measured
   cv::Mat disparity_sigma;         ///< CV_32F px, the refinement's standard deviation; NaN = none
   cv::Rect matched_region;         ///< in the rectified left image
+  std::vector<HedgeRegion> hedges; ///< kGarden: every hedge found (the cloud's "hedge_id" field)
   double matched_fraction = 1.0;   ///< matched area / full image area
   double wall_ms = 0;
   struct {

@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "cloud/error.hpp"
+#include "cloud/parallel.hpp"
 #include "stereo/bspline.hpp"
 
 namespace hedgefit::stereo {
@@ -201,7 +202,8 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
   return refined.load();
 }
 
-DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask) {
+DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask,
+                              int stride) {
   o.Check();
   if (left.empty() || right.empty() || left.size() != right.size() || left.type() != right.type()) {
     throw Error("stereo.sgbm: the left and right images must be non-empty and of the same size and type");
@@ -216,8 +218,19 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
                                                    : cv::StereoSGBM::MODE_HH4;
   cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(o.min_disparity, num, o.block_size, p1, p2,
                                                         o.disp12_max_diff, 0, o.uniqueness_ratio, 0, 0, mode);
-  cv::Mat d16_left;
-  sgbm->compute(left, right, d16_left);
+  // The left and the right matcher (for the left-right check) run side by side: OpenCV's HH
+  // modes are single-threaded, so on two cores this halves the matching time.
+  cv::Mat d16_left, d16_right;
+  cloud::ParallelFor(o.lrc_tolerance_px >= 0 ? 2 : 1, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      if (i == 0) {
+        sgbm->compute(left, right, d16_left);
+      } else {
+        cv::Ptr<cv::StereoMatcher> right_matcher = cv::ximgproc::createRightMatcher(sgbm);
+        right_matcher->compute(right, left, d16_right);  // negative disparities, as OpenCV's right matcher gives
+      }
+    }
+  });
   DisparityMap out;
   const float invalid_left = float(o.min_disparity - 1) * 16.0f;
   out.disparity.create(left.size(), CV_32F);
@@ -229,9 +242,6 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
     for (int x = 0; x < left.cols; ++x) d[x] = s[x] <= invalid_left ? nan : s[x] / 16.0f;
   }
   if (o.lrc_tolerance_px >= 0) {
-    cv::Ptr<cv::StereoMatcher> right_matcher = cv::ximgproc::createRightMatcher(sgbm);
-    cv::Mat d16_right;
-    right_matcher->compute(right, left, d16_right);  // negative disparities, as OpenCV's right matcher gives
     for (int y = 0; y < left.rows; ++y) {
       float* d = out.disparity.ptr<float>(y);
       const short* r = d16_right.ptr<short>(y);
@@ -257,11 +267,23 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
     }
   }
   // Refine what SGBM and the check accepted, before holes are filled from it.
+  cv::Mat off_grid;
+  if (stride > 1) {
+    off_grid = cv::Mat(left.size(), CV_8U, cv::Scalar(255));
+    for (int y = 0; y < left.rows; y += stride) {
+      std::uint8_t* row = off_grid.ptr<std::uint8_t>(y);
+      for (int x = 0; x < left.cols; x += stride) row[x] = 0;
+    }
+  }
   if (o.refine_radius > 0) {
-    RefineSubpixel(left, right, mask, out.rejected, o.refine_radius, o.refine_iterations, &out.disparity,
-                   o.refine_max_sigma_px, &out.sigma);
+    RefineSubpixel(left, right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
+                   o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma);
   }
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
+  if (!off_grid.empty()) {
+    out.disparity.setTo(std::numeric_limits<float>::quiet_NaN(), off_grid);
+    out.rejected.setTo(0, off_grid);
+  }
   if (o.bilateral_sigma_disp > 0 && o.bilateral_sigma_space > 0) {
     // Edge-preserving smoothing of the (filled) map; pixels still unknown stay unknown.
     cv::Mat known = out.disparity == out.disparity;  // false for NaN

@@ -77,6 +77,21 @@ cv::Rect RectifiedBox(const StereoRig& rig, const cv::Rect& box) {
   return cv::boundingRect(rect) & cv::Rect(0, 0, rig.image_size.width, rig.image_size.height);
 }
 
+cv::Rect OriginalBox(const StereoRig& rig, const cv::Rect& rb) {
+  const auto maps = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
+  const cv::Rect b = rb & cv::Rect(0, 0, maps->map_xy.cols, maps->map_xy.rows);
+  if (b.empty()) return {};
+  std::vector<cv::Point2f> edge;
+  for (int i = 0; i <= 8; ++i) {
+    const int x = b.x + (b.width - 1) * i / 8, y = b.y + (b.height - 1) * i / 8;
+    for (const cv::Point& q : {cv::Point(x, b.y), cv::Point(x, b.y + b.height - 1), cv::Point(b.x, y),
+                               cv::Point(b.x + b.width - 1, y)}) {
+      edge.push_back(maps->map_xy.at<cv::Point2f>(q));
+    }
+  }
+  return cv::boundingRect(edge) & cv::Rect(0, 0, rig.image_size.width, rig.image_size.height);
+}
+
 void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right, const cv::Rect& roi,
                             cv::Mat* left_rect, cv::Mat* right_rect) {
   const auto lm = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);

@@ -26,4 +26,7 @@ cv::Mat RectifyLeftMask(const StereoRig& rig, const cv::Mat& mask);
 /// The bounding box, in the rectified left image, of a box drawn on the original left image.
 cv::Rect RectifiedBox(const StereoRig& rig, const cv::Rect& box);
 
+/// The inverse: the bounding box, in the original left image, of a box in the rectified one.
+cv::Rect OriginalBox(const StereoRig& rig, const cv::Rect& rectified_box);
+
 }  // namespace hedgefit::stereo

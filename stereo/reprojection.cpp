@@ -23,13 +23,15 @@ const cloud::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
 void ReprojectOptions::Check() const { Table().Validate(*this); }
 
 cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
-                            const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma) {
+                            const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma,
+                            const cv::Mat& hedge_labels) {
   cloud::PointCloud out;
   const cv::Matx44d Q(rig.Q);
   const cv::Matx33d R1t = cv::Matx33d(rig.R1).t();
   const double f = rig.P1.at<double>(0, 0), b = rig.baseline_mm;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<float> disp_field, sigma_field;
+  std::vector<float> disp_field, sigma_field, hedge_field;
+  const bool labelled = !hedge_labels.empty();
   for (int y = 0; y < disparity.rows; ++y) {
     for (int x = 0; x < disparity.cols; ++x) {
       const float d = disparity.at<float>(y, x);
@@ -40,6 +42,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
           out.colors.push_back({0, 0, 0});
           disp_field.push_back(nan);
           sigma_field.push_back(nan);
+          if (labelled) hedge_field.push_back(0);
         }
         continue;
       }
@@ -51,6 +54,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
                                                     : cv::Vec3b::all(left_rect.at<std::uint8_t>(y, x));
       out.colors.push_back({c[2], c[1], c[0]});
       disp_field.push_back(d);
+      if (labelled) hedge_field.push_back(float(hedge_labels.at<std::int32_t>(y, x)));
       const float own = disparity_sigma.empty() ? nan : disparity_sigma.at<float>(y, x);
       // The window's residuals cannot see interpolation or calibration error, so a pixel's
       // own estimate is floored at 0.02 px (the lab's remaining systematic error is ~0.01).
@@ -64,6 +68,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
   } else {
     out.Flatten();
   }
+  if (labelled) out.fields["hedge_id"] = std::move(hedge_field);
   if (o.extra_fields) {
     out.fields["disparity"] = std::move(disp_field);
     out.fields["sigma_z"] = std::move(sigma_field);
@@ -73,12 +78,12 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
 
 cloud::PointCloud ReprojectMeasured(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& filled,
                                     const cv::Mat& left_rect, const StereoRig& rig, const ReprojectOptions& options,
-                                    const cv::Mat& disparity_sigma) {
+                                    const cv::Mat& disparity_sigma, const cv::Mat& hedge_labels) {
   // Filled pixels are occluded or mismatched in the other view: no measurement, so by
   // default they stay in the dense map but not in the cloud.
   cv::Mat use = mask;
   if (!filled.empty() && !options.keep_filled) use = use.empty() ? ~filled : (use & ~filled);
-  cloud::PointCloud cloud = Reproject(disparity, use, left_rect, rig, options, disparity_sigma);
+  cloud::PointCloud cloud = Reproject(disparity, use, left_rect, rig, options, disparity_sigma, hedge_labels);
   if (cloud.size() - cloud::CountNonFinite(cloud) == 0) {
     throw Error("no hedge found: no disparity inside the mask within the working range");
   }

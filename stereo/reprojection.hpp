@@ -23,15 +23,18 @@ struct ReprojectOptions {
 /// Disparity (rectified left, CV_32F, NaN = none) to points in the unrectified left camera
 /// frame (mm, R1 transposed applied), coloured from `left_rect`, only where `mask` is set.
 /// `disparity_sigma` (optional, CV_32F px, NaN = unknown): each pixel's own disparity
-/// standard deviation (from the refinement) for its `sigma_z`.
+/// standard deviation (from the refinement) for its `sigma_z`. `hedge_labels` (optional,
+/// CV_32S, hedge id per pixel, 0 = none) adds a "hedge_id" field, so the stages after can
+/// split the cloud by hedge.
 cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
                             const StereoRig& rig, const ReprojectOptions& options,
-                            const cv::Mat& disparity_sigma = cv::Mat());
+                            const cv::Mat& disparity_sigma = cv::Mat(), const cv::Mat& hedge_labels = cv::Mat());
 
 /// Reproject() over the mask less the `filled` pixels (unless options.keep_filled): what both
 /// `convert` and the stereo.reproject stage write.
 cloud::PointCloud ReprojectMeasured(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& filled,
                                     const cv::Mat& left_rect, const StereoRig& rig, const ReprojectOptions& options,
-                                    const cv::Mat& disparity_sigma = cv::Mat());
+                                    const cv::Mat& disparity_sigma = cv::Mat(),
+                                    const cv::Mat& hedge_labels = cv::Mat());
 
 }  // namespace hedgefit::stereo

@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -158,7 +159,8 @@ cv::Mat Render(const SimRig& rig, bool right, const RenderOptions& options, Shad
     if (options.blur_sigma_px > 0) cv::GaussianBlur(out, out, cv::Size(0, 0), options.blur_sigma_px);
     if (options.noise_sigma > 0) {
       cv::Mat noise(out.size(), CV_32FC3);
-      cv::RNG rng(options.seed);
+      // Each camera has its own sensor: independent noise fields in the two views.
+      cv::RNG rng(options.seed * 2 + (right ? 1 : 0));
       rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_sigma);
       cv::Mat f;
       out.convertTo(f, CV_32FC3);
@@ -306,6 +308,279 @@ cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& sc, const
       default: return cv::Vec3d(200, 180, 160);
     }
   });
+}
+
+
+namespace {
+
+// The garden is built in a level frame (x right, y down along gravity, z forward, origin at the
+// left camera); the camera is pitched down about x.
+struct GardenFrame {
+  cv::Matx33d level_from_camera;
+  explicit GardenFrame(double pitch_deg) {
+    const double p = pitch_deg * kPi / 180, c = std::cos(p), s = std::sin(p);
+    // Camera z (forward) points down by p: (0, sin p, cos p) in the level frame.
+    level_from_camera = cv::Matx33d(1, 0, 0, 0, c, s, 0, -s, c);
+  }
+};
+
+cv::Vec3d LevelCenter(const GardenScene& sc, const GardenHedge& h) {
+  // Sits on the lawn, sunk 5 % of its radius into the grass.
+  return cv::Vec3d(h.x_mm, sc.camera_height_mm - 0.95 * h.radius_mm, h.z_mm);
+}
+
+// Radial leaf depth below the envelope at point p (level frame), in [0, 1] of the shell: about a
+// quarter of the surface reaches the envelope, a few per cent are deep gaps.
+double LeafDepthFraction(const cv::Vec3d& p, std::uint64_t seed) {
+  const double n = Fractal(p, 28.0, 3, seed);
+  return std::clamp((n - 0.40) / 0.28, 0.0, 1.0);
+}
+
+// Nearest positive root of |o + t d - c| = r, or -1.
+double HitSphere(const cv::Vec3d& o, const cv::Vec3d& d, const cv::Vec3d& c, double r, double* t_far = nullptr) {
+  const cv::Vec3d oc = o - c;
+  const double a = d.dot(d), b = 2 * oc.dot(d), q = oc.dot(oc) - r * r;
+  const double disc = b * b - 4 * a * q;
+  if (disc < 0) return -1;
+  const double sq = std::sqrt(disc);
+  if (t_far) *t_far = (-b + sq) / (2 * a);
+  const double t0 = (-b - sq) / (2 * a), t1 = (-b + sq) / (2 * a);
+  return t0 > 0 ? t0 : (t1 > 0 ? t1 : -1);
+}
+
+// A vertical cylinder (axis along y) from y_top to y_bottom: nearest positive hit, or -1.
+double HitCylinder(const cv::Vec3d& o, const cv::Vec3d& d, double cx, double cz, double r, double y_top,
+                   double y_bottom) {
+  const double ox = o[0] - cx, oz = o[2] - cz;
+  const double a = d[0] * d[0] + d[2] * d[2], b = 2 * (ox * d[0] + oz * d[2]), q = ox * ox + oz * oz - r * r;
+  if (a < 1e-12) return -1;
+  const double disc = b * b - 4 * a * q;
+  if (disc < 0) return -1;
+  for (double t : {(-b - std::sqrt(disc)) / (2 * a), (-b + std::sqrt(disc)) / (2 * a)}) {
+    const double y = o[1] + t * d[1];
+    if (t > 0 && y >= y_top && y <= y_bottom) return t;
+  }
+  return -1;
+}
+
+// Sphere tracing through a leafy shell: the first point where |p - c| <= R - L * depth(p).
+// The noise has a gradient below ~3.5 / L per mm of the shell, so steps of g / 3.5 never skip
+// a leaf. Returns -1 for a ray that passes through gaps only.
+double HitLeafyBall(const cv::Vec3d& o, const cv::Vec3d& d, const cv::Vec3d& c, double R, double L, std::uint64_t seed,
+                    double* depth_fraction) {
+  double t_far = 0;
+  double t = HitSphere(o, d, c, R, &t_far);
+  if (t < 0) return -1;
+  for (int i = 0; i < 600 && t <= t_far; ++i) {
+    const cv::Vec3d p = o + t * d;
+    const double s = LeafDepthFraction(p, seed);
+    const double g = cv::norm(p - c) - (R - L * s);
+    if (g <= 0.05) {
+      *depth_fraction = s;
+      return t;
+    }
+    t += std::max(0.3, g / 3.5);
+  }
+  return -1;
+}
+
+struct GardenHit {
+  double t = 1e18;
+  int what = kLabelNone;  // kLabelHedge + i, kLabelGround, kLabelWall, kLabelNone = sky
+  int kind = 0;           // 0 sky, 1 hedge, 2 lawn, 3 pot, 4 hedge row, 5 fence, 6 crown, 7 trunk
+  double leaf = 0;        // hedges: depth fraction
+  cv::Vec3d centre;       // hedges and crowns
+};
+
+struct Tree {
+  double x, z, crown_r, trunk_r, crown_height;
+};
+const Tree kTrees[] = {{-2600, 8600, 1600, 160, 3300}, {3200, 9800, 1900, 190, 3700}};
+constexpr double kRowFront = 5200, kRowBack = 6000, kRowHeight = 1500, kFenceZ = 6600, kFenceHeight = 1900;
+constexpr double kPotRadius = 180, kPotHeight = 380;
+
+GardenHit TraceGarden(const GardenScene& sc, const cv::Vec3d& o, const cv::Vec3d& d, bool shadow_ray) {
+  GardenHit h;
+  const double ground = sc.camera_height_mm;
+  for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
+    const GardenHedge& g = sc.hedges[i];
+    const cv::Vec3d c = LevelCenter(sc, g);
+    double t, leaf = 0;
+    // Shadow rays test the half-depth sphere only: the sun's shadow edge is not worth the cost.
+    if (shadow_ray) t = HitSphere(o, d, c, g.radius_mm - g.leaf_depth_mm / 2);
+    else t = HitLeafyBall(o, d, c, g.radius_mm, g.leaf_depth_mm, sc.texture_seed + 100 + i, &leaf);
+    if (t > 0 && t < h.t) h = GardenHit{t, kLabelHedge + int(i), 1, leaf, c};
+  }
+  if (sc.pot) {
+    const double t = HitCylinder(o, d, sc.pot_x_mm, sc.pot_z_mm, kPotRadius, ground - kPotHeight, ground);
+    if (t > 0 && t < h.t) h = GardenHit{t, kLabelWall, 3, 0, {}};
+  }
+  if (sc.background) {
+    if (d[2] > 1e-9) {
+      const double t = (kRowFront - o[2]) / d[2];
+      const cv::Vec3d p = o + t * d;
+      if (t > 0 && t < h.t && p[1] >= ground - kRowHeight && p[1] <= ground) h = GardenHit{t, kLabelWall, 4, 0, {}};
+      const double tf = (kFenceZ - o[2]) / d[2];
+      const cv::Vec3d pf = o + tf * d;
+      if (tf > 0 && tf < h.t && pf[1] >= ground - kFenceHeight && pf[1] <= ground) h = GardenHit{tf, kLabelWall, 5, 0, {}};
+    }
+    if (d[1] < -1e-9) {  // the hedge row's top
+      const double t = (ground - kRowHeight - o[1]) / d[1];
+      const cv::Vec3d p = o + t * d;
+      if (t > 0 && t < h.t && p[2] >= kRowFront && p[2] <= kRowBack) h = GardenHit{t, kLabelWall, 4, 0, {}};
+    }
+    for (const Tree& tr : kTrees) {
+      const cv::Vec3d c(tr.x, ground - tr.crown_height, tr.z);
+      const double t = HitSphere(o, d, c, tr.crown_r);
+      if (t > 0 && t < h.t) h = GardenHit{t, kLabelWall, 6, 0, c};
+      const double tt = HitCylinder(o, d, tr.x, tr.z, tr.trunk_r, ground - tr.crown_height, ground);
+      if (tt > 0 && tt < h.t) h = GardenHit{tt, kLabelWall, 7, 0, {}};
+    }
+  }
+  if (d[1] > 1e-9) {
+    const double t = (ground - o[1]) / d[1];
+    if (t > 0 && t < h.t) h = GardenHit{t, kLabelGround, 2, 0, {}};
+  }
+  return h;
+}
+
+}  // namespace
+
+cv::Vec3d GardenHedgeCenter(const GardenScene& sc, std::size_t i) {
+  if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
+  return GardenFrame(sc.pitch_deg).level_from_camera.t() * LevelCenter(sc, sc.hedges[i]);
+}
+
+double GardenHedgeSurfaceRadius(const GardenScene& sc, std::size_t i) {
+  if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
+  const GardenHedge& g = sc.hedges[i];
+  const cv::Vec3d c = LevelCenter(sc, g);
+  // Fibonacci sphere: even coverage, deterministic.
+  const int n = 20000;
+  double sum = 0;
+  for (int k = 0; k < n; ++k) {
+    const double z = 1 - (2.0 * k + 1) / n, r = std::sqrt(1 - z * z), phi = k * kPi * (3 - std::sqrt(5.0));
+    const cv::Vec3d u(r * std::cos(phi), z, r * std::sin(phi));
+    sum += g.radius_mm - g.leaf_depth_mm * LeafDepthFraction(c + g.radius_mm * u, sc.texture_seed + 100 + i);
+  }
+  return sum / n;
+}
+
+cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const RenderOptions& options) {
+  const GardenFrame frame(sc.pitch_deg);
+  const cv::Vec3d sun = cv::normalize(cv::Vec3d(-0.55, -0.62, -0.35));  // towards the sun: high, left, behind
+  const std::uint64_t seed = sc.texture_seed;
+  return Render(rig, right, options, [&](const cv::Vec3d& o_cam, const cv::Vec3d& d_cam) -> cv::Vec3d {
+    const cv::Vec3d o = frame.level_from_camera * o_cam, d = frame.level_from_camera * d_cam;
+    const GardenHit h = TraceGarden(sc, o, d, false);
+    if (options.labels) return cv::Vec3d(h.what, 0, 0);
+    if (h.kind == 0) {  // sky: brighter towards the horizon
+      const double up = std::clamp(-d[1] / cv::norm(d), 0.0, 1.0);
+      return cv::Vec3d(235 - 20 * up, 205 - 40 * up, 185 - 70 * up);
+    }
+    const cv::Vec3d p = o + h.t * d;
+    auto lit = [&](const cv::Vec3d& normal) {
+      const double direct = std::max(0.0, normal.dot(sun));
+      const bool shadowed = direct > 0 && TraceGarden(sc, p + 2.0 * normal, sun, true).kind != 0;
+      return 0.32 + (shadowed ? 0.0 : 0.78 * direct);
+    };
+    switch (h.kind) {
+      case 1: {  // leaves: darker deeper in the shell
+        const cv::Vec3d nrm = cv::normalize(p - h.centre);
+        const double leaf = Fractal(p, 9.0, 3, seed + 7), vein = Fractal(p, 3.5, 2, seed + 8);
+        const double k = lit(nrm) * (1.0 - 0.6 * h.leaf) * (0.55 + 0.8 * leaf);
+        return cv::Vec3d((30 + 25 * vein) * k, (120 + 60 * vein) * k, (55 + 30 * vein) * k);
+      }
+      case 2: {  // mown lawn: fine blades, mowing stripes
+        const double blade = Fractal(p, 6.0, 3, seed + 20), patch = Fractal(p, 400.0, 2, seed + 21);
+        const double stripe = std::fmod(std::abs(p[0]) + 10000, 1000.0) < 500 ? 1.0 : 0.88;
+        const double k = lit(cv::Vec3d(0, -1, 0)) * stripe * (0.6 + 0.7 * blade);
+        return cv::Vec3d((45 + 20 * patch) * k, (135 + 40 * patch) * k, (85 + 40 * patch) * k);
+      }
+      case 3: {  // terracotta pot
+        const cv::Vec3d nrm = cv::normalize(cv::Vec3d(p[0] - sc.pot_x_mm, 0, p[2] - sc.pot_z_mm));
+        const double k = lit(nrm) * (0.8 + 0.4 * Fractal(p, 15.0, 3, seed + 30));
+        return cv::Vec3d(60 * k, 95 * k, 175 * k);
+      }
+      case 4: {  // clipped hedge row: green on green
+        const double k = lit(cv::Vec3d(0, 0, -1)) * (0.5 + 0.9 * Fractal(p, 20.0, 4, seed + 40));
+        return cv::Vec3d(35 * k, 125 * k, 60 * k);
+      }
+      case 5: {  // wooden fence: planks
+        const double plank = std::fmod(std::abs(p[0]) + 100000, 150.0) < 8 ? 0.4 : 1.0;
+        const double k = lit(cv::Vec3d(0, 0, -1)) * plank * (0.75 + 0.5 * Fractal(cv::Vec3d(p[0] * 4, p[1] * 0.3, 0), 40.0, 3, seed + 50));
+        return cv::Vec3d(70 * k, 110 * k, 150 * k);
+      }
+      case 6: {  // tree crowns
+        const double k = lit(cv::normalize(p - h.centre)) * (0.45 + 0.9 * Fractal(p, 60.0, 4, seed + 60));
+        return cv::Vec3d(40 * k, 130 * k, 85 * k);
+      }
+      default: {  // trunks
+        const double k = 0.5 + 0.6 * Fractal(p, 25.0, 3, seed + 70);
+        return cv::Vec3d(45 * k, 65 * k, 85 * k);
+      }
+    }
+  });
+}
+
+std::vector<std::string> GardenPresetNames() { return {"row", "single", "outdoor"}; }
+
+GardenScene GardenPreset(const std::string& name) {
+  GardenScene sc;
+  if (name == "row") {
+    sc.hedges = {{-1350, 2300, 450, 30}, {80, 2500, 520, 30}, {1500, 2700, 600, 35}};
+    sc.pot_x_mm = -550, sc.pot_z_mm = 1750;
+  } else if (name == "single") {
+    sc.hedges = {{150, 2400, 520, 30}};
+    sc.pot_x_mm = -1100, sc.pot_z_mm = 2200;
+    sc.texture_seed = 23;
+  } else if (name == "outdoor") {
+    // The paper's outdoor hedges: r 880-960 mm, about 2 m away (front of the ball ~1.9 m).
+    sc.hedges = {{100, 2850, 920, 40}};
+    sc.pot = false;
+    sc.texture_seed = 31;
+  } else {
+    throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor");
+  }
+  return sc;
+}
+
+std::vector<std::string> WriteGarden(const std::string& dir, double scale, const RenderOptions& options,
+                                     const std::vector<std::string>& presets) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
+  const SimRig rig = PaperRig(scale);
+  std::vector<std::string> written;
+  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
+  written.push_back((fs::path(dir) / "rig_truth.json").string());
+  // No boards in a garden: the exact rig, so a garden run measures segmentation and matching.
+  WriteRig((fs::path(dir) / "rig.yaml").string(), RigFromSimulation(rig));
+  written.push_back((fs::path(dir) / "rig.yaml").string());
+  for (const std::string& name : presets) {
+    const GardenScene sc = GardenPreset(name);
+    for (bool right : {false, true}) {
+      const std::string path = (fs::path(dir) / ("garden_" + name + (right ? "_right.png" : "_left.png"))).string();
+      const fs::path tmp = fs::path(dir) / (".garden_" + name + ".tmp.png");
+      if (!cv::imwrite(tmp.string(), RenderGarden(rig, right, sc, options))) throw Error(path + ": cannot write the image");
+      fs::rename(tmp, path);
+      written.push_back(path);
+    }
+    std::vector<cloud::SphereTruth> truths;
+    for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
+      cloud::SphereTruth t;
+      const cv::Vec3d c = GardenHedgeCenter(sc, i);
+      t.center_mm = Eigen::Vector3d(c[0], c[1], c[2]);
+      t.radius_mm = sc.hedges[i].radius_mm;
+      t.surface_radius_mm = GardenHedgeSurfaceRadius(sc, i);
+      truths.push_back(t);
+    }
+    const std::string truth = (fs::path(dir) / ("garden_" + name + ".truth.json")).string();
+    cloud::WriteSphereTruths(truth, truths);
+    written.push_back(truth);
+  }
+  return written;
 }
 
 StereoRig RigFromSimulation(const SimRig& sim) {

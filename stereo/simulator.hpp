@@ -57,13 +57,59 @@ struct RenderOptions {
   bool labels = false;         ///< render class labels instead of colour (see Label)
 };
 
-/// Label values when RenderOptions::labels is set: the truth for segmentation.
-enum Label : std::uint8_t { kLabelNone = 0, kLabelSphere = 1, kLabelGround = 2, kLabelWall = 3, kLabelBoard = 4 };
+/// Label values when RenderOptions::labels is set: the truth for segmentation. In a garden,
+/// hedge i (0-based) is labelled kLabelHedge + i; the lawn kLabelGround, anything else kLabelWall.
+enum Label : std::uint8_t {
+  kLabelNone = 0, kLabelSphere = 1, kLabelGround = 2, kLabelWall = 3, kLabelBoard = 4, kLabelHedge = 10
+};
+
+/// A clipped boxwood ball on a lawn: leaves fill a shell between radius - leaf_depth and radius
+/// (radial depth from a 3-D noise field, so there are gaps one sees into), sitting on the ground.
+/// Placed in the level frame: x right, z forward along the ground from the camera's foot.
+struct GardenHedge {
+  double x_mm = 0;
+  double z_mm = 2300;
+  double radius_mm = 500;      ///< outer envelope: where the leaves end (what a tape measure gives)
+  double leaf_depth_mm = 30;   ///< depth of the leaf shell below the envelope
+};
+
+/// A garden: hedge balls on a mown lawn, a terracotta pot, a clipped hedge row at 5.2 m, a fence
+/// at 6.6 m, two round-crowned trees, sky, and a low sun casting hard shadows. The camera stands
+/// `camera_height_mm` above the lawn, pitched down by `pitch_deg`.
+struct GardenScene {
+  std::vector<GardenHedge> hedges;
+  double camera_height_mm = 1100;
+  double pitch_deg = 8;
+  bool pot = true;                     ///< a pot (r 180 mm, 380 mm high) among the hedges
+  double pot_x_mm = -700, pot_z_mm = 1900;
+  bool background = true;              ///< hedge row, fence, trees
+  std::uint64_t texture_seed = 11;
+};
+
+/// Hedge `i`'s centre in the left camera frame (mm).
+cv::Vec3d GardenHedgeCenter(const GardenScene& scene, std::size_t i);
+
+/// Hedge `i`'s mean leaf-surface radius: the envelope minus the mean radial leaf depth over the
+/// sphere (sampled; mm).
+double GardenHedgeSurfaceRadius(const GardenScene& scene, std::size_t i);
 
 /// Renders the left (right = false) or right view. Colour images are CV_8UC3 (BGR);
 /// label images CV_8UC1.
 cv::Mat RenderBoard(const SimRig& rig, bool right, const BoardScene& board, const RenderOptions& options = {});
 cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& scene, const RenderOptions& options = {});
+cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& scene, const RenderOptions& options = {});
+
+/// The garden presets: "row" (three balls, r 450-600 mm, 2.1-2.7 m, pot in front), "single"
+/// (one r 520 mm ball at 2.4 m), "outdoor" (the paper's outdoor case: one r 920 mm ball whose
+/// front is ~1.9 m away). Throws hedgefit::Error for another name.
+GardenScene GardenPreset(const std::string& name);
+std::vector<std::string> GardenPresetNames();
+
+/// Writes garden captures into `dir`: for each preset, NAME_left.png / NAME_right.png and
+/// NAME.truth.json listing every hedge, plus rig_truth.json and rig.yaml (the exact rig: a garden
+/// has no boards to calibrate from). Returns the files written.
+std::vector<std::string> WriteGarden(const std::string& dir, double scale, const RenderOptions& options,
+                                     const std::vector<std::string>& presets = GardenPresetNames());
 
 /// The board's inner corners in the world frame.
 std::vector<cv::Point3d> BoardInnerCornersWorld(const BoardScene& board);

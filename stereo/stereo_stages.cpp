@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cloud/option_table.hpp"
+#include "cloud/parallel.hpp"
 #include "cloud/point_cloud.hpp"
 #include "stereo/capture.hpp"
 
@@ -56,8 +57,23 @@ void RegisterStereoStages(cloud::Registry& r) {
                   {}},
         MakeFactory([](const Options& o, Context& ctx) {
           if (o.GetString("rig").empty()) throw Error("stage 'readers.stereo', option 'rig': give the rig file");
-          const cv::Mat l = ReadImage(o.GetString("left"), "left"), rt = ReadImage(o.GetString("right"), "right");
-          PutCapture(l, rt, ReadRig(o.GetString("rig")), &ctx);
+          const StereoRig rig = ReadRig(o.GetString("rig"));
+          // The two images decode side by side.
+          cv::Mat images[2];
+          std::string errors[2];
+          cloud::ParallelFor(2, 0, 1, [&](std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) {
+              try {
+                images[i] = ReadImage(o.GetString(i == 0 ? "left" : "right"), i == 0 ? "left" : "right");
+              } catch (const Error& err) {
+                errors[i] = err.what();
+              }
+            }
+          });
+          for (const std::string& err : errors) {
+            if (!err.empty()) throw Error(err);
+          }
+          PutCapture(images[0], images[1], rig, &ctx);
         }));
   r.Add(StageInfo{"stereo.rectify", "Undistorts and rectifies the pair with the rig (Bouguet)", {},
                   {"left_image", "right_image", "rig"}, {"left_image", "right_image", "raw_left_image", "raw_right_image"}, {}},
@@ -93,6 +109,27 @@ void RegisterStereoStages(cloud::Registry& r) {
                                             PutMask(ctx, SegmentByDepthInBox(RigOf(ctx), ctx.Get<cv::Mat>("raw_left_image"),
                                                                              ctx.Get<cv::Mat>("raw_right_image"), &l, &rt, p));
                                           }));
+  r.Add(StageInfo{"stereo.segment_garden",
+                  "Every hedge by depth, for gardens (green on green) and rows of hedges: coarse whole-frame match, "
+                  "ground plane removed, compact round blobs standing on it; ids left to right",
+                  TableOptions<GardenSegmentOptions>(), {"left_image", "right_image", "rig"},
+                  {"mask", "hedge_labels", "hedges"}, {}},
+        TableFactory<GardenSegmentOptions>("stereo.segment_garden",
+                                           [](const GardenSegmentOptions& p, const Options&, Context& ctx) {
+          const bool* rectified = ctx.Find<bool>("rectified");
+          if (rectified && !*rectified) {
+            throw Error("stage 'stereo.segment_garden': the images are not rectified; add stereo.rectify before it");
+          }
+          GardenSegmentation g = FindHedges(RigOf(ctx), ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), p);
+          ctx.Note("hedges", static_cast<std::int64_t>(g.hedges.size()));
+          ctx.Note("ground_found", g.ground_found);
+          std::string rejected;
+          for (const auto& why : g.rejected) rejected += (rejected.empty() ? "" : "; ") + why;
+          if (!rejected.empty()) ctx.Note("rejected", rejected);
+          PutMask(ctx, g.labels != 0);
+          ctx.Put("hedge_labels", g.labels);
+          ctx.Put("hedges", g.hedges);
+        }));
   r.Add(StageInfo{"stereo.sgbm",
                   "Improved semi-global matching: SGBM, left-right check, background-side hole filling, sub-pixel "
                   "refinement; only over the mask's region and the working range's disparities",
@@ -106,9 +143,17 @@ void RegisterStereoStages(cloud::Registry& r) {
           const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
           // Headers: the matched region is re-rendered in place in the rectified images.
           cv::Mat l = ctx.Get<cv::Mat>("left_image"), rt = ctx.Get<cv::Mat>("right_image");
-          const MatchResult m = MatchHedge(RigOf(ctx), ctx.Find<cv::Mat>("raw_left_image"),
-                                           ctx.Find<cv::Mat>("raw_right_image"), &l, &rt, mask ? *mask : cv::Mat(), p);
-          ctx.Note("matched_fraction", double(m.matched_region.area()) / double(l.total()));
+          // Several hedges: each matched over its own region.
+          const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
+          const auto* hedges = ctx.Find<std::vector<HedgeRegion>>("hedges");
+          const MatchResult m =
+              labels ? MatchHedges(RigOf(ctx), ctx.Find<cv::Mat>("raw_left_image"), ctx.Find<cv::Mat>("raw_right_image"),
+                                   &l, &rt, *labels, p, hedges ? *hedges : std::vector<HedgeRegion>())
+                     : MatchHedge(RigOf(ctx), ctx.Find<cv::Mat>("raw_left_image"), ctx.Find<cv::Mat>("raw_right_image"),
+                                  &l, &rt, mask ? *mask : cv::Mat(), p);
+          ctx.Note("matched_fraction", double(m.matched_area) / double(l.total()));
+          ctx.Put("matched_area", m.matched_area);
+          if (m.stride > 1) ctx.Note("stride", static_cast<std::int64_t>(m.stride));
           ctx.Note("filled", static_cast<std::int64_t>(m.filled_count));
           ctx.Note("disparity_range", std::vector<double>{double(m.min_disparity), double(m.min_disparity + m.num_disparities)});
           ctx.Put("disparity", m.disparity);
@@ -123,9 +168,10 @@ void RegisterStereoStages(cloud::Registry& r) {
           const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
           const cv::Mat* filled = ctx.Find<cv::Mat>("filled");
           const cv::Mat* sigma = ctx.Find<cv::Mat>("disparity_sigma");
+          const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
           cloud::PointCloud pc = ReprojectMeasured(ctx.Get<cv::Mat>("disparity"), mask ? *mask : cv::Mat(),
                                                    filled ? *filled : cv::Mat(), ctx.Get<cv::Mat>("left_image"),
-                                                   RigOf(ctx), p, sigma ? *sigma : cv::Mat());
+                                                   RigOf(ctx), p, sigma ? *sigma : cv::Mat(), labels ? *labels : cv::Mat());
           ctx.Note("points", static_cast<std::int64_t>(pc.size() - cloud::CountNonFinite(pc)));
           ctx.Put("cloud", std::move(pc));
         }));

@@ -162,7 +162,7 @@ TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
   EXPECT_EQ(r.err, "hedgefit: --mode: 'hhh' is not one of hh, sgbm, 3way, hh4 (did you mean 'hh'?)\n");
   r = RunHedgefit(one + "--mask m.png --box 1,2,30,40", dir);
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.err, "hedgefit: --mask and --box: give one way to find the hedge, not both\n");
+  EXPECT_EQ(r.err, "hedgefit: --mask, --box and --garden: give one way to find the hedge, not several\n");
   r = RunHedgefit(one + "--input somewhere", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "hedgefit: --input and --left/--right: give one capture or a batch, not both\n");

@@ -1,0 +1,321 @@
+#include "stereo/garden.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <opencv2/imgcodecs.hpp>
+#include <limits>
+#include <numeric>
+
+#include "cloud/error.hpp"
+#include "cloud/filters.hpp"
+#include "stereo/matching.hpp"
+#include "stereo/rectification.hpp"
+#include "stereo/segmentation.hpp"
+
+namespace hedgefit::stereo {
+
+const cloud::OptionTable<GardenSegmentOptions>& GardenSegmentOptions::Table() {
+  using O = GardenSegmentOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("downscale", &O::downscale, "the coarse whole-frame match runs at 1/downscale resolution").Range(1, 16)
+          .Add("min_z", &O::min_z_mm, "working range, nearest", "mm").Min(1)
+          .Add("max_z", &O::max_z_mm, "working range, farthest", "mm").Min(1)
+          .Add("coarse_block_size", &O::block_size, "the coarse match's block, odd", "coarse px").Range(1, 31)
+          .Add("ground_clearance", &O::ground_clearance_mm, "points lower than this above the ground are lawn", "mm")
+          .Min(0)
+          .Add("depth_jump", &O::depth_jump_mm, "neighbours further apart in depth are different objects", "mm").Min(1)
+          .Add("min_radius", &O::min_radius_mm, "smallest hedge", "mm").Min(1)
+          .Add("max_radius", &O::max_radius_mm, "largest hedge", "mm").Min(1)
+          .Add("max_aspect", &O::max_aspect, "a hedge's width / height and height / width at most").Min(1)
+          .Add("min_excess_green", &O::min_excess_green, "colour images: a hedge's mean 2G-R-B; 0 = colour not used")
+          .Min(0)
+          .Add("max_hedges", &O::max_hedges, "keep at most this many hedges (the largest)").Range(1, 1000)
+          .Add("erode", &O::erode_px, "drop this many silhouette pixels beyond the coarse match's margin", "px")
+          .Range(0, 200);
+  return table;
+}
+
+void GardenSegmentOptions::Check() const {
+  Table().Validate(*this);
+  if (!(max_z_mm > min_z_mm)) throw Error("option 'min_z'/'max_z': need min_z < max_z (mm)");
+  if (!(max_radius_mm > min_radius_mm)) throw Error("option 'min_radius'/'max_radius': need min_radius < max_radius (mm)");
+  if (block_size % 2 == 0) throw Error("option 'coarse_block_size': must be odd");
+}
+
+namespace {
+
+struct Blob {
+  std::vector<int> pixels;  // coarse pixel indices
+  double min_h = 1e18, max_h = -1e18, min_x = 1e18, max_x = -1e18, min_z = 1e18, max_z = -1e18;
+  cv::Vec3d sum{0, 0, 0};
+  int min_u = 1 << 30, max_u = -1;
+};
+
+std::string Where(const Blob& b, int downscale) {
+  const cv::Vec3d c = b.sum * (1.0 / double(b.pixels.size()));
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "blob at columns %d-%d, %.1f m away", b.min_u * downscale, (b.max_u + 1) * downscale,
+                c[2] / 1000);
+  return buf;
+}
+
+}  // namespace
+
+GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, const cv::Mat& right_rect,
+                              const GardenSegmentOptions& o) {
+  o.Check();
+  if (left_rect.empty() || left_rect.size() != right_rect.size()) {
+    throw Error("stereo.segment_garden: needs the rectified pair (add stereo.rectify before it)");
+  }
+  GardenSegmentation out;
+  const int k = o.downscale;
+  // 1. The coarse match of the whole frame: the working range's disparities at 1/k.
+  cv::Mat small_l, small_r;
+  cv::resize(left_rect, small_l, cv::Size(left_rect.cols / k, left_rect.rows / k), 0, 0, cv::INTER_AREA);
+  cv::resize(right_rect, small_r, small_l.size(), 0, 0, cv::INTER_AREA);
+  const double f = rig.P1.at<double>(0, 0), cx = rig.P1.at<double>(0, 2), cy = rig.P1.at<double>(1, 2);
+  const double fb = f * rig.baseline_mm;
+  SgbmOptions sg;
+  sg.block_size = o.block_size;
+  sg.refine_radius = 0;
+  sg.fill_holes = false;
+  sg.mode = SgbmMode::kSgbm3Way;
+  // The search reaches from the nearest working distance out to infinity (disparity 0): at 1/k it
+  // costs little, and a hedge row or trees beyond the working range then get their own, far
+  // disparity instead of a false match inside the range.
+  {
+    int lo = 0, n = 0;
+    DisparityRangeForDepth(f / k, rig.baseline_mm, o.min_z_mm, o.max_z_mm, &lo, &n);
+    sg.min_disparity = 0;
+    sg.num_disparities = ((lo + n + 15) / 16) * 16;
+  }
+  if (small_l.cols <= sg.min_disparity + sg.num_disparities + o.block_size) {
+    throw Error("stereo.segment_garden: the image is too small for option 'downscale' " + std::to_string(k) +
+                " at this working range; lower it");
+  }
+  DisparityMap coarse = ComputeDisparity(small_l, small_r, sg);
+  // A 5 x 5 median: halves the coarse disparity's noise and keeps the depth edges between objects.
+  {
+    cv::Mat known = coarse.disparity == coarse.disparity, filtered;
+    cv::Mat d0 = coarse.disparity.clone();
+    d0.setTo(0, ~known);
+    cv::medianBlur(d0, filtered, 5);
+    filtered.setTo(std::numeric_limits<float>::quiet_NaN(), ~known);
+    coarse.disparity = filtered;
+  }
+  out.coarse_disparity = coarse.disparity;
+  const int w = small_l.cols, h = small_l.rows;
+  // Each coarse pixel in 3-D, rectified left frame; NaN outside the working range.
+  std::vector<cv::Vec3d> xyz(std::size_t(w) * h, cv::Vec3d(0, 0, std::numeric_limits<double>::quiet_NaN()));
+  std::vector<Eigen::Vector3f> valid;
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const float dc = coarse.disparity.at<float>(v, u);
+      if (!std::isfinite(dc) || dc <= 0) continue;
+      const double d = dc * k, z = fb / d;
+      if (z < o.min_z_mm || z > o.max_z_mm) continue;
+      // The coarse pixel's centre in full-resolution pixels.
+      const double uf = (u + 0.5) * k - 0.5, vf = (v + 0.5) * k - 0.5;
+      const cv::Vec3d p((uf - cx) * z / f, (vf - cy) * z / f, z);
+      xyz[std::size_t(v) * w + u] = p;
+      valid.emplace_back(float(p[0]), float(p[1]), float(p[2]));
+    }
+  }
+  if (valid.size() < 50) {
+    throw Error("no hedge found: almost nothing matched within the working range (" + std::to_string(int(o.min_z_mm)) +
+                "-" + std::to_string(int(o.max_z_mm)) + " mm); check --min-z/--max-z and that the images are a stereo pair");
+  }
+  // 2. The ground: a plane with many points whose normal is near the camera's vertical. It must
+  // hold a good share of the points and lie below the camera.
+  cloud::PlaneSearch search;
+  search.axis = Eigen::Vector3f(0, -1, 0);
+  search.max_angle_deg = 35;
+  search.distance_threshold_mm = 40;  // ~ the coarse depth noise seen on a lawn (1 coarse px ~ 4 px)
+  // A few thousand points settle a plane: RANSAC counts inliers over every point it is given.
+  std::vector<Eigen::Vector3f> sample;
+  const std::size_t step = std::max<std::size_t>(1, valid.size() / 8000);
+  for (std::size_t i = 0; i < valid.size(); i += step) sample.push_back(valid[i]);
+  std::optional<cloud::Plane> ground = cloud::FindPlane(sample, search);
+  if (ground && ground->d < 0) {  // orient: the camera (origin) above the ground
+    ground->normal = -ground->normal;
+    ground->d = -ground->d;
+  }
+  if (ground && (ground->inliers < sample.size() / 10 || ground->d < 100)) ground.reset();
+  out.ground_found = ground.has_value();
+  if (ground) out.ground = cv::Vec4d(ground->normal.x(), ground->normal.y(), ground->normal.z(), ground->d);
+  auto height = [&](const cv::Vec3d& p) {
+    return ground ? double(ground->Distance(Eigen::Vector3f(float(p[0]), float(p[1]), float(p[2])))) : -p[1];
+  };
+  // Horizontal direction across the view: the image's x made parallel to the ground.
+  cv::Vec3d across(1, 0, 0);
+  if (ground) {
+    const cv::Vec3d n(ground->normal.x(), ground->normal.y(), ground->normal.z());
+    across = cv::normalize(across - n * n.dot(across));
+  }
+  // 3. Blobs: above the ground, connected without a depth jump.
+  std::vector<std::uint8_t> fg(xyz.size(), 0);
+  for (std::size_t i = 0; i < xyz.size(); ++i) {
+    if (std::isfinite(xyz[i][2]) && (!ground || height(xyz[i]) > o.ground_clearance_mm)) fg[i] = 1;
+  }
+  // Neighbours on one surface differ in depth by the pixel's footprint times the surface's slope;
+  // across a depth edge by more. Three footprints (a surface up to ~70 degrees from facing the
+  // camera) within depth_jump at most.
+  auto jump_at = [&](double z) { return std::min(o.depth_jump_mm, std::max(10.0, 3.0 * k * z / f)); };
+  std::vector<int> blob_of(xyz.size(), -1);
+  std::vector<Blob> blobs;
+  std::vector<int> stack;
+  for (int start = 0; start < int(xyz.size()); ++start) {
+    if (!fg[std::size_t(start)] || blob_of[std::size_t(start)] >= 0) continue;
+    Blob b;
+    const int id = int(blobs.size());
+    blob_of[std::size_t(start)] = id;
+    stack.assign(1, start);
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      b.pixels.push_back(i);
+      const int u = i % w, v = i / w;
+      const cv::Vec3d& p = xyz[std::size_t(i)];
+      const double hh = height(p), x = p.dot(across);
+      b.min_h = std::min(b.min_h, hh), b.max_h = std::max(b.max_h, hh);
+      b.min_x = std::min(b.min_x, x), b.max_x = std::max(b.max_x, x);
+      b.min_z = std::min(b.min_z, p[2]), b.max_z = std::max(b.max_z, p[2]);
+      b.min_u = std::min(b.min_u, u), b.max_u = std::max(b.max_u, u);
+      b.sum += p;
+      const int nbr[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
+      for (const auto& q : nbr) {
+        if (q[0] < 0 || q[1] < 0 || q[0] >= w || q[1] >= h) continue;
+        const int j = q[1] * w + q[0];
+        if (!fg[std::size_t(j)] || blob_of[std::size_t(j)] >= 0) continue;
+        if (std::abs(xyz[std::size_t(j)][2] - p[2]) > jump_at(p[2])) continue;
+        blob_of[std::size_t(j)] = id;
+        stack.push_back(j);
+      }
+    }
+    blobs.push_back(std::move(b));
+  }
+  // 4. Which blobs are hedges. Blobs smaller than a quarter of the smallest hedge's disc at the
+  // far end of the working range are specks, not worth a reason.
+  const double r_px = (f / k) * o.min_radius_mm / o.max_z_mm;
+  const std::size_t min_pixels = std::size_t(std::max(30.0, 0.25 * 3.14159 * r_px * r_px));
+  const bool colour = small_l.channels() == 3 && cv::norm(small_l.reshape(1, int(small_l.total())).col(0),
+                                                          small_l.reshape(1, int(small_l.total())).col(1), cv::NORM_INF) > 0;
+  struct Kept {
+    int blob;
+    double radius;
+  };
+  // A ball of radius r whose visible points average depth z covers about this many coarse pixels.
+  // Its lowest part is lost to the lawn's clearance, its limbs to the depth jumps and parts may be
+  // hidden: a hedge keeps well over 30 % of it, a fragment of something else far less.
+  auto DiscPixels = [&](double r, double z) {
+    const double disc_r = (f / k) * r / std::max(z, 1.0);
+    return 3.14159265358979 * disc_r * disc_r;
+  };
+  std::vector<Kept> kept;
+  std::vector<std::size_t> order(blobs.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return blobs[a].pixels.size() > blobs[b].pixels.size(); });
+  for (std::size_t bi : order) {
+    const Blob& b = blobs[bi];
+    if (b.pixels.size() < min_pixels) break;
+    const double width = b.max_x - b.min_x;
+    // Its height: from the ground when there is one (the lowest part of a ball is hidden by the
+    // lawn's clearance or by the ball itself), else its own vertical extent.
+    const double tall = ground ? b.max_h : b.max_h - b.min_h;
+    const double radius = 0.5 * std::max(width, tall);
+    char why[160] = "";
+    if (radius < o.min_radius_mm || radius > o.max_radius_mm) {
+      std::snprintf(why, sizeof(why), "about %.0f mm in radius, outside %.0f-%.0f mm (--min-radius/--max-radius)", radius,
+                    o.min_radius_mm, o.max_radius_mm);
+    } else if (double(b.pixels.size()) < 0.3 * DiscPixels(radius, b.sum[2] / double(b.pixels.size()))) {
+      std::snprintf(why, sizeof(why), "covers %.0f%% of the disc a %.0f mm ball would: a fragment, not a hedge",
+                    100.0 * double(b.pixels.size()) / DiscPixels(radius, b.sum[2] / double(b.pixels.size())), radius);
+    } else if (width > o.max_aspect * tall || tall > o.max_aspect * width) {
+      std::snprintf(why, sizeof(why), "%.0f mm wide but %.0f mm high: not round", width, tall);
+    } else if (ground && b.min_h > o.ground_clearance_mm + 0.6 * radius) {
+      std::snprintf(why, sizeof(why), "does not stand on the ground (lowest point %.0f mm above it)", b.min_h);
+    } else if (colour && o.min_excess_green > 0) {
+      cv::Vec3d bgr(0, 0, 0);
+      for (int i : b.pixels) {
+        const cv::Vec3b c = small_l.at<cv::Vec3b>(i / w, i % w);
+        bgr += cv::Vec3d(c[0], c[1], c[2]);
+      }
+      bgr *= 1.0 / double(b.pixels.size());
+      const double exg = 2 * bgr[1] - bgr[0] - bgr[2];
+      if (exg < o.min_excess_green) std::snprintf(why, sizeof(why), "not green (mean 2G-R-B = %.0f)", exg);
+    }
+    if (why[0] != 0) {
+      out.rejected.push_back(Where(b, k) + ": " + why);
+      continue;
+    }
+    if (int(kept.size()) < o.max_hedges) kept.push_back({int(bi), radius});
+  }
+  if (kept.empty()) {
+    std::string msg = "no hedge found: nothing hedge-like stands on the ground within the working range";
+    if (!out.rejected.empty()) msg += " (" + out.rejected.front() + ")";
+    throw Error(msg + "; check --min-z/--max-z and --min-radius/--max-radius");
+  }
+  // Left to right.
+  std::sort(kept.begin(), kept.end(), [&](const Kept& a, const Kept& b) {
+    return blobs[std::size_t(a.blob)].min_u + blobs[std::size_t(a.blob)].max_u <
+           blobs[std::size_t(b.blob)].min_u + blobs[std::size_t(b.blob)].max_u;
+  });
+  // Full resolution: each coarse pixel covers k x k pixels. The coarse block fattens objects by
+  // up to half a block at depth edges, so that much is eroded on top of erode_px.
+  const int margin = (o.block_size / 2) * k + o.erode_px;
+  out.labels = cv::Mat::zeros(left_rect.size(), CV_32S);
+  for (std::size_t n = 0; n < kept.size(); ++n) {
+    const Blob& b = blobs[std::size_t(kept[n].blob)];
+    // Work inside the blob's box (with a blank border, so holes and erosion behave as on the whole
+    // image): full-resolution morphology over the whole frame would cost more than the match.
+    int v0 = h, v1 = -1;
+    for (int i : b.pixels) v0 = std::min(v0, i / w), v1 = std::max(v1, i / w);
+    const cv::Rect coarse_box(b.min_u, v0, b.max_u - b.min_u + 1, v1 - v0 + 1);
+    const cv::Rect roi = cv::Rect(coarse_box.x * k - 2, coarse_box.y * k - 2, coarse_box.width * k + 4,
+                                  coarse_box.height * k + 4) &
+                         cv::Rect(0, 0, left_rect.cols, left_rect.rows);
+    cv::Mat coarse_mask = cv::Mat::zeros(coarse_box.size(), CV_8U);
+    for (int i : b.pixels) coarse_mask.at<std::uint8_t>(i / w - coarse_box.y, i % w - coarse_box.x) = 255;
+    cv::Mat part = cv::Mat::zeros(roi.size(), CV_8U);
+    const cv::Rect inner(coarse_box.x * k - roi.x, coarse_box.y * k - roi.y, coarse_box.width * k, coarse_box.height * k);
+    cv::resize(coarse_mask, part(inner & cv::Rect(0, 0, roi.width, roi.height)),
+               (inner & cv::Rect(0, 0, roi.width, roi.height)).size(), 0, 0, cv::INTER_NEAREST);
+    part = ErodeMask(FillHoles(part), margin);
+    part.setTo(0, out.labels(roi) != 0);  // the nearer hedge keeps a shared pixel
+    cv::Mat full = cv::Mat::zeros(left_rect.size(), CV_8U);
+    part.copyTo(full(roi));
+    HedgeRegion r;
+    r.id = int(out.hedges.size()) + 1;
+    r.pixels = cv::countNonZero(full);
+    if (r.pixels == 0) continue;
+    out.labels.setTo(r.id, full);
+    r.box = cv::boundingRect(full);
+    r.image_box = OriginalBox(rig, r.box);
+    r.approx_center_mm = b.sum * (1.0 / double(b.pixels.size()));
+    r.approx_radius_mm = kept[n].radius;
+    r.touches_border = b.min_u <= 1 || b.max_u >= w - 2;
+    // The fine match's search: the blob's depths widened by a coarse pixel of disparity (several
+    // times the median-filtered coarse noise) on each side, within the working range.
+    const double d_near = fb / b.min_z + k, d_far = std::max(1.0, fb / b.max_z - k);
+    r.min_z_mm = std::max(o.min_z_mm, fb / d_near);
+    r.max_z_mm = std::min(o.max_z_mm, fb / d_far);
+    out.hedges.push_back(r);
+  }
+  if (const char* dump = std::getenv("HEDGEFIT_GARDEN_DEBUG")) {
+    cv::Mat vis(h, w, CV_8UC3, cv::Scalar(0, 0, 0));
+    for (std::size_t bi = 0; bi < blobs.size(); ++bi) {
+      const cv::Vec3b c((bi * 97) % 200 + 55, (bi * 57) % 200 + 55, (bi * 31) % 200 + 55);
+      for (int i : blobs[bi].pixels) vis.at<cv::Vec3b>(i / w, i % w) = c;
+    }
+    cv::imwrite(std::string(dump) + "_blobs.png", vis);
+  }
+  if (out.hedges.empty()) throw Error("no hedge found: every candidate vanished when its silhouette was eroded; lower --erode");
+  return out;
+}
+
+}  // namespace hedgefit::stereo

@@ -1,0 +1,67 @@
+#pragma once
+/// Finding every hedge in a green world, by depth. A garden defeats the paper's excess-green
+/// mask: the lawn, a hedge row and trees are as green as the hedge. What sets a hedge apart is
+/// its shape in 3-D: a compact, roughly round object standing on the ground inside the working
+/// range. So:
+///  1. match the whole frame coarsely (1/downscale resolution, no refinement): cheap;
+///  2. find the ground (RANSAC plane whose normal is near the camera's up axis) and drop every
+///     point less than `ground_clearance` above it;
+///  3. group the rest into blobs of pixels connected without a depth jump;
+///  4. keep the blobs that are hedge-sized, about as wide as high, standing on the ground and,
+///     in colour images, green (mean 2G - R - B); number them left to right.
+/// The fine match then runs inside each hedge's region only (stereo.sgbm).
+
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+#include "cloud/option_table.hpp"
+#include "stereo/rig.hpp"
+
+namespace hedgefit::stereo {
+
+struct GardenSegmentOptions {
+  int downscale = 4;                 ///< the coarse match runs at 1/downscale of the resolution
+  double min_z_mm = 1500;            ///< working range, nearest
+  double max_z_mm = 3500;            ///< working range, farthest
+  int block_size = 5;                ///< the coarse match's block, coarse px
+  double ground_clearance_mm = 100;  ///< points lower than this above the ground are lawn
+  double depth_jump_mm = 100;        ///< neighbours further apart in depth are different objects
+  double min_radius_mm = 150;        ///< smallest hedge
+  double max_radius_mm = 1500;       ///< largest hedge
+  double max_aspect = 2.0;           ///< width / height (and height / width) at most
+  double min_excess_green = 5;       ///< colour images: a hedge's mean 2G - R - B; 0 = colour not used
+  int max_hedges = 16;
+  int erode_px = 5;                  ///< px at full resolution, beyond the coarse match's own margin
+  void Check() const;
+  static const cloud::OptionTable<GardenSegmentOptions>& Table();  ///< the options, declared once
+};
+
+/// One hedge found in the capture.
+struct HedgeRegion {
+  int id = 0;                  ///< 1, 2, ... left to right
+  cv::Rect box;                ///< in the rectified left image
+  cv::Rect image_box;          ///< in the original left image
+  int pixels = 0;              ///< of its full-resolution mask
+  cv::Vec3d approx_center_mm;  ///< from the coarse points, rectified left camera frame
+  double approx_radius_mm = 0; ///< half its larger extent
+  double min_z_mm = 0, max_z_mm = 0;  ///< its depth range (coarse, with a margin): the fine match searches only this
+  bool touches_border = false; ///< cut by the image's edge: the fit sees part of it
+};
+
+struct GardenSegmentation {
+  cv::Mat labels;                   ///< CV_32S, full rectified size: hedge id, 0 = none
+  std::vector<HedgeRegion> hedges;
+  bool ground_found = false;
+  cv::Vec4d ground;                 ///< n.p + d = 0, rectified left frame, n pointing up (mm)
+  std::vector<std::string> rejected;  ///< why each sizeable blob was not taken for a hedge
+  cv::Mat coarse_disparity;         ///< CV_32F, coarse px, NaN = none (for debug images)
+};
+
+/// Finds every hedge in a rectified pair. Throws hedgefit::Error ("no hedge found: ...") when
+/// there is none, naming why the largest candidates were rejected.
+GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, const cv::Mat& right_rect,
+                              const GardenSegmentOptions& options);
+
+}  // namespace hedgefit::stereo
