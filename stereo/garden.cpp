@@ -22,7 +22,9 @@ const cloud::OptionTable<GardenSegmentOptions>& GardenSegmentOptions::Table() {
   using O = GardenSegmentOptions;
   static const auto table =
       cloud::OptionTable<O>()
-          .Add("downscale", &O::downscale, "the coarse whole-frame match runs at 1/downscale resolution").Range(1, 16)
+          .Add("downscale", &O::downscale,
+               "the coarse whole-frame match runs at 1/downscale resolution; 0 = its focal length ~230 px")
+          .Range(0, 16)
           .Add("min_z", &O::min_z_mm, "working range, nearest", "mm").Min(1)
           .Add("max_z", &O::max_z_mm, "working range, farthest", "mm").Min(1)
           .Add("coarse_block_size", &O::block_size, "the coarse match's block, odd", "coarse px").Range(1, 31)
@@ -49,6 +51,8 @@ void GardenSegmentOptions::Check() const {
 
 namespace {
 
+constexpr double kCoarseFocalPx = 233;  // the paper's rig (f = 933 px) at 1/4
+
 struct Blob {
   std::vector<int> pixels;  // coarse pixel indices
   double min_h = 1e18, max_h = -1e18, min_x = 1e18, max_x = -1e18, min_z = 1e18, max_z = -1e18;
@@ -73,7 +77,8 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     throw Error("stereo.segment_garden: needs the rectified pair (add stereo.rectify before it)");
   }
   GardenSegmentation out;
-  const int k = o.downscale;
+  const int k = o.downscale > 0 ? o.downscale
+                                : std::max(1, int(std::lround(rig.P1.at<double>(0, 0) / kCoarseFocalPx)));
   // 1. The coarse match of the whole frame: the working range's disparities at 1/k.
   cv::Mat small_l, small_r;
   cv::resize(left_rect, small_l, cv::Size(left_rect.cols / k, left_rect.rows / k), 0, 0, cv::INTER_AREA);

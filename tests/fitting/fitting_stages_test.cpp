@@ -28,6 +28,70 @@ cloud::Registry& Registry() {
   return *r;
 }
 
+// A capture with two hedges (a hedge_id field): each fitter fits each hedge on its own, the
+// RANSAC inliers of both survive keep_inliers, 'previous' starts each hedge from its own fit, and
+// a writer with '#' in its name writes one file per hedge.
+TEST(FittingStages, EachHedgeOfACaptureIsFittedOnItsOwn) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  std::mt19937_64 rng(11);
+  const Eigen::Vector3d c1(-700, 200, 2300), c2(800, 150, 2600);
+  auto a = hedgefit::testing::Cap(c1, 450, 60, Eigen::Vector3d(0, 0, -1), 3000, 2.0, rng);
+  auto b = hedgefit::testing::Cap(c2, 550, 60, Eigen::Vector3d(0, 0, -1), 3000, 2.0, rng);
+  cloud::PointCloud c;
+  std::vector<float> ids;
+  for (const auto& p : a) c.points_mm.push_back(p.cast<float>()), ids.push_back(1);
+  for (const auto& p : b) c.points_mm.push_back(p.cast<float>()), ids.push_back(2);
+  c.fields[cloud::kHedgeIdField] = ids;
+  c.Flatten();
+  cloud::WriteCloud((dir / "capture.pcd").string(), c);
+  const std::string json = "[\"" + (dir / "capture.pcd").string() + R"(",
+      {"type": "fitters.ransac", "distance_threshold": 8, "keep_inliers": true},
+      {"type": "fitters.geometric", "initial": "previous"},
+      {"type": "writers.pcd", "filename": ")" + (dir / "hedge_#.pcd").string() + R"("}])";
+  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", Registry());
+  cloud::Context ctx;
+  p.Run(ctx);
+  const auto& fits = ctx.Get<std::vector<SphereFitResult>>("fits");
+  ASSERT_EQ(fits.size(), 4u);
+  // 2 mm noise on 3000 points of a 60-degree cap: well within 1.5 mm (robust_fit_test's scatter).
+  for (const SphereFitResult& f : fits) {
+    ASSERT_TRUE(f.converged) << f.method << " hedge " << f.hedge_id << ": " << f.message;
+    const Eigen::Vector3d& truth = f.hedge_id == 1 ? c1 : c2;
+    EXPECT_LT((f.sphere.center_mm - truth).norm(), 1.5) << f.method << " hedge " << f.hedge_id;
+    EXPECT_NEAR(f.sphere.radius_mm, f.hedge_id == 1 ? 450 : 550, 1.5) << f.method << " hedge " << f.hedge_id;
+  }
+  EXPECT_EQ(fits[0].hedge_id, 1);
+  EXPECT_EQ(fits[1].hedge_id, 2);
+  EXPECT_EQ(fits[2].hedge_id, 1);
+  EXPECT_EQ(fits[3].hedge_id, 2);
+  EXPECT_EQ(fits[2].points_used, fits[0].inliers);  // each hedge's own inliers
+  EXPECT_EQ(fits[3].points_used, fits[1].inliers);
+  const cloud::PointCloud h1 = cloud::ReadCloud((dir / "hedge_1.pcd").string());
+  const cloud::PointCloud h2 = cloud::ReadCloud((dir / "hedge_2.pcd").string());
+  EXPECT_EQ(h1.size(), fits[0].inliers);
+  EXPECT_EQ(h2.size(), fits[1].inliers);
+  EXPECT_FALSE(std::filesystem::exists(dir / "hedge_#.pcd"));
+}
+
+TEST(FittingStages, OneFilePerHedgeNeedsHedgeIds) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  cloud::PointCloud c;
+  c.points_mm = {Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(1, 0, 1)};
+  c.Flatten();
+  cloud::WriteCloud((dir / "plain.pcd").string(), c);
+  const std::string json = "[\"" + (dir / "plain.pcd").string() + R"(", {"type": "writers.pcd", "filename": ")" +
+                           (dir / "out_#.pcd").string() + R"("}])";
+  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", Registry());
+  cloud::Context ctx;
+  try {
+    p.Run(ctx);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no hedge_id field"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "out_1.pcd"));
+}
+
 TEST(FittingStages, PipelineAccumulatesFits) {
   const auto dir = hedgefit::testing::ScratchDir();
   std::mt19937_64 rng(4);

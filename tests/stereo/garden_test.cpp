@@ -1,0 +1,195 @@
+// Hedges where they grow: the garden renders (leafy balls on a lawn before a hedge row, a pot,
+// trees, a hard sun) must give every hedge, each with its own cloud, and the envelope fit must
+// find each ball's outer envelope, not its mean leaf surface.
+
+#include "stereo/garden.hpp"
+
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+#include "cloud/cloud_io.hpp"
+#include "cloud/error.hpp"
+#include "cloud/truth_file.hpp"
+#include "fitting/envelope_fit.hpp"
+#include "stereo/capture.hpp"
+#include "stereo/simulator.hpp"
+#include "tests/test_data.hpp"
+
+namespace hedgefit::stereo {
+namespace {
+
+struct Rendered {
+  SimRig sim;
+  GardenScene scene;
+  cv::Mat left, right, left_labels;
+};
+
+Rendered Render(const std::string& preset, double scale) {
+  Rendered r;
+  r.sim = PaperRig(scale);
+  r.scene = GardenPreset(preset);
+  RenderOptions ro;
+  ro.supersample = 2;
+  ro.blur_sigma_px = 0.5;
+  ro.noise_sigma = 1.0;  // independent per camera
+  r.left = RenderGarden(r.sim, false, r.scene, ro);
+  r.right = RenderGarden(r.sim, true, r.scene, ro);
+  RenderOptions lo;
+  lo.labels = true;
+  r.left_labels = RenderGarden(r.sim, false, r.scene, lo);
+  return r;
+}
+
+// The scene itself: each hedge's label covers its projected centre, and the truth's surface
+// radius lies inside the envelope by less than the shell's depth.
+TEST(GardenScene, HedgesAreWhereTheTruthSaysAndTheShellIsInsideTheEnvelope) {
+  const Rendered r = Render("row", 0.25);
+  const cv::Matx33d K = r.sim.left.K;
+  for (std::size_t i = 0; i < r.scene.hedges.size(); ++i) {
+    const cv::Vec3d c = GardenHedgeCenter(r.scene, i);
+    std::vector<cv::Point2d> px;
+    cv::projectPoints(std::vector<cv::Point3d>{cv::Point3d(c[0], c[1], c[2])}, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                      cv::Mat(K), cv::Mat(r.sim.left.dist), px);
+    const cv::Point p(int(std::lround(px[0].x)), int(std::lround(px[0].y)));
+    ASSERT_TRUE(cv::Rect(0, 0, r.left_labels.cols, r.left_labels.rows).contains(p));
+    EXPECT_EQ(int(r.left_labels.at<std::uint8_t>(p)), kLabelHedge + int(i)) << "hedge " << i;
+    const double surface = GardenHedgeSurfaceRadius(r.scene, i);
+    const GardenHedge& h = r.scene.hedges[i];
+    EXPECT_LT(surface, h.radius_mm - 0.1 * h.leaf_depth_mm);
+    EXPECT_GT(surface, h.radius_mm - h.leaf_depth_mm);
+  }
+}
+
+TEST(GardenScene, TruthFileListsEveryHedgeAndReadsBack) {
+  const auto dir = testing::ScratchDir();
+  const auto files = WriteGarden(dir.string(), 0.2, RenderOptions{}, {"row"});
+  const auto truths = cloud::ReadSphereTruths((dir / "garden_row.truth.json").string());
+  const GardenScene sc = GardenPreset("row");
+  ASSERT_EQ(truths.size(), sc.hedges.size());
+  for (std::size_t i = 0; i < truths.size(); ++i) {
+    const cv::Vec3d c = GardenHedgeCenter(sc, i);
+    EXPECT_NEAR(truths[i].center_mm.x(), c[0], 1e-6);
+    EXPECT_NEAR(truths[i].radius_mm, sc.hedges[i].radius_mm, 1e-9);
+    ASSERT_TRUE(truths[i].surface_radius_mm.has_value());
+  }
+  // One sphere is asked for, three are listed: refused, not the first silently taken.
+  EXPECT_THROW(cloud::ReadSphereTruth((dir / "garden_row.truth.json").string()), Error);
+  EXPECT_NO_THROW(ReadRig((dir / "rig.yaml").string()));
+}
+
+// The row at the paper's resolution, end to end: three hedges found (the pot rejected as not
+// green), each cloud within its envelope, and the envelope fit on target.
+TEST(GardenCapture, RowOfThreeBallsGivesThreeHedgesAndTheirEnvelopes) {
+  const Rendered r = Render("row", 1.0);
+  const StereoRig rig = RigFromSimulation(r.sim);
+  ConvertOptions o;
+  o.mode = SegmentMode::kGarden;
+  const ConvertResult res = ConvertCapture(r.left, r.right, rig, o);
+  ASSERT_EQ(res.hedges.size(), 3u);
+  const auto groups = cloud::HedgeGroups(res.cloud);
+  ASSERT_EQ(groups.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const GardenHedge& h = r.scene.hedges[i];
+    const cv::Vec3d c = GardenHedgeCenter(r.scene, i);
+    const Eigen::Vector3d centre(c[0], c[1], c[2]);
+    EXPECT_EQ(res.hedges[i].id, int(i) + 1);
+    EXPECT_EQ(groups[i].id, int(i) + 1);
+    // Ids left to right, as the truth lists them: hedge i's points lie around truth i.
+    std::vector<Eigen::Vector3d> pts;
+    std::size_t outside = 0;
+    for (std::size_t k : groups[i].indices) {
+      pts.push_back(res.cloud.points_mm[k].cast<double>());
+      if ((pts.back() - centre).norm() - h.radius_mm > 50) ++outside;
+    }
+    ASSERT_GT(pts.size(), 5000u);
+    // The target: at most 2 % of a hedge's points more than 50 mm outside its envelope
+    // (lawn, pot or background taken for hedge).
+    EXPECT_LE(double(outside) / double(pts.size()), 0.02) << "hedge " << i + 1;
+    const fitting::EnvelopeFit fit = fitting::FitEnvelope(pts);
+    ASSERT_TRUE(fit.fit.converged) << fit.fit.message;
+    // Tolerances: the shell's mean leaf depth here is 12-14 mm, so a fit that found the leaf
+    // surface instead of the envelope would be ~12 mm small and its centre ~10 mm far; 6 mm is
+    // half of that, and ~3x the stereo error this rig shows on the smooth lab sphere.
+    EXPECT_NEAR(fit.fit.sphere.radius_mm, h.radius_mm, 6.0) << "hedge " << i + 1;
+    EXPECT_LT((fit.fit.sphere.center_mm - centre).norm(), 6.0) << "hedge " << i + 1;
+    EXPECT_NEAR(fit.surface_radius_mm, GardenHedgeSurfaceRadius(r.scene, i), 6.0) << "hedge " << i + 1;
+  }
+  // Three regions matched, not the row's bounding box.
+  EXPECT_LT(res.matched_fraction, 0.45);
+}
+
+TEST(GardenSegment, PotIsRejectedAsNotGreenAndNamed) {
+  const Rendered r = Render("single", 0.5);
+  const StereoRig rig = RigFromSimulation(r.sim);
+  cv::Mat l, rt;
+  RectifyPair(rig, r.left, r.right, &l, &rt);
+  const GardenSegmentation g = FindHedges(rig, l, rt, GardenSegmentOptions{});
+  ASSERT_EQ(g.hedges.size(), 1u);
+  EXPECT_TRUE(g.ground_found);
+  bool pot = false;
+  for (const auto& why : g.rejected) pot = pot || why.find("not green") != std::string::npos;
+  EXPECT_TRUE(pot) << "the terracotta pot should be rejected by colour";
+  // The hedge's box holds the truth's projected centre.
+  const cv::Vec3d c = GardenHedgeCenter(r.scene, 0);
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(std::vector<cv::Point3d>{cv::Point3d(c[0], c[1], c[2])}, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                    cv::Mat(r.sim.left.K), cv::Mat(r.sim.left.dist), px);
+  EXPECT_TRUE(g.hedges[0].image_box.contains(cv::Point(int(px[0].x), int(px[0].y))));
+  // Its depth range brackets the ball's front and its limbs.
+  EXPECT_LT(g.hedges[0].min_z_mm, c[2] - 0.8 * r.scene.hedges[0].radius_mm);
+  EXPECT_GT(g.hedges[0].max_z_mm, c[2] - 0.1 * r.scene.hedges[0].radius_mm);
+}
+
+// The lab keeps working: the paper's sphere before a wall is one hedge in garden mode too.
+TEST(GardenSegment, LabSphereIsOneHedge) {
+  const SimRig sim = PaperRig(0.5);
+  SphereScene sc;
+  sc.center = cv::Vec3d(70, 50, 2300);
+  RenderOptions ro;
+  ro.supersample = 2;
+  const StereoRig rig = RigFromSimulation(sim);
+  cv::Mat l, rt;
+  RectifyPair(rig, RenderSphere(sim, false, sc, ro), RenderSphere(sim, true, sc, ro), &l, &rt);
+  const GardenSegmentation g = FindHedges(rig, l, rt, GardenSegmentOptions{});
+  ASSERT_EQ(g.hedges.size(), 1u);
+  EXPECT_NEAR(g.hedges[0].approx_radius_mm, sc.radius, 0.25 * sc.radius);
+}
+
+// A garden without a hedge: lawn, pot, hedge row and trees only. "No hedge", never a lawn.
+TEST(GardenSegment, NoHedgeIsAnErrorNamingWhatWasRejected) {
+  SimRig sim = PaperRig(0.5);
+  GardenScene sc = GardenPreset("single");
+  sc.hedges.clear();
+  RenderOptions ro;
+  ro.supersample = 1;
+  const StereoRig rig = RigFromSimulation(sim);
+  cv::Mat l, rt;
+  RectifyPair(rig, RenderGarden(sim, false, sc, ro), RenderGarden(sim, true, sc, ro), &l, &rt);
+  try {
+    FindHedges(rig, l, rt, GardenSegmentOptions{});
+    FAIL() << "expected no hedge";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no hedge found"), std::string::npos) << e.what();
+  }
+}
+
+TEST(GardenSegment, BadOptionsAreNamed) {
+  GardenSegmentOptions o;
+  o.min_radius_mm = 900;
+  o.max_radius_mm = 800;
+  try {
+    o.Check();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("min_radius"), std::string::npos);
+  }
+  o = {};
+  o.block_size = 4;
+  EXPECT_THROW(o.Check(), Error);
+}
+
+}  // namespace
+}  // namespace hedgefit::stereo
