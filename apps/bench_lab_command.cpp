@@ -1,6 +1,7 @@
 // hedgefit bench lab: parses its flags and runs bench/lab.hpp.
 
 #include "apps/commands.hpp"
+#include "bench/garden.hpp"
 #include "bench/lab.hpp"
 #include "cloud/cloud_io.hpp"
 
@@ -42,6 +43,30 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       const bench::LabResult result = bench::RunLab(a->lab);
       bench::PrintLab(result);
       if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, bench::LabJson(result));
+      return kExitOk;
+    };
+  });
+  auto* g = bench->add_subcommand(
+      "garden", "Leafy hedge balls on a lawn (rows of three, one, the paper's outdoor size): every hedge found, fitted, "
+                "scored against its envelope, beside the paper's colour path");
+  g->footer(
+      "Examples:\n"
+      "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"
+      "  hedgefit bench garden --reuse --json garden.json\n");
+  struct GardenArgs {
+    bench::GardenOptions garden;
+    std::string json;
+  };
+  auto ga = std::make_shared<GardenArgs>();
+  g->add_option("--dir", ga->garden.dir, "where the simulated captures go")->capture_default_str();
+  g->add_option("--scale", ga->garden.scale, "image scale of the simulated rig")->check(CLI::Range(0.25, 2.0))->capture_default_str();
+  g->add_flag("--reuse", ga->garden.reuse, "reuse captures already in --dir");
+  g->add_option("--json", ga->json, "also write the tables as JSON here");
+  g->callback([=]() {
+    *run = [=]() {
+      const bench::GardenResult result = bench::RunGarden(ga->garden);
+      bench::PrintGarden(result);
+      if (!ga->json.empty()) cloud::WriteTextFileAtomic(ga->json, bench::GardenJson(result));
       return kExitOk;
     };
   });

@@ -1,0 +1,226 @@
+#include "bench/garden.hpp"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include "cloud/filters.hpp"
+#include "cloud/truth_file.hpp"
+#include "fitting/methods.hpp"
+#include "stereo/simulator.hpp"
+
+namespace hedgefit::bench {
+
+GardenOptions::GardenOptions() { convert.mode = stereo::SegmentMode::kGarden; }
+
+namespace {
+
+double Ms(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+GardenResult RunGarden(const GardenOptions& a) {
+  namespace fs = std::filesystem;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<std::string> presets = stereo::GardenPresetNames();
+  if (!(a.reuse && fs::exists(fs::path(a.dir) / ("garden_" + presets.back() + "_right.png")))) {
+    stereo::RenderOptions ro;
+    ro.supersample = 3;
+    ro.blur_sigma_px = 0.5;
+    ro.noise_sigma = 1.0;  // independent in each camera
+    stereo::WriteGarden(a.dir, a.scale, ro, presets);
+  }
+  // No boards in a garden: the simulator's exact rig, so the figures are segmentation, matching
+  // and fitting (the lab bench measures calibration).
+  const stereo::StereoRig rig = stereo::RigFromSimulation(stereo::PaperRig(a.scale));
+  GardenResult out;
+  fitting::SummaryBuilder summary;
+  stereo::ConvertOptions garden = a.convert;
+  garden.mode = stereo::SegmentMode::kGarden;
+  for (const std::string& name : presets) {
+    const fs::path base = fs::path(a.dir) / ("garden_" + name);
+    const cv::Mat left = cv::imread(base.string() + "_left.png"), right = cv::imread(base.string() + "_right.png");
+    const std::vector<cloud::SphereTruth> truths = cloud::ReadSphereTruths(base.string() + ".truth.json");
+    GardenScene scene;
+    scene.name = name;
+    scene.hedges_true = truths.size();
+    auto tc = std::chrono::steady_clock::now();
+    const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, garden);
+    scene.convert_ms = Ms(tc);
+    scene.hedges_found = res.hedges.size();
+    // The cleaning `compare` applies by default (statistical outliers, mean_k 30, 1 sigma), so
+    // the figures are what a user gets.
+    cloud::StatisticalOutlierOptions so;
+    so.mean_k = 30;
+    so.stddev_mul = 1.0;
+    const cloud::PointCloud cleaned = cloud::StatisticalOutlierRemoval(res.cloud, so).cloud;
+    const auto groups = cloud::HedgeGroups(cleaned);
+    const auto raw_groups = cloud::HedgeGroups(res.cloud);  // the written clouds, for the 50 mm share
+    std::vector<fitting::Sphere> spheres;
+    for (const auto& t : truths) spheres.push_back(fitting::Sphere{t.center_mm, t.radius_mm});
+    for (std::size_t ti = 0; ti < truths.size(); ++ti) {
+      GardenHedgeRow row;
+      row.truth = spheres[ti];
+      row.truth_surface_mm = truths[ti].surface_radius_mm.value_or(0);
+      // The hedge hedgefit found for this truth: the group whose points' centroid is nearest.
+      for (const auto& g : groups) {
+        std::vector<Eigen::Vector3d> pts;
+        for (std::size_t i : g.indices) pts.push_back(cleaned.points_mm[i].cast<double>());
+        const auto t = fitting::TruthForPoints(spheres, pts);
+        if (!t || (t->center_mm - row.truth.center_mm).norm() > 1e-9) continue;
+        row.id = g.id;
+        row.points = pts.size();
+        for (const auto& rg : raw_groups) {
+          if (rg.id != g.id) continue;
+          std::size_t outside = 0;
+          for (std::size_t i : rg.indices) {
+            const Eigen::Vector3d p = res.cloud.points_mm[i].cast<double>();
+            outside += (p - row.truth.center_mm).norm() - row.truth.radius_mm > 50 ? 1 : 0;
+          }
+          row.outside_50mm = double(outside) / double(std::max<std::size_t>(1, rg.indices.size()));
+        }
+        for (const auto& m : fitting::SphereMethodNames()) {
+          row.fits.push_back(fitting::RunFitMethod(m, pts, {}));
+          row.fits.back().hedge_id = g.id;
+          if (m == "envelope") scene.envelope_ms += row.fits.back().wall_ms;
+          summary.Add(m, row.fits.back(), row.truth);
+        }
+      }
+      scene.rows.push_back(std::move(row));
+    }
+    // The paper's path on the same capture.
+    try {
+      stereo::ConvertOptions colour = a.convert;
+      colour.mode = stereo::SegmentMode::kColour;
+      const stereo::ConvertResult c = stereo::ConvertCapture(left, right, rig, colour);
+      scene.colour_mask_share = double(cv::countNonZero(c.mask)) / double(c.mask.total());
+      std::vector<Eigen::Vector3d> pts;
+      for (const auto& p : c.cloud.points_mm) {
+        if (cloud::IsFinite(p)) pts.push_back(p.cast<double>());
+      }
+      const fitting::SphereFitResult k = fitting::RunFitMethod("kasa", pts, {});
+      if (!k.converged) {
+        scene.colour_message = k.message;
+      } else {
+        const fitting::Sphere* best = nullptr;
+        for (const auto& s : spheres) {
+          if (!best || (s.center_mm - k.sphere.center_mm).norm() < (best->center_mm - k.sphere.center_mm).norm()) best = &s;
+        }
+        const fitting::FitError e = fitting::Evaluate(k.sphere, *best);
+        scene.colour_aer_mm = e.aer_mm;
+        scene.colour_ld_mm = e.ld_mm;
+      }
+    } catch (const Error& e) {
+      scene.colour_message = e.what();
+    }
+    out.scenes.push_back(std::move(scene));
+  }
+  out.summary = summary.Finish();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+void PrintGarden(const GardenResult& r) {
+  const auto methods = fitting::SphereMethodNames();
+  for (const GardenScene& s : r.scenes) {
+    std::printf("garden_%s: %zu of %zu hedges found; capture to clouds %.0f ms, envelope fits %.0f ms\n", s.name.c_str(),
+                s.hedges_found, s.hedges_true, s.convert_ms, s.envelope_ms);
+    std::printf("  %4s %8s %8s %9s %8s", "id", "true r", "points", ">50mm out", "");
+    for (const auto& m : {"geometric", "ransac", "envelope"}) std::printf(" %17s", (std::string(m) + " AER/LD").c_str());
+    std::printf("   envelope surface r (true)\n");
+    for (const GardenHedgeRow& h : s.rows) {
+      if (h.id == 0) {
+        std::printf("  %4s %8.0f  not found\n", "-", h.truth.radius_mm);
+        continue;
+      }
+      std::printf("  %4d %8.0f %8zu %8.2f%% %8s", h.id, h.truth.radius_mm, h.points, 100 * h.outside_50mm, "");
+      const fitting::SphereFitResult* envelope = nullptr;
+      for (const auto& m : {"geometric", "ransac", "envelope"}) {
+        for (const auto& f : h.fits) {
+          if (f.method != m) continue;
+          if (f.method == "envelope") envelope = &f;
+          if (!f.converged) {
+            std::printf(" %17s", "failed");
+          } else {
+            const auto e = fitting::Evaluate(f.sphere, h.truth);
+            std::printf("     %6.2f / %5.2f", e.aer_mm, e.ld_mm);
+          }
+        }
+      }
+      if (envelope && envelope->converged && envelope->surface_radius_mm) {
+        std::printf("   %.1f (%.1f)", *envelope->surface_radius_mm, h.truth_surface_mm);
+      }
+      std::printf("\n");
+    }
+    if (s.colour_message.empty()) {
+      std::printf("  the paper's path (excess-green mask, %.0f%% of the frame; Kasa): AER %.0f mm, LD %.0f mm\n",
+                  100 * s.colour_mask_share, s.colour_aer_mm, s.colour_ld_mm);
+    } else {
+      std::printf("  the paper's path (excess-green mask; Kasa): %s\n", s.colour_message.c_str());
+    }
+    std::printf("\n");
+  }
+  std::printf("summary over every hedge found (AER and LD against the outer envelope)\n  %-17s %11s %11s %10s %9s %9s\n",
+              "method", "mean|AER|", "max|AER|", "mean RER%", "mean LD", "max LD");
+  for (const auto& m : methods) {
+    auto it = r.summary.find(m);
+    if (it == r.summary.end()) continue;
+    const auto& s = it->second;
+    std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f\n", m.c_str(), s.mean_abs_aer_mm, s.max_abs_aer_mm,
+                s.mean_rer_percent, s.mean_ld_mm, s.max_ld_mm);
+  }
+  std::printf("  %-17s %11.2f %11s %10s %9.2f %9s   (published, outdoor, 4 hedges r 880-960 mm)\n", "paper outdoor", 4.02,
+              "-", "-", 18.29, "-");
+  std::printf("whole run %.1f s\n", r.seconds);
+}
+
+std::string GardenJson(const GardenResult& r) {
+  using nlohmann::json;
+  json j;
+  j["scenes"] = json::array();
+  for (const GardenScene& s : r.scenes) {
+    json js = {{"name", s.name},           {"hedges_true", s.hedges_true}, {"hedges_found", s.hedges_found},
+               {"convert_ms", s.convert_ms}, {"envelope_ms", s.envelope_ms}};
+    js["hedges"] = json::array();
+    for (const GardenHedgeRow& h : s.rows) {
+      json jh = {{"id", h.id},
+                 {"true_center_mm", {h.truth.center_mm.x(), h.truth.center_mm.y(), h.truth.center_mm.z()}},
+                 {"true_radius_mm", h.truth.radius_mm},
+                 {"true_surface_radius_mm", h.truth_surface_mm},
+                 {"points", h.points},
+                 {"outside_50mm_share", h.outside_50mm}};
+      jh["fits"] = json::array();
+      for (const auto& f : h.fits) {
+        json jf = {{"method", f.method}, {"converged", f.converged}};
+        if (f.converged) {
+          const auto e = fitting::Evaluate(f.sphere, h.truth);
+          jf["radius_mm"] = f.sphere.radius_mm;
+          jf["aer_mm"] = e.aer_mm;
+          jf["ld_mm"] = e.ld_mm;
+          if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
+        }
+        jh["fits"].push_back(jf);
+      }
+      js["hedges"].push_back(jh);
+    }
+    js["paper_path"] = s.colour_message.empty()
+                           ? json{{"mask_share", s.colour_mask_share}, {"kasa_aer_mm", s.colour_aer_mm},
+                                  {"kasa_ld_mm", s.colour_ld_mm}}
+                           : json{{"message", s.colour_message}};
+    j["scenes"].push_back(js);
+  }
+  j["summary"] = json::object();
+  for (const auto& [m, s] : r.summary) {
+    j["summary"][m] = {{"hedges", s.clouds},          {"failures", s.failures},   {"mean_abs_aer_mm", s.mean_abs_aer_mm},
+                       {"max_abs_aer_mm", s.max_abs_aer_mm}, {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm}};
+  }
+  j["paper_outdoor"] = {{"mean_abs_aer_mm", 4.02}, {"mean_ld_mm", 18.29}};
+  return j.dump(2) + "\n";
+}
+
+}  // namespace hedgefit::bench

@@ -1,0 +1,55 @@
+#pragma once
+/// The garden test (`hedgefit bench garden`): leafy hedge balls on a lawn, before a hedge row,
+/// with a pot and trees under a hard sun, rendered by the simulator at the paper's resolution.
+/// Each scene is converted with garden segmentation (every hedge by depth) and, for contrast,
+/// with the paper's colour mask; every hedge is fitted with every method and scored against
+/// its outer envelope (the truth radius: where the leaves end).
+
+#include <string>
+#include <vector>
+
+#include "fitting/evaluation.hpp"
+#include "stereo/capture.hpp"
+
+namespace hedgefit::bench {
+
+struct GardenOptions {
+  std::string dir = "build/garden-bench";  ///< where the simulated captures go
+  double scale = 1.0;                      ///< image scale of the simulated rig (1 = 1920x1200)
+  bool reuse = false;                      ///< reuse captures already in `dir`
+  stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
+  GardenOptions();
+};
+
+struct GardenHedgeRow {
+  int id = 0;                       ///< hedgefit's id (0 = the true hedge was not found)
+  fitting::Sphere truth;            ///< envelope
+  double truth_surface_mm = 0;      ///< mean leaf-surface radius
+  std::size_t points = 0;
+  double outside_50mm = 0;          ///< share of points more than 50 mm outside the true envelope
+  std::vector<fitting::SphereFitResult> fits;  ///< one per method
+};
+
+struct GardenScene {
+  std::string name;
+  std::size_t hedges_true = 0, hedges_found = 0;
+  double convert_ms = 0;            ///< capture to clouds, in process
+  double envelope_ms = 0;           ///< the envelope fits of every hedge
+  std::vector<GardenHedgeRow> rows;
+  /// The paper's path on the same capture: colour mask, then a Kasa fit; error against the
+  /// nearest true hedge (or why it failed).
+  std::string colour_message;
+  double colour_aer_mm = 0, colour_ld_mm = 0, colour_mask_share = 0;
+};
+
+struct GardenResult {
+  std::vector<GardenScene> scenes;
+  std::map<std::string, fitting::MethodSummary> summary;  ///< over every found hedge
+  double seconds = 0;
+};
+
+GardenResult RunGarden(const GardenOptions& options);
+void PrintGarden(const GardenResult& result);
+std::string GardenJson(const GardenResult& result);
+
+}  // namespace hedgefit::bench
