@@ -73,7 +73,10 @@ void RegisterRenderStages(cloud::Registry& r) {
           return std::make_unique<LambdaStage>(o, [file](const Options& opts, Context& ctx) {
             std::vector<SphereOverlay> spheres;
             for (const auto& f : ctx.Get<std::vector<fitting::SphereFitResult>>("fits")) {
-              if (f.converged) spheres.push_back(SphereOverlay{f.method, f.sphere, false});
+              if (f.converged) {
+                const std::string label = f.hedge_id ? "hedge " + std::to_string(f.hedge_id) + " " + f.method : f.method;
+                spheres.push_back(SphereOverlay{label, f.sphere, false});
+              }
             }
             const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
             const cv::Mat picture = DrawOverlay(ctx.Get<cv::Mat>("left_image"), ctx.Get<stereo::StereoRig>("rig"),

@@ -24,6 +24,14 @@ $H pipeline examples/capture_to_fit.json -q \
   --set readers.stereo.left=$L/sphere_2300_left.png --set readers.stereo.right=$L/sphere_2300_right.png \
   --set readers.stereo.rig=build/docs/rig.yaml --set writers.overlay.filename=docs/overlay_z2300.png \
   --set writers.pcd.filename=build/docs/sphere_2300_pipeline.pcd --set writers.png.filename=build/docs/pipeline.png
+# A garden: three leafy balls on a lawn, found by depth, one cloud and one envelope fit each
+# (half the paper's resolution keeps the picture small).
+G=build/docs/garden
+[ -f $G/garden_row_right.png ] || $H simulate --preset garden --scale 0.5 -o $G > /dev/null
+$H pipeline examples/garden_to_fit.json -q \
+  --set readers.stereo.left=$G/garden_row_left.png --set readers.stereo.right=$G/garden_row_right.png \
+  --set readers.stereo.rig=$G/rig.yaml --set "writers.pcd.filename=$G/row_#.pcd" \
+  --set writers.overlay.filename=docs/garden_row_overlay.png
 # PCL's real outdoor pair (grey): the round shrub, segmented by depth inside a box.
 D=../shared/data/stereo_plants/pcl_outdoor_stereo_pair
 if [ -f $D/stereo_left.png ]; then
@@ -34,4 +42,4 @@ if [ -f $D/stereo_left.png ]; then
   $H render build/docs/shrub.pcd --fits build/docs/fits_shrub.json --view front,side --size 480x400 --wireframe \
     --point-size 4 -o docs/pcl_outdoor_shrub.png
 fi
-echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruction_z2300.png docs/pcl_outdoor_shrub.png"
+echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruction_z2300.png docs/garden_row_overlay.png docs/pcl_outdoor_shrub.png"

@@ -52,6 +52,7 @@ void GardenSegmentOptions::Check() const {
 namespace {
 
 constexpr double kCoarseFocalPx = 233;  // the paper's rig (f = 933 px) at 1/4
+constexpr int kMinHedgePixels = 400;    // full resolution, after erosion
 
 struct Blob {
   std::vector<int> pixels;  // coarse pixel indices
@@ -297,7 +298,13 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     HedgeRegion r;
     r.id = int(out.hedges.size()) + 1;
     r.pixels = cv::countNonZero(full);
-    if (r.pixels == 0) continue;
+    // A sphere fit on a few hundred points of a hedge's cap says little; such a speck is far
+    // away or a fragment.
+    if (r.pixels < kMinHedgePixels) {
+      out.rejected.push_back(Where(b, k) + ": " + std::to_string(r.pixels) + " px after erosion, fewer than " +
+                             std::to_string(kMinHedgePixels) + " (too far or too small to measure)");
+      continue;
+    }
     out.labels.setTo(r.id, full);
     r.box = cv::boundingRect(full);
     r.image_box = OriginalBox(rig, r.box);
@@ -319,7 +326,10 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     }
     cv::imwrite(std::string(dump) + "_blobs.png", vis);
   }
-  if (out.hedges.empty()) throw Error("no hedge found: every candidate vanished when its silhouette was eroded; lower --erode");
+  if (out.hedges.empty()) {
+    throw Error("no hedge found: every candidate is too small to measure once eroded (" + out.rejected.back() +
+                "); lower --erode, or move closer");
+  }
   return out;
 }
 
