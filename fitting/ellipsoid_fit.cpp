@@ -1,9 +1,14 @@
 #include "fitting/ellipsoid_fit.hpp"
 
 #include <Eigen/Dense>
+#include <ceres/ceres.h>
 
 #include <chrono>
 #include <cmath>
+#include <memory>
+
+#include "cloud/error.hpp"
+#include "fitting/geometric_fit.hpp"
 
 namespace hedgefit::fitting {
 
@@ -102,6 +107,104 @@ EllipsoidFit FitEllipsoid(const std::vector<Eigen::Vector3d>& points_mm) {
   }
   out.rms_mm = scale * std::sqrt(sum / double(points_mm.size()));
   out.converged = true;
+  return done();
+}
+
+const cloud::OptionTable<SpheroidFitOptions>& SpheroidFitOptions::Table() {
+  using O = SpheroidFitOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Add("up", &O::up, "the vertical in the cloud's frame ([0, -1, 0]: a level camera, y down)")
+          .Add("loss_scale", &O::loss_scale_mm, "Huber loss scale: larger residuals are down-weighted", "mm").Min(1e-6);
+  return table;
+}
+
+void SpheroidFitOptions::Check() const {
+  Table().Validate(*this);
+  if (!(up.norm() > 0)) throw Error("option 'up': give a non-zero vertical direction");
+}
+
+namespace {
+
+// Radial distance from the surface (x^2 + y^2) / a^2 + h^2 / b^2 = 1 (h along up), along the ray
+// from the centre: |q| (1 - 1 / sqrt(rho^2 / a^2 + h^2 / b^2)); exact for a sphere, first order
+// in the flattening otherwise.
+struct SpheroidResidual {
+  Eigen::Vector3d p;
+  Eigen::Vector3d up;
+  template <class T>
+  bool operator()(const T* c, const T* a, const T* b, T* residual) const {
+    const T qx = T(p.x()) - c[0], qy = T(p.y()) - c[1], qz = T(p.z()) - c[2];
+    const T h = qx * T(up.x()) + qy * T(up.y()) + qz * T(up.z());
+    const T n2 = qx * qx + qy * qy + qz * qz;
+    const T rho2 = n2 - h * h;
+    using std::sqrt;
+    const T k = sqrt(rho2 / (a[0] * a[0]) + h * h / (b[0] * b[0]));
+    residual[0] = sqrt(n2) * (T(1) - T(1) / k);
+    return true;
+  }
+};
+
+}  // namespace
+
+EllipsoidFit FitSpheroid(const std::vector<Eigen::Vector3d>& points_mm, const SpheroidFitOptions& options) {
+  options.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  EllipsoidFit out;
+  auto done = [&] {
+    out.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  };
+  GeometricFitOptions go;
+  go.compute_covariance = false;
+  const SphereFitResult start = FitSphereGeometric(points_mm, go);
+  if (!start.converged) {
+    out.message = "no starting sphere: " + start.message;
+    return done();
+  }
+  const Eigen::Vector3d up = options.up.normalized();
+  // Centred on the starting centre: the parameters are then small numbers of the same size.
+  const Eigen::Vector3d origin = start.sphere.center_mm;
+  double c[3] = {0, 0, 0}, a = start.sphere.radius_mm, b = start.sphere.radius_mm;
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // one loss for every residual
+  ceres::Problem problem(problem_options);
+  const std::unique_ptr<ceres::LossFunction> loss(new ceres::HuberLoss(options.loss_scale_mm));
+  for (const auto& p : points_mm) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SpheroidResidual, 1, 3, 1, 1>(
+                                 new SpheroidResidual{p - origin, up}),
+                             loss.get(), c, &a, &b);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = 100;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (!summary.IsSolutionUsable() || !(a > 0) || !(b > 0) || !std::isfinite(a) || !std::isfinite(b)) {
+    out.message = "the spheroid fit did not converge: " + summary.message;
+    return done();
+  }
+  out.converged = true;
+  out.center_mm = origin + Eigen::Vector3d(c[0], c[1], c[2]);
+  // Any two horizontal directions complete the frame.
+  Eigen::Vector3d h1 = up.unitOrthogonal(), h2 = up.cross(h1);
+  if (a >= b) {
+    out.axes_mm = Eigen::Vector3d(a, a, b);
+    out.directions.col(0) = h1, out.directions.col(1) = h2, out.directions.col(2) = up;
+  } else {
+    out.axes_mm = Eigen::Vector3d(b, a, a);
+    out.directions.col(0) = up, out.directions.col(1) = h1, out.directions.col(2) = h2;
+  }
+  out.vertical_axis_mm = b;
+  out.horizontal_axis_mm = a;
+  double ss = 0;
+  for (const auto& p : points_mm) {
+    double r = 0;
+    SpheroidResidual{p - origin, up}(c, &a, &b, &r);
+    ss += r * r;
+  }
+  out.rms_mm = std::sqrt(ss / double(points_mm.size()));
   return done();
 }
 

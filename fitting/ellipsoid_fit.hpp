@@ -7,6 +7,7 @@
 
 #include <vector>
 
+#include "cloud/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -27,5 +28,20 @@ struct EllipsoidFit {
 /// Fits an ellipsoid; fails (converged = false) on fewer than 9 points, degenerate data, or a
 /// quadric that is not an ellipsoid.
 EllipsoidFit FitEllipsoid(const std::vector<Eigen::Vector3d>& points_mm);
+
+struct SpheroidFitOptions {
+  Eigen::Vector3d up = Eigen::Vector3d(0, -1, 0);  ///< the vertical, in the cloud's frame (camera: -y)
+  double loss_scale_mm = 10.0;  ///< Huber: residuals beyond this (leaf gaps, strays) are down-weighted
+  void Check() const;
+  static const cloud::OptionTable<SpheroidFitOptions>& Table();  ///< the options, declared once
+};
+
+/// A sphere flattened or stretched along the vertical: centre, horizontal semi-axis a and
+/// vertical semi-axis b, by least squares on the radial distance to the surface (Ceres, from the
+/// geometric sphere fit, Huber loss). Five parameters instead of the general ellipsoid's nine:
+/// on the cap a camera sees of a leafy hedge the general fit is ill-conditioned, this one is not.
+/// b / a < 1 is a dome, > 1 an egg. `axes_mm` holds (a, a, b), directions (horizontal, horizontal,
+/// up).
+EllipsoidFit FitSpheroid(const std::vector<Eigen::Vector3d>& points_mm, const SpheroidFitOptions& options = {});
 
 }  // namespace hedgefit::fitting

@@ -179,13 +179,39 @@ std::vector<FitMethod> MakeTable() {
                    return r;
                  };
                }});
+  t.push_back({"spheroid", "fitters.spheroid",
+               "Sphere flattened or stretched along the vertical (5 parameters, Ceres, Huber): horizontal and "
+               "vertical semi-axes, to tell a ball from a dome on the cap a camera sees",
+               cloud::TableOptions<SpheroidFitOptions>(), false, [](const Options& o) -> BoundFit {
+                 const SpheroidFitOptions so = SpheroidFitOptions::Table().FromOptions(o);
+                 so.Check();
+                 return [so](const FitInputs& in) {
+                   const EllipsoidFit e = FitSpheroid(*in.points_mm, so);
+                   SphereFitResult r;
+                   r.method = "spheroid";
+                   r.points_used = in.points_mm->size();
+                   r.inliers = r.points_used;
+                   r.wall_ms = e.wall_ms;
+                   r.converged = e.converged;
+                   r.message = e.message;
+                   if (e.converged) {
+                     r.sphere.center_mm = e.center_mm;
+                     r.sphere.radius_mm = std::cbrt(e.axes_mm.prod());
+                     r.rms_mm = e.rms_mm;
+                     r.axes_mm = e.axes_mm;
+                     r.vertical_axis_mm = e.vertical_axis_mm;
+                     r.horizontal_axis_mm = e.horizontal_axis_mm;
+                   }
+                   return r;
+                 };
+               }});
   // Robust and geometric before algebraic; among algebraic, the least biased first.
   const std::map<std::string, int> trust = {{"ransac_geometric", 7}, {"envelope", 6}, {"geometric", 5},
                                             {"ransac", 4},   {"hyper", 3},            {"taubin", 2},
                                             {"pratt", 1}};
   for (auto& m : t) {
     m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
-    m.sphere = m.name != "ellipsoid";
+    m.sphere = m.name != "ellipsoid" && m.name != "spheroid";  // shape diagnostics, run when named
   }
   return t;
 }

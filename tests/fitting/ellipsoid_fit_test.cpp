@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "cloud/error.hpp"
 #include "fitting/methods.hpp"
 #include "tests/fitting/synthetic.hpp"
 
@@ -62,6 +63,54 @@ TEST(EllipsoidFit, MovesWithTheHedge) {
   ASSERT_TRUE(r.converged && r.axes_mm && r.vertical_axis_mm);
   EXPECT_NEAR(*r.vertical_axis_mm, 430, 5.0);
   EXPECT_EQ(FitEllipsoid({Eigen::Vector3d(0, 0, 1)}).converged, false);
+}
+
+// Points of a leafy spheroid as a camera at the origin sees it: the cap within 60 degrees of the
+// view axis, each point an exponential leaf depth (mean `leaf_mm`) inside the surface plus noise.
+std::vector<Eigen::Vector3d> LeafySpheroidCap(const Eigen::Vector3d& centre, double a, double b, double leaf_mm,
+                                              std::size_t n, std::mt19937_64& rng) {
+  const auto dirs = hedgefit::testing::Cap(Eigen::Vector3d::Zero(), 1.0, 60, (-centre).normalized(), n, 0.0, rng);
+  std::exponential_distribution<double> depth(1.0 / leaf_mm);
+  std::normal_distribution<double> noise(0.0, 2.0);
+  std::vector<Eigen::Vector3d> pts;
+  for (const auto& u : dirs) {
+    // y is down: the vertical semi-axis b lies along y.
+    const Eigen::Vector3d s = centre + Eigen::Vector3d(a * u.x(), b * u.y(), a * u.z());
+    const Eigen::Vector3d radial = (s - centre).normalized();
+    pts.push_back(s - (depth(rng) + noise(rng)) * radial);
+  }
+  return pts;
+}
+
+// On the cap a camera sees of a leafy hedge (12 mm mean leaf depth, 60 degrees), the spheroid
+// tells a dome from a ball where the general ellipsoid's depth axis wanders: the leaf layer
+// shrinks both semi-axes alike, so their ratio stays.
+TEST(SpheroidFit, DomeAndBallAreToldApartOnLeafyCaps) {
+  std::mt19937_64 rng(31);
+  const Eigen::Vector3d centre(150, 200, 2400);
+  const EllipsoidFit dome = FitSpheroid(LeafySpheroidCap(centre, 550, 450, 12, 20000, rng));
+  ASSERT_TRUE(dome.converged) << dome.message;
+  const EllipsoidFit ball = FitSpheroid(LeafySpheroidCap(centre, 500, 500, 12, 20000, rng));
+  ASSERT_TRUE(ball.converged) << ball.message;
+  // 20000 points: the ratio's scatter is well under 1 %; the leaf layer (12 mm of ~500) biases
+  // each axis by a similar ~2 %, which cancels in the ratio to within 2 %.
+  EXPECT_NEAR(dome.vertical_axis_mm / dome.horizontal_axis_mm, 450.0 / 550.0, 0.02);
+  EXPECT_NEAR(ball.vertical_axis_mm / ball.horizontal_axis_mm, 1.0, 0.02);
+  EXPECT_LT((ball.center_mm - centre).norm(), 25.0);  // pushed back by the leaf layer, ~1-2 leaf depths
+  // The general ellipsoid on the same ball: the spheroid's ratio is the better of the two.
+  const EllipsoidFit general = FitEllipsoid(LeafySpheroidCap(centre, 500, 500, 12, 20000, rng));
+  if (general.converged) {
+    EXPECT_LE(std::abs(ball.vertical_axis_mm / ball.horizontal_axis_mm - 1.0),
+              std::abs(general.axes_mm.minCoeff() / general.axes_mm.maxCoeff() - 1.0) + 1e-9);
+  }
+  // Options: the vertical must be a direction.
+  SpheroidFitOptions bad;
+  bad.up = Eigen::Vector3d::Zero();
+  EXPECT_THROW(bad.Check(), Error);
+  // Through the method table, by name.
+  const SphereFitResult r = RunFitMethod("spheroid", LeafySpheroidCap(centre, 550, 450, 12, 5000, rng));
+  ASSERT_TRUE(r.converged && r.vertical_axis_mm && r.horizontal_axis_mm);
+  EXPECT_LT(*r.vertical_axis_mm, *r.horizontal_axis_mm);
 }
 
 }  // namespace
