@@ -122,6 +122,14 @@ void RegisterStereoStages(cloud::Registry& r) {
           }
           GardenSegmentation g = FindHedges(RigOf(ctx), ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), p);
           ctx.Note("hedges", static_cast<std::int64_t>(g.hedges.size()));
+          for (const HedgeRegion& h : g.hedges) {
+            const std::string key = "hedge" + std::to_string(h.id) + ".";
+            ctx.Note(key + "image_box", std::vector<double>{double(h.image_box.x), double(h.image_box.y),
+                                                            double(h.image_box.width), double(h.image_box.height)});
+            ctx.Note(key + "approx_radius_mm", h.approx_radius_mm);
+            ctx.Note(key + "depth_range_mm", std::vector<double>{h.min_z_mm, h.max_z_mm});
+            if (h.touches_border) ctx.Note(key + "cut_by_frame", true);
+          }
           ctx.Note("ground_found", g.ground_found);
           std::string rejected;
           for (const auto& why : g.rejected) rejected += (rejected.empty() ? "" : "; ") + why;
