@@ -84,6 +84,11 @@ Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& sou
     throw Error(source + ": invalid JSON at byte " + std::to_string(e.byte) +
                 (colon == std::string::npos ? "" : ": " + msg.substr(colon + 3)));
   }
+  catch (const json::exception& e) {  // e.g. a number too large for a double
+    std::string msg = e.what();
+    const auto colon = msg.find("] ");
+    throw Error(source + ": invalid JSON: " + (colon == std::string::npos ? msg : msg.substr(colon + 2)));
+  }
   if (doc.is_object() && doc.contains("pipeline")) doc = doc["pipeline"];
   if (!doc.is_array()) throw Error(source + ": a pipeline is a JSON array of stages (or {\"pipeline\": [...]})");
   if (doc.empty()) throw Error(source + ": the pipeline has no stages");

@@ -9,6 +9,7 @@ PACKAGES=(
   libceres-dev libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libtbb-dev libnanoflann-dev
   xvfb xauth
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -111,43 +111,49 @@ StereoRig ReadRig(const std::string& path) {
     throw Error(path + ": not a readable OpenCV YAML/XML rig file");
   }
   StereoRig rig;
-  auto mat = [&](const char* key, int rows, int cols) {
-    cv::Mat m;
-    fs[key] >> m;
-    if (m.empty() || (rows > 0 && m.rows != rows) || (cols > 0 && m.cols != cols)) {
-      throw Error(path + ": key '" + key + "' is missing or not a " + std::to_string(rows) + "x" + std::to_string(cols) +
-                  " matrix");
+  // OpenCV's parser throws its own exception for malformed values (a matrix of negative size, a
+  // string where a number belongs): the file is named, not OpenCV's assertion.
+  try {
+    auto mat = [&](const char* key, int rows, int cols) {
+      cv::Mat m;
+      fs[key] >> m;
+      if (m.empty() || (rows > 0 && m.rows != rows) || (cols > 0 && m.cols != cols)) {
+        throw Error(path + ": key '" + key + "' is missing or not a " + std::to_string(rows) + "x" + std::to_string(cols) +
+                    " matrix");
+      }
+      m.convertTo(m, CV_64F);
+      return m;
+    };
+    rig.image_size = cv::Size(static_cast<int>(fs["image_width"]), static_cast<int>(fs["image_height"]));
+    if (rig.image_size.width <= 0 || rig.image_size.height <= 0) {
+      throw Error(path + ": image_width and image_height must be positive");
     }
-    m.convertTo(m, CV_64F);
-    return m;
-  };
-  rig.image_size = cv::Size(static_cast<int>(fs["image_width"]), static_cast<int>(fs["image_height"]));
-  if (rig.image_size.width <= 0 || rig.image_size.height <= 0) {
-    throw Error(path + ": image_width and image_height must be positive");
+    rig.K1 = mat("K1", 3, 3);
+    rig.K2 = mat("K2", 3, 3);
+    rig.D1 = mat("D1", 1, -1);
+    rig.D2 = mat("D2", 1, -1);
+    rig.R = mat("R", 3, 3);
+    rig.T = mat("T", 3, 1);
+    auto optional_mat = [&](const char* key) {
+      cv::Mat m;
+      fs[key] >> m;
+      if (!m.empty()) m.convertTo(m, CV_64F);
+      return m;
+    };
+    rig.E = optional_mat("E");
+    rig.F = optional_mat("F");
+    rig.R1 = optional_mat("R1");
+    rig.R2 = optional_mat("R2");
+    rig.P1 = optional_mat("P1");
+    rig.P2 = optional_mat("P2");
+    rig.Q = optional_mat("Q");
+    rig.baseline_mm = cv::norm(rig.T);
+    fs["rms_left_px"] >> rig.rms_left_px;
+    fs["rms_right_px"] >> rig.rms_right_px;
+    fs["rms_stereo_px"] >> rig.rms_stereo_px;
+  } catch (const cv::Exception& e) {
+    throw Error(path + ": a value is malformed (" + e.err + "); recalibrate with `hedgefit calibrate` or fix the file");
   }
-  rig.K1 = mat("K1", 3, 3);
-  rig.K2 = mat("K2", 3, 3);
-  rig.D1 = mat("D1", 1, -1);
-  rig.D2 = mat("D2", 1, -1);
-  rig.R = mat("R", 3, 3);
-  rig.T = mat("T", 3, 1);
-  auto optional_mat = [&](const char* key) {
-    cv::Mat m;
-    fs[key] >> m;
-    if (!m.empty()) m.convertTo(m, CV_64F);
-    return m;
-  };
-  rig.E = optional_mat("E");
-  rig.F = optional_mat("F");
-  rig.R1 = optional_mat("R1");
-  rig.R2 = optional_mat("R2");
-  rig.P1 = optional_mat("P1");
-  rig.P2 = optional_mat("P2");
-  rig.Q = optional_mat("Q");
-  rig.baseline_mm = cv::norm(rig.T);
-  fs["rms_left_px"] >> rig.rms_left_px;
-  fs["rms_right_px"] >> rig.rms_right_px;
-  fs["rms_stereo_px"] >> rig.rms_stereo_px;
   if (const std::string why = RigProblem(rig); !why.empty()) {
     throw Error(path + ": " + why + "; recalibrate with `hedgefit calibrate` or fix the file");
   }

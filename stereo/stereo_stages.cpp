@@ -3,6 +3,7 @@
 #include "stereo/stereo_stages.hpp"
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "cloud/option_table.hpp"
 #include "cloud/parallel.hpp"
@@ -18,9 +19,7 @@ using cloud::Options;
 
 cv::Mat ReadImage(const std::string& path, const std::string& which) {
   if (path.empty()) throw Error("stage 'readers.stereo', option '" + which + "': give the " + which + " image");
-  const cv::Mat m = cv::imread(path);
-  if (m.empty()) throw Error(path + ": cannot read the image; give a PNG or JPEG file");
-  return m;
+  return ReadCaptureImage(path);
 }
 
 // Every segmentation stage ends here: an empty mask is "no hedge", never an empty cloud later.
@@ -34,6 +33,20 @@ void PutMask(Context& ctx, const cv::Mat& mask) {
 const StereoRig& RigOf(Context& ctx) { return ctx.Get<StereoRig>("rig"); }
 
 }  // namespace
+
+cv::Mat ReadCaptureImage(const std::string& path) {
+  cv::Mat m;
+  try {
+    m = cv::imread(path);
+  } catch (const cv::Exception& e) {
+    // OpenCV refuses, e.g., a header claiming more than 2^30 pixels: a damaged or hostile file.
+    throw Error(path + ": cannot read the image (" + e.err + "); give a PNG or JPEG file");
+  }
+  if (m.empty()) throw Error(path + ": cannot read the image; give a PNG or JPEG file");
+  if (m.depth() != CV_8U) throw Error(path + ": not an 8-bit image; give an 8-bit PNG or JPEG file");
+  if (m.channels() == 1) cv::cvtColor(m, m, cv::COLOR_GRAY2BGR);
+  return m;
+}
 
 void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx) {
   if (left_bgr.size() != right_bgr.size()) {

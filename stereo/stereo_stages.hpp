@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <string>
+
 #include "cloud/registry.hpp"
 #include "stereo/rig.hpp"
 
@@ -16,6 +18,10 @@ namespace hedgefit::stereo {
 /// Adds readers.stereo, stereo.rectify, stereo.segment, stereo.mask, stereo.segment_depth,
 /// stereo.sgbm and stereo.reproject to `registry`.
 void RegisterStereoStages(cloud::Registry& registry);
+
+/// One image of a capture, as readers.stereo reads it: 8-bit BGR; throws hedgefit::Error naming
+/// the file when it cannot be read (damaged, not an image, absurd size).
+cv::Mat ReadCaptureImage(const std::string& path);
 
 /// Puts a capture already in memory into `ctx` as readers.stereo would.
 void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx);

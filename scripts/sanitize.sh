@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer: builds build-asan
+# (gcc, -fsanitize=address,undefined, any UB fatal) and runs ctest there. Any report fails a test.
+# Third-party leaks at exit (fontconfig, VTK, OpenCV's thread pools) are suppressed by
+# scripts/lsan.supp; hedgefit's own code is not.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEDGEFIT_SANITIZE=ON -DHEDGEFIT_BUILD_TESTS=ON \
+  -DHEDGEFIT_BUILD_BENCH=OFF > /dev/null
+cmake --build build-asan -j2
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1
+export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+cd build-asan
+ctest --output-on-failure -j2 --timeout 1200 "$@"
