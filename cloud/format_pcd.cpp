@@ -1,8 +1,12 @@
-// PCD through PCL, with the header checked first (PCL's reader trusts its input).
+// PCD: read by hand into PCL's blob layout (PCL's reader trusts its input), written by PCL.
 
+#include <pcl/io/lzf.h>
 #include <pcl/io/pcd_io.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -18,10 +22,51 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// PCL's PCD reader trusts its input (a file with no header at all crashes it), so the
-// header is checked here first: every field declared consistently, sizes and types
-// known, and enough bytes behind it for the points it promises.
-void CheckPcdHeader(const std::string& path) {
+// PCL's PCD reader trusts its input: a file with no header at all crashes it, and fuzzing found
+// headers after blank "\r" lines that make it dereference null. So hedgefit reads PCD itself:
+// the header checked (every field declared consistently, sizes and types known, enough bytes
+// behind it for the points it promises), the data decoded into PCL's blob layout (LZF through
+// PCL's lzfDecompress), and the blob converted as before.
+struct PcdField {
+  std::string name;
+  std::uint64_t size = 4, count = 1;
+  char type = 'F';
+};
+
+std::uint8_t PclType(char type, std::uint64_t size) {
+  using F = pcl::PCLPointField;
+  if (type == 'F') return size == 4 ? F::FLOAT32 : F::FLOAT64;
+  if (type == 'I') return size == 1 ? F::INT8 : size == 2 ? F::INT16 : size == 4 ? F::INT32 : F::INT64;
+  return size == 1 ? F::UINT8 : size == 2 ? F::UINT16 : size == 4 ? F::UINT32 : F::UINT64;
+}
+
+// Writes one text value into `out` as the field's binary type.
+void StoreValue(const std::string& token, char type, std::uint64_t size, std::uint8_t* out) {
+  const double v = std::strtod(token.c_str(), nullptr);
+  auto put = [&](auto x) { std::memcpy(out, &x, sizeof(x)); };
+  if (type == 'F') {
+    if (size == 4) put(static_cast<float>(v)); else put(v);
+    return;
+  }
+  // Integers: the text as an integer (strtoll keeps 64-bit values exact), clamped to the type.
+  const bool is_signed = type == 'I';
+  long double x = is_signed ? static_cast<long double>(std::strtoll(token.c_str(), nullptr, 10))
+                            : static_cast<long double>(std::strtoull(token.c_str(), nullptr, 10));
+  if (token.find_first_of(".eE") != std::string::npos || !std::isfinite(v)) x = std::isfinite(v) ? v : 0;
+  auto clamp = [&](long double lo, long double hi) { return std::min(hi, std::max(lo, x)); };
+  switch (size) {
+    case 1: is_signed ? put(static_cast<std::int8_t>(clamp(-128, 127))) : put(static_cast<std::uint8_t>(clamp(0, 255))); break;
+    case 2: is_signed ? put(static_cast<std::int16_t>(clamp(-32768, 32767))) : put(static_cast<std::uint16_t>(clamp(0, 65535))); break;
+    case 4:
+      is_signed ? put(static_cast<std::int32_t>(clamp(-2147483648.0L, 2147483647.0L)))
+                : put(static_cast<std::uint32_t>(clamp(0, 4294967295.0L)));
+      break;
+    default:
+      is_signed ? put(static_cast<std::int64_t>(clamp(-9.2e18L, 9.2e18L))) : put(static_cast<std::uint64_t>(clamp(0, 1.8e19L)));
+  }
+}
+
+void ParsePcd(const std::string& path, pcl::PCLPointCloud2* blob, std::string* encoding) {
   std::ifstream in(path, std::ios::binary);
   const auto file_size = static_cast<std::uintmax_t>(fs::file_size(path));
   std::map<std::string, std::vector<std::string>> entries;
@@ -91,11 +136,49 @@ void CheckPcdHeader(const std::string& path) {
     throw Error(path + ": malformed PCD header: WIDTH*HEIGHT = " + std::to_string(width * height) + " but POINTS = " +
                 std::to_string(points));
   }
+  if (width > 0xffffffffull || height > 0xffffffffull || point_size > (1u << 20)) {
+    throw Error(path + ": malformed PCD header: WIDTH, HEIGHT or the point size is beyond what a PCD file can hold");
+  }
+  std::vector<PcdField> fields;
+  blob->fields.clear();
+  {
+    std::uint64_t offset = 0;
+    for (std::size_t i = 0; i < nf; ++i) {
+      PcdField f;
+      f.name = entries["FIELDS"][i];
+      f.size = number(entries["SIZE"][i], "SIZE");
+      f.type = entries["TYPE"][i][0];
+      f.count = entries["COUNT"].empty() ? 1 : number(entries["COUNT"][i], "COUNT");
+      pcl::PCLPointField pf;
+      pf.name = f.name;
+      pf.offset = static_cast<std::uint32_t>(offset);
+      pf.datatype = PclType(f.type, f.size);
+      pf.count = static_cast<std::uint32_t>(f.count);
+      blob->fields.push_back(pf);
+      offset += f.size * f.count;
+      fields.push_back(f);
+    }
+  }
+  blob->width = static_cast<std::uint32_t>(width);
+  blob->height = static_cast<std::uint32_t>(height);
+  blob->point_step = static_cast<std::uint32_t>(point_size);
+  blob->row_step = static_cast<std::uint32_t>(point_size * width);
+  blob->is_bigendian = false;
+  blob->is_dense = false;
+  *encoding = data;
   const auto data_start = static_cast<std::uint64_t>(in.tellg());
   if (data == "binary" && file_size < data_start + points * point_size) {
     throw Error(path + ": truncated: the header promises " + std::to_string(points) + " points (" +
                 std::to_string(points * point_size) + " bytes) but only " + std::to_string(file_size - data_start) +
                 " bytes follow it");
+  }
+  if (data == "binary") {
+    // PCL's writer pads the header to a page boundary in some versions: the data are the last
+    // points * point_size bytes only when nothing else follows; PCL reads them right after the
+    // header, and so does this.
+    blob->data.resize(std::size_t(points * point_size));
+    in.read(reinterpret_cast<char*>(blob->data.data()), std::streamsize(blob->data.size()));
+    if (!in) throw Error(path + ": truncated binary point data");
   }
   if (data == "ascii") {
     // Every value takes at least one byte: a header that promises
@@ -108,18 +191,28 @@ void CheckPcdHeader(const std::string& path) {
     // row here, so bad values are an error naming the line, not points at the origin.
     std::string row;
     std::uint64_t rows = 0;  // line_no is at the DATA line
+    blob->data.assign(std::size_t(points * point_size), 0);
     while (std::getline(in, row)) {
       ++line_no;
       if (!row.empty() && row.back() == '\r') row.pop_back();
       if (row.find_first_not_of(" \t") == std::string::npos) continue;
       std::istringstream ss(row);
       std::uint64_t n = 0;
+      std::vector<std::string> tokens;
       for (std::string tok; ss >> tok; ++n) {
         char* end = nullptr;
         std::strtod(tok.c_str(), &end);
         const bool nan_word = tok == "nan" || tok == "NaN" || tok == "-nan" || tok == "inf" || tok == "-inf";
         if (!nan_word && (end == tok.c_str() || *end != '\0')) {
           throw Error(path + ":" + std::to_string(line_no) + ": '" + tok.substr(0, 20) + "' is not a number");
+        }
+        if (n < values_per_point) tokens.push_back(tok);
+      }
+      if (n == values_per_point && rows < points) {  // extra rows are counted, and refused below
+        std::uint8_t* out = blob->data.data() + rows * point_size;
+        std::size_t t = 0;
+        for (const PcdField& f : fields) {
+          for (std::uint64_t c = 0; c < f.count; ++c, ++t, out += f.size) StoreValue(tokens[t], f.type, f.size, out);
         }
       }
       if (n != values_per_point) {
@@ -143,24 +236,28 @@ void CheckPcdHeader(const std::string& path) {
       throw Error(path + ": corrupt: compressed data unpack to " + std::to_string(sizes[1]) + " bytes, but " +
                   std::to_string(points) + " points need " + std::to_string(points * point_size));
     }
+    std::vector<char> packed(sizes[0]), unpacked(sizes[1]);
+    in.read(packed.data(), std::streamsize(packed.size()));
+    if (!in) throw Error(path + ": truncated: compressed point data ends early");
+    const unsigned int got = pcl::lzfDecompress(packed.data(), sizes[0], unpacked.data(), sizes[1]);
+    if (got != sizes[1]) throw Error(path + ": corrupt: the compressed point data do not unpack (LZF)");
+    // Stored field by field (all points' x, then all y, ...): back to one record per point.
+    blob->data.resize(std::size_t(points * point_size));
+    std::uint64_t src = 0;
+    for (std::size_t i = 0; i < fields.size(); ++i) {
+      const std::uint64_t fsize = fields[i].size * fields[i].count, offset = blob->fields[i].offset;
+      for (std::uint64_t k = 0; k < points; ++k, src += fsize) {
+        std::memcpy(blob->data.data() + k * point_size + offset, unpacked.data() + src, std::size_t(fsize));
+      }
+    }
+  } else if (data == "binary_compressed") {
+    blob->data.clear();
   }
 }
 
 PointCloud ReadPcd(const std::string& path, CloudFileHeader* header) {
-  CheckPcdHeader(path);
   pcl::PCLPointCloud2 blob;
-  Eigen::Vector4f origin;
-  Eigen::Quaternionf orientation;
-  int version = 0, data_type = 0;
-  unsigned int data_idx = 0;
-  pcl::PCDReader reader;
-  if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_idx) < 0) {
-    throw Error(path + ": malformed PCD header; expected VERSION, FIELDS, SIZE, TYPE, COUNT, WIDTH, HEIGHT, POINTS, DATA");
-  }
-  header->encoding = data_type == 0 ? "ascii" : data_type == 1 ? "binary" : "binary_compressed";
-  if (reader.read(path, blob, origin, orientation, version) < 0) {
-    throw Error(path + ": PCD data do not match its header (truncated or corrupt " + header->encoding + " data)");
-  }
+  ParsePcd(path, &blob, &header->encoding);
   return FromBlob(blob, path, header);
 }
 

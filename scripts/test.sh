@@ -8,3 +8,6 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DHEDGEFIT_BUILD_TESTS=ON
 cmake --build build -j2
 cd build
 ctest --output-on-failure -j2
+cd ..
+# A short libFuzzer run of each harness (clang, ASan + UBSan; see README "Fuzzing and sanitizers").
+bash scripts/fuzz.sh 10

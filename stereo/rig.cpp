@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
@@ -101,9 +102,46 @@ void WriteRig(const std::string& path, const StereoRig& rig) {
   cloud::WriteTextFileAtomic(path, fs.releaseAndGetString());
 }
 
+namespace {
+
+// A matrix node ({rows, cols, dt, data}) read element by element: OpenCV's own reader allocates
+// whatever rows x cols it finds (or garbage when one is missing: fuzzing found a 51 GB
+// allocation), and a rig's matrices are small. An absent key gives an empty matrix.
+cv::Mat ReadMatrix(const cv::FileNode& node, const std::string& path, const char* key) {
+  if (node.empty() || node.isNone()) return cv::Mat();
+  const cv::FileNode rows = node["rows"], cols = node["cols"], data = node["data"];
+  if (!node.isMap() || !rows.isInt() || !cols.isInt() || !data.isSeq()) {
+    throw Error(path + ": key '" + key + "' is not a matrix (rows, cols, dt, data)");
+  }
+  const int r = int(rows), c = int(cols);
+  if (r == 0 || c == 0) return cv::Mat();
+  if (r < 0 || c < 0 || r > 16 || c > 16) {
+    throw Error(path + ": key '" + key + "' is " + std::to_string(r) + " x " + std::to_string(c) +
+                "; a rig's matrices are at most 4 x 14");
+  }
+  if (data.size() != std::size_t(r) * std::size_t(c)) {
+    throw Error(path + ": key '" + key + "' holds " + std::to_string(data.size()) + " values for a " + std::to_string(r) +
+                " x " + std::to_string(c) + " matrix");
+  }
+  cv::Mat m(r, c, CV_64F);
+  for (int i = 0; i < r * c; ++i) {
+    const cv::FileNode v = data[i];
+    if (!v.isReal() && !v.isInt()) throw Error(path + ": key '" + key + "' holds a value that is not a number");
+    m.at<double>(i / c, i % c) = double(v);
+  }
+  return m;
+}
+
+}  // namespace
+
 StereoRig ReadRig(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": no such rig file; run `hedgefit calibrate` first");
+  // A rig file is a few kB: a large one is not a rig (and would be parsed whole first).
+  {
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec || size > (1u << 20)) throw Error(path + ": too large for a rig file (over 1 MB); give the YAML `hedgefit calibrate` wrote");
+  }
   cv::FileStorage fs;
   try {
     if (!fs.open(path, cv::FileStorage::READ)) throw Error(path + ": not an OpenCV FileStorage file");
@@ -115,8 +153,7 @@ StereoRig ReadRig(const std::string& path) {
   // string where a number belongs): the file is named, not OpenCV's assertion.
   try {
     auto mat = [&](const char* key, int rows, int cols) {
-      cv::Mat m;
-      fs[key] >> m;
+      cv::Mat m = ReadMatrix(fs[key], path, key);
       if (m.empty() || (rows > 0 && m.rows != rows) || (cols > 0 && m.cols != cols)) {
         throw Error(path + ": key '" + key + "' is missing or not a " + std::to_string(rows) + "x" + std::to_string(cols) +
                     " matrix");
@@ -135,8 +172,7 @@ StereoRig ReadRig(const std::string& path) {
     rig.R = mat("R", 3, 3);
     rig.T = mat("T", 3, 1);
     auto optional_mat = [&](const char* key) {
-      cv::Mat m;
-      fs[key] >> m;
+      cv::Mat m = ReadMatrix(fs[key], path, key);
       if (!m.empty()) m.convertTo(m, CV_64F);
       return m;
     };
