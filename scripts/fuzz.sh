@@ -21,11 +21,14 @@ for n in "${NAMES[@]}"; do
   cp -n fuzz/corpus/$n/* build-fuzz/corpus/$n/ 2>/dev/null || true
   log=build-fuzz/findings/$n.log
   # OpenCV and libpng print warnings for broken images: those are expected, not findings.
+  cpu0=$(awk '{print $14 + $15 + $16 + $17}' /proc/$$/stat)
   if build-fuzz/fuzz/fuzz_$n build-fuzz/corpus/$n -max_total_time=$SECS -jobs=$WORKERS -workers=$WORKERS \
        -artifact_prefix=build-fuzz/findings/$n/ -timeout=20 -rss_limit_mb=4096 -max_len=65536 \
        -print_final_stats=1 > $log 2>&1; then
     runs=$(grep -h "stat::number_of_executed_units" $log fuzz-*.log 2>/dev/null | awk '{s += $2} END {print s + 0}')
-    echo "fuzz_$n: $runs inputs in ${SECS} s x $WORKERS, no finding"
+    # CPU time of the finished children (user + system), in minutes.
+    cpu=$(awk -v c0=$cpu0 -v hz=$(getconf CLK_TCK) '{printf "%.1f", ($14 + $15 + $16 + $17 - c0) / hz / 60}' /proc/$$/stat)
+    echo "fuzz_$n: $runs inputs in ${SECS} s x $WORKERS workers ($cpu CPU-minutes), no finding"
   else
     echo "fuzz_$n: FINDING, see $log and build-fuzz/findings/$n/" >&2
     grep -m5 -E "ERROR|SUMMARY|runtime error" $log >&2 || tail -5 $log >&2
