@@ -148,6 +148,13 @@ void RegisterStereoStages(cloud::Registry& r) {
           for (const auto& why : g.rejected) rejected += (rejected.empty() ? "" : "; ") + why;
           if (!rejected.empty()) ctx.Note("rejected", rejected);
           PutMask(ctx, g.labels != 0);
+          if (g.ground_found) {
+            // The ground in the unrectified left frame (the cloud's): n_u = R1^T n, d unchanged.
+            const cv::Matx33d R1(RigOf(ctx).R1);
+            const cv::Vec3d n = R1.t() * cv::Vec3d(g.ground[0], g.ground[1], g.ground[2]);
+            ctx.Put("ground_plane", cv::Vec4d(n[0], n[1], n[2], g.ground[3]));
+            ctx.Put("ground_clearance", p.ground_clearance_mm);
+          }
           ctx.Put("hedge_labels", g.labels);
           ctx.Put("hedges", g.hedges);
         }));
@@ -193,6 +200,35 @@ void RegisterStereoStages(cloud::Registry& r) {
           cloud::PointCloud pc = ReprojectMeasured(ctx.Get<cv::Mat>("disparity"), mask ? *mask : cv::Mat(),
                                                    filled ? *filled : cv::Mat(), ctx.Get<cv::Mat>("left_image"),
                                                    RigOf(ctx), p, sigma ? *sigma : cv::Mat(), labels ? *labels : cv::Mat());
+          // Garden segmentation found the ground: fine points on the lawn (at a hedge's foot, where
+          // the coarse mask reaches down) are dropped as the coarse ones were.
+          const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");
+          const double* clearance = ctx.Find<double>("ground_clearance");
+          if (ground && clearance) {
+            std::vector<bool> keep(pc.size());
+            std::size_t dropped = 0;
+            for (std::size_t i = 0; i < pc.size(); ++i) {
+              const Eigen::Vector3f& q = pc.points_mm[i];
+              const double h = (*ground)[0] * q.x() + (*ground)[1] * q.y() + (*ground)[2] * q.z() + (*ground)[3];
+              keep[i] = !cloud::IsFinite(q) || h >= *clearance;
+              dropped += keep[i] ? 0 : 1;
+            }
+            if (dropped > 0) {
+              if (pc.IsOrganized()) {
+                pc = cloud::MaskOrganized(pc, keep);
+              } else {
+                std::vector<std::size_t> idx;
+                for (std::size_t i = 0; i < keep.size(); ++i) {
+                  if (keep[i]) idx.push_back(i);
+                }
+                pc = cloud::Select(pc, idx);
+              }
+            }
+            ctx.Note("below_ground_clearance", static_cast<std::int64_t>(dropped));
+          }
+          if (pc.size() == cloud::CountNonFinite(pc)) {
+            throw Error("no hedge found: every point lies on the ground (within the ground clearance)");
+          }
           ctx.Note("points", static_cast<std::int64_t>(pc.size() - cloud::CountNonFinite(pc)));
           ctx.Put("cloud", std::move(pc));
         }));
