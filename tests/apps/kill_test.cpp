@@ -100,7 +100,7 @@ TEST(Kill, ABatchConvertKilledMidRunLeavesOnlyWholeClouds) {
                             .c_str()),
             0);
   std::size_t complete = 0;
-  for (int ms : {150, 400, 700, 1000, 1500}) {
+  for (int ms : {150, 400, 700, 1000, 1500, 30000}) {  // the last lets it finish (slow builds)
     fs::remove_all(dir / "out");
     RunAndKill({"convert", "--input", "in", "--rig", "rig.yaml", "--output-dir", "out", "--threads", "1",
                 "--full-frame", "--min-z", "1500", "--max-z", "3500"},
