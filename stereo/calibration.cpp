@@ -1,4 +1,5 @@
 #include "stereo/calibration.hpp"
+#include "stereo/stereo_stages.hpp"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -74,7 +75,15 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
     PairCorners pc;
     pc.left = left;
     pc.right = right;
-    const cv::Mat l = cv::imread(left, cv::IMREAD_GRAYSCALE), r = cv::imread(right, cv::IMREAD_GRAYSCALE);
+    // Read through the capture loader: only camera formats reach OpenCV's decoders.
+    auto read = [](const std::string& file) {
+      try {
+        return ReadCaptureImage(file, cv::IMREAD_GRAYSCALE);
+      } catch (const Error&) {
+        return cv::Mat();
+      }
+    };
+    const cv::Mat l = read(left), r = read(right);
     if (l.empty()) {
       pc.status = "cannot read left image " + left;
     } else if (r.empty()) {

@@ -145,7 +145,7 @@ StereoRig ReadRig(const std::string& path) {
   cv::FileStorage fs;
   try {
     if (!fs.open(path, cv::FileStorage::READ)) throw Error(path + ": not an OpenCV FileStorage file");
-  } catch (const cv::Exception&) {
+  } catch (const std::exception&) {  // cv::Exception, or std::length_error on a garbled length
     throw Error(path + ": not a readable OpenCV YAML/XML rig file");
   }
   StereoRig rig;
@@ -187,8 +187,12 @@ StereoRig ReadRig(const std::string& path) {
     fs["rms_left_px"] >> rig.rms_left_px;
     fs["rms_right_px"] >> rig.rms_right_px;
     fs["rms_stereo_px"] >> rig.rms_stereo_px;
-  } catch (const cv::Exception& e) {
-    throw Error(path + ": a value is malformed (" + e.err + "); recalibrate with `hedgefit calibrate` or fix the file");
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    const auto* cv_error = dynamic_cast<const cv::Exception*>(&e);
+    throw Error(path + ": a value is malformed (" + (cv_error ? cv_error->err : std::string(e.what())) +
+                "); recalibrate with `hedgefit calibrate` or fix the file");
   }
   if (const std::string why = RigProblem(rig); !why.empty()) {
     throw Error(path + ": " + why + "; recalibrate with `hedgefit calibrate` or fix the file");

@@ -12,6 +12,7 @@
 #include "stereo/bspline.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/rectification.hpp"
+#include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::stereo {
 
@@ -210,8 +211,12 @@ cv::Mat ErodeMask(const cv::Mat& mask, int px) {
 
 cv::Mat SegmentFromMaskFile(const StereoRig& rig, const MaskOptions& options) {
   options.Check();
-  const cv::Mat user = cv::imread(options.filename, cv::IMREAD_GRAYSCALE);
-  if (user.empty()) throw Error(options.filename + ": cannot read the mask image; give a PNG the size of the left image");
+  cv::Mat user;
+  try {
+    user = ReadCaptureImage(options.filename, cv::IMREAD_GRAYSCALE);
+  } catch (const Error&) {
+    throw Error(options.filename + ": cannot read the mask image; give a PNG the size of the left image");
+  }
   if (user.size() != rig.image_size) {
     throw Error(options.filename + ": the mask is " + std::to_string(user.cols) + "x" + std::to_string(user.rows) +
                 " but the images are " + std::to_string(rig.image_size.width) + "x" +

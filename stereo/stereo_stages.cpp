@@ -5,6 +5,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <fstream>
+
 #include "cloud/option_table.hpp"
 #include "cloud/parallel.hpp"
 #include "cloud/point_cloud.hpp"
@@ -34,17 +36,35 @@ const StereoRig& RigOf(Context& ctx) { return ctx.Get<StereoRig>("rig"); }
 
 }  // namespace
 
-cv::Mat ReadCaptureImage(const std::string& path) {
+cv::Mat ReadCaptureImage(const std::string& path, int flags) {
+  // Only the formats cameras write reach OpenCV: it sniffs every file and hands what it does not
+  // recognise to decoders such as GDCM's DICOM reader, which fuzzing showed abort()s on bad input.
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error(path + ": cannot open the image; check the path and permissions");
+    unsigned char m[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    in.read(reinterpret_cast<char*>(m), 8);
+    const bool png = m[0] == 0x89 && m[1] == 'P' && m[2] == 'N' && m[3] == 'G';
+    const bool jpeg = m[0] == 0xFF && m[1] == 0xD8 && m[2] == 0xFF;
+    const bool bmp = m[0] == 'B' && m[1] == 'M';
+    const bool tiff = (m[0] == 'I' && m[1] == 'I' && m[2] == 42 && m[3] == 0) || (m[0] == 'M' && m[1] == 'M' && m[2] == 0 && m[3] == 42);
+    const bool pnm = m[0] == 'P' && m[1] >= '1' && m[1] <= '6';
+    if (!png && !jpeg && !bmp && !tiff && !pnm) {
+      throw Error(path + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
+    }
+  }
   cv::Mat m;
   try {
-    m = cv::imread(path);
-  } catch (const cv::Exception& e) {
+    m = cv::imread(path, flags);
+  } catch (const std::exception& e) {
     // OpenCV refuses, e.g., a header claiming more than 2^30 pixels: a damaged or hostile file.
-    throw Error(path + ": cannot read the image (" + e.err + "); give a PNG or JPEG file");
+    const auto* cv_error = dynamic_cast<const cv::Exception*>(&e);
+    throw Error(path + ": cannot read the image (" + (cv_error ? cv_error->err : std::string(e.what())) +
+                "); give a PNG or JPEG file");
   }
-  if (m.empty()) throw Error(path + ": cannot read the image; give a PNG or JPEG file");
+  if (m.empty()) throw Error(path + ": cannot read the image (damaged or truncated?); give a PNG or JPEG file");
   if (m.depth() != CV_8U) throw Error(path + ": not an 8-bit image; give an 8-bit PNG or JPEG file");
-  if (m.channels() == 1) cv::cvtColor(m, m, cv::COLOR_GRAY2BGR);
+  if (flags == cv::IMREAD_COLOR && m.channels() == 1) cv::cvtColor(m, m, cv::COLOR_GRAY2BGR);
   return m;
 }
 

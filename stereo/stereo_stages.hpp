@@ -19,9 +19,10 @@ namespace hedgefit::stereo {
 /// stereo.sgbm and stereo.reproject to `registry`.
 void RegisterStereoStages(cloud::Registry& registry);
 
-/// One image of a capture, as readers.stereo reads it: 8-bit BGR; throws hedgefit::Error naming
-/// the file when it cannot be read (damaged, not an image, absurd size).
-cv::Mat ReadCaptureImage(const std::string& path);
+/// One image of a capture, as readers.stereo reads it: 8-bit BGR (or grey with
+/// cv::IMREAD_GRAYSCALE); only PNG, JPEG, TIFF, BMP and PNM are decoded. Throws hedgefit::Error
+/// naming the file when it cannot be read (another format, damaged, absurd size).
+cv::Mat ReadCaptureImage(const std::string& path, int flags = 1 /* cv::IMREAD_COLOR */);
 
 /// Puts a capture already in memory into `ctx` as readers.stereo would.
 void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx);
