@@ -141,6 +141,17 @@ StereoRig ReadRig(const std::string& path) {
   {
     const auto size = std::filesystem::file_size(path, ec);
     if (ec || size > (1u << 20)) throw Error(path + ": too large for a rig file (over 1 MB); give the YAML `hedgefit calibrate` wrote");
+    // A rig file is text. OpenCV's YAML parser loops forever on some binary input (found by
+    // fuzzing): control characters other than tab and line ends mean it is not a rig.
+    std::ifstream in(path, std::ios::binary);
+    char c = 0;
+    for (std::size_t offset = 0; in.get(c); ++offset) {
+      const auto u = static_cast<unsigned char>(c);
+      if (u < 0x20 && u != '\t' && u != '\n' && u != '\r') {
+        throw Error(path + ": holds a binary byte (" + std::to_string(u) + " at offset " + std::to_string(offset) +
+                    "); a rig file is the text `hedgefit calibrate` writes");
+      }
+    }
   }
   cv::FileStorage fs;
   try {
