@@ -192,7 +192,12 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
             throw Error(image + ": not an image OpenCV can read; give a PNG or JPEG file");
           }
         }
-        captures.push_back({fs::path(a->output).stem().string(), a->left, a->right});
+        std::string name = fs::path(a->output).stem().string();  // "row_#" -> "row"
+        if (const auto hash = name.rfind('#'); hash != std::string::npos) {
+          const bool sep = hash > 0 && (name[hash - 1] == '_' || name[hash - 1] == '-');
+          name.erase(sep ? hash - 1 : hash, sep ? 2 : 1);
+        }
+        captures.push_back({name, a->left, a->right});
       } else {
         captures = ListCaptures(a->input);
         fs::create_directories(a->output_dir);
