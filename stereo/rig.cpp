@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
@@ -141,16 +142,37 @@ StereoRig ReadRig(const std::string& path) {
   {
     const auto size = std::filesystem::file_size(path, ec);
     if (ec || size > (1u << 20)) throw Error(path + ": too large for a rig file (over 1 MB); give the YAML `hedgefit calibrate` wrote");
-    // A rig file is text. OpenCV's YAML parser loops forever on some binary input (found by
-    // fuzzing): control characters other than tab and line ends mean it is not a rig.
+    // OpenCV's YAML parser loops forever on some malformed input (found by fuzzing), so a YAML
+    // rig must first look like what `hedgefit calibrate` writes: ASCII lines that are the
+    // header, comments, "key: value", a matrix's "rows/cols/dt/data" lines or rows of numbers.
     std::ifstream in(path, std::ios::binary);
-    char c = 0;
-    for (std::size_t offset = 0; in.get(c); ++offset) {
-      const auto u = static_cast<unsigned char>(c);
-      if (u < 0x20 && u != '\t' && u != '\n' && u != '\r') {
-        throw Error(path + ": holds a binary byte (" + std::to_string(u) + " at offset " + std::to_string(offset) +
-                    "); a rig file is the text `hedgefit calibrate` writes");
+    std::string line;
+    std::size_t line_no = 0;
+    bool yaml = false;
+    auto bad = [&](const std::string& why) {
+      return Error(path + ":" + std::to_string(line_no) + ": " + why + "; a rig file is the YAML `hedgefit calibrate` writes");
+    };
+    while (std::getline(in, line)) {
+      ++line_no;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      for (unsigned char u : line) {
+        if ((u < 0x20 && u != '\t') || u >= 0x7f) throw bad("a byte that is not ASCII text (" + std::to_string(u) + ")");
       }
+      if (line_no == 1) {
+        yaml = line.rfind("%YAML", 0) == 0;
+        if (!yaml) break;  // XML: OpenCV's XML parser, unchecked
+        continue;
+      }
+      const std::size_t first = line.find_first_not_of(" \t");
+      if (first == std::string::npos || line[first] == '#' || line == "---" || line == "...") continue;
+      const std::string body = line.substr(first);
+      static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
+      static const std::regex numbers(R"(^[-+0-9.eE, \]\[]*$)");
+      static const std::regex plain_value(R"(^( +(!!opencv-matrix|[-+0-9.eE]+|"[^"]*"|[A-Za-z0-9_.]+|\[[-+0-9.eE, \]]*))?$)");
+      if (std::regex_match(body, numbers)) continue;  // a matrix's data rows
+      if (!std::regex_match(body, key_value)) throw bad("not a 'key: value' line");
+      const std::string value = body.substr(body.find(':') + 1);
+      if (!std::regex_match(value, plain_value)) throw bad("a value that is not a number, a word or a matrix");
     }
   }
   cv::FileStorage fs;
