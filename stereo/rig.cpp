@@ -167,8 +167,9 @@ StereoRig ReadRig(const std::string& path) {
       if (first == std::string::npos || line[first] == '#' || line == "---" || line == "...") continue;
       const std::string body = line.substr(first);
       static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
-      static const std::regex numbers(R"(^[-+0-9.eE, \]\[]*$)");
-      static const std::regex plain_value(R"(^( +(!!opencv-matrix|[-+0-9.eE]+|"[^"]*"|[A-Za-z0-9_.]+|\[[-+0-9.eE, \]]*))?$)");
+      // Numbers include YAML's .nan and .inf, which RigProblem then refuses with a clear message.
+      static const std::regex numbers(R"(^[-+0-9.eEnaNifI, \]\[]*$)");
+      static const std::regex plain_value(R"(^( +(!!opencv-matrix|[-+0-9.eEnaNifI]+|"[^"]*"|[A-Za-z0-9_.]+|\[[-+0-9.eEnaNifI, \]]*))?$)");
       if (std::regex_match(body, numbers)) continue;  // a matrix's data rows
       if (!std::regex_match(body, key_value)) throw bad("not a 'key: value' line");
       const std::string value = body.substr(body.find(':') + 1);
