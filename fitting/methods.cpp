@@ -17,6 +17,27 @@ namespace {
 using cloud::Options;
 using cloud::OptionSpec;
 
+// A shape fit (ellipsoid, spheroid) as a row of the table: the centre and the axes' geometric mean
+// as its sphere, the axes beside it.
+SphereFitResult ShapeResult(const std::string& method, const EllipsoidFit& e, std::size_t points) {
+  SphereFitResult r;
+  r.method = method;
+  r.points_used = points;
+  r.inliers = points;
+  r.wall_ms = e.wall_ms;
+  r.converged = e.converged;
+  r.message = e.message;
+  if (e.converged) {
+    r.sphere.center_mm = e.center_mm;
+    r.sphere.radius_mm = std::cbrt(e.axes_mm.prod());
+    r.rms_mm = e.rms_mm;
+    r.axes_mm = e.axes_mm;
+    r.vertical_axis_mm = e.vertical_axis_mm;
+    r.horizontal_axis_mm = e.horizontal_axis_mm;
+  }
+  return r;
+}
+
 FitMethod Algebraic(AlgebraicMethod m, std::string stage, std::string description) {
   return {MethodName(m), std::move(stage), std::move(description), {}, false, [m](const Options&) -> BoundFit {
             return [m](const FitInputs& in) {
@@ -161,22 +182,7 @@ std::vector<FitMethod> MakeTable() {
                {}, false, [](const Options&) -> BoundFit {
                  return [](const FitInputs& in) {
                    const EllipsoidFit e = FitEllipsoid(*in.points_mm);
-                   SphereFitResult r;
-                   r.method = "ellipsoid";
-                   r.points_used = in.points_mm->size();
-                   r.inliers = r.points_used;
-                   r.wall_ms = e.wall_ms;
-                   r.converged = e.converged;
-                   r.message = e.message;
-                   if (e.converged) {
-                     r.sphere.center_mm = e.center_mm;
-                     r.sphere.radius_mm = std::cbrt(e.axes_mm.prod());
-                     r.rms_mm = e.rms_mm;
-                     r.axes_mm = e.axes_mm;
-                     r.vertical_axis_mm = e.vertical_axis_mm;
-                     r.horizontal_axis_mm = e.horizontal_axis_mm;
-                   }
-                   return r;
+                   return ShapeResult("ellipsoid", e, in.points_mm->size());
                  };
                }});
   t.push_back({"spheroid", "fitters.spheroid",
@@ -187,22 +193,7 @@ std::vector<FitMethod> MakeTable() {
                  so.Check();
                  return [so](const FitInputs& in) {
                    const EllipsoidFit e = FitSpheroid(*in.points_mm, so);
-                   SphereFitResult r;
-                   r.method = "spheroid";
-                   r.points_used = in.points_mm->size();
-                   r.inliers = r.points_used;
-                   r.wall_ms = e.wall_ms;
-                   r.converged = e.converged;
-                   r.message = e.message;
-                   if (e.converged) {
-                     r.sphere.center_mm = e.center_mm;
-                     r.sphere.radius_mm = std::cbrt(e.axes_mm.prod());
-                     r.rms_mm = e.rms_mm;
-                     r.axes_mm = e.axes_mm;
-                     r.vertical_axis_mm = e.vertical_axis_mm;
-                     r.horizontal_axis_mm = e.horizontal_axis_mm;
-                   }
-                   return r;
+                   return ShapeResult("spheroid", e, in.points_mm->size());
                  };
                }});
   // Robust and geometric before algebraic; among algebraic, the least biased first.
