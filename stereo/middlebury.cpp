@@ -2,8 +2,12 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <fstream>
 #include <sstream>
+
+#include <Eigen/Dense>
+#include <opencv2/imgcodecs.hpp>
 
 #include "cloud/error.hpp"
 
@@ -63,6 +67,115 @@ BadPixelScore ScoreDisparity(const cv::Mat& disparity, const cv::Mat& truth, con
     s.density_percent = 100.0 * double(dense) / double(s.scored);
   }
   return s;
+}
+
+namespace {
+
+cv::Mat ReadOrThrow(const std::string& path, int flags) {
+  cv::Mat m = cv::imread(path, flags);
+  if (m.empty()) throw Error(path + ": cannot read the image (missing or not an image); check the data directory");
+  return m;
+}
+
+int SearchRange(const cv::Mat& truth) {
+  double hi = 0;
+  for (int y = 0; y < truth.rows; ++y) {
+    for (int x = 0; x < truth.cols; ++x) {
+      const float t = truth.at<float>(y, x);
+      if (std::isfinite(t)) hi = std::max(hi, double(t));
+    }
+  }
+  return ((static_cast<int>(std::ceil(hi)) + 2 + 15) / 16) * 16;
+}
+
+}  // namespace
+
+TruthPair LoadTruthPair(const std::string& data_dir, const std::string& name) {
+  TruthPair p;
+  p.name = name;
+  const std::string root = data_dir + "/stereo_gt/";
+  const float inf = std::numeric_limits<float>::infinity();
+  if (name == "motorcycle") {
+    const std::string d = root + "middlebury2014_motorcycle_Q/";
+    p.left = ReadOrThrow(d + "im0.png", cv::IMREAD_COLOR);
+    p.right = ReadOrThrow(d + "im1.png", cv::IMREAD_COLOR);
+    p.truth = ReadPfm(d + "disp0GT.pfm");
+    p.mask = ReadOrThrow(d + "mask0nocc.png", cv::IMREAD_GRAYSCALE) == 255;
+  } else if (name == "aloe") {
+    const std::string d = root + "aloe/";
+    p.left = ReadOrThrow(d + "aloeL.jpg", cv::IMREAD_COLOR);
+    p.right = ReadOrThrow(d + "aloeR.jpg", cv::IMREAD_COLOR);
+    ReadOrThrow(d + "aloeGT.png", cv::IMREAD_GRAYSCALE).convertTo(p.truth, CV_32F);
+    p.truth_step = 1.0;
+    p.mask = p.truth > 0;
+  } else if (name == "cones") {
+    const std::string d = root + "middlebury2003_cones_pandora/";
+    p.left = ReadOrThrow(d + "left.tif", cv::IMREAD_COLOR);
+    p.right = ReadOrThrow(d + "right.tif", cv::IMREAD_COLOR);
+    ReadOrThrow(d + "disp_left.tif", cv::IMREAD_UNCHANGED).convertTo(p.truth, CV_32F);
+    p.truth_step = 0.25;
+    p.mask = ReadOrThrow(d + "occlusion.png", cv::IMREAD_GRAYSCALE) > 0;
+    p.mask &= p.truth > 0;
+  } else {
+    throw Error("truth pair '" + name + "': unknown; use motorcycle, aloe or cones");
+  }
+  if (p.truth.size() != p.left.size() || p.right.size() != p.left.size() || p.mask.size() != p.left.size()) {
+    throw Error(root + ": truth pair '" + name + "': images, truth and mask differ in size");
+  }
+  p.truth.setTo(inf, p.truth <= 0);  // 0 = unknown in the 8-bit and TIFF truths (never a real disparity here)
+  p.truth.setTo(inf, p.truth != p.truth);
+  p.num_disparities = SearchRange(p.truth);
+  return p;
+}
+
+cv::Mat DequantiseTruth(const cv::Mat& truth, double step, int radius, cv::Mat* planar) {
+  cv::Mat out = truth.clone();
+  cv::Mat ok(truth.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < truth.rows; ++y) {
+    for (int x = 0; x < truth.cols; ++x) ok.at<std::uint8_t>(y, x) = std::isfinite(truth.at<float>(y, x)) ? 255 : 0;
+  }
+  if (step <= 0) {
+    if (planar) *planar = ok;
+    return out;
+  }
+  const int side = 2 * radius + 1, n = side * side;
+  Eigen::MatrixXd A(n, 3);
+  for (int j = -radius, k = 0; j <= radius; ++j) {
+    for (int i = -radius; i <= radius; ++i, ++k) A.row(k) << 1.0, i, j;
+  }
+  const Eigen::MatrixXd pinv = (A.transpose() * A).inverse() * A.transpose();
+  cv::Mat flat(truth.size(), CV_8U, cv::Scalar(0));
+  Eigen::VectorXd v(n);
+  for (int y = radius; y < truth.rows - radius; ++y) {
+    for (int x = radius; x < truth.cols - radius; ++x) {
+      bool known = true;
+      float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      for (int j = -radius, k = 0; j <= radius && known; ++j) {
+        for (int i = -radius; i <= radius; ++i, ++k) {
+          const float t = truth.at<float>(y + j, x + i);
+          if (!std::isfinite(t)) {
+            known = false;
+            break;
+          }
+          v[k] = t;
+          lo = std::min(lo, t), hi = std::max(hi, t);
+        }
+      }
+      // A window of one stored value says nothing finer than the grid: the plane is pinned
+      // only where the rounded values step inside the window.
+      if (!known || hi - lo < step * 0.999) continue;
+      const Eigen::Vector3d plane = pinv * v;
+      // A plane rounded to the grid is off by at most half a step at every pixel from the true
+      // plane; the least-squares plane is within ~0.1 step of that one, so a quarter step of
+      // slack; a break in the surface (a step of a whole grid unit or more) still fails.
+      if (((A * plane - v).array().abs() <= 0.75 * step).all()) {
+        out.at<float>(y, x) = static_cast<float>(plane[0]);
+        flat.at<std::uint8_t>(y, x) = 255;
+      }
+    }
+  }
+  if (planar) *planar = flat;
+  return out;
 }
 
 }  // namespace hedgefit::stereo

@@ -20,4 +20,30 @@ struct BadPixelScore {
 /// pixels where `mask` is non-zero (empty mask = everywhere). Holes count as bad.
 BadPixelScore ScoreDisparity(const cv::Mat& disparity, const cv::Mat& truth, const cv::Mat& mask, double threshold_px);
 
+/// A rectified pair with ground-truth disparity, as shipped in ../shared/data/stereo_gt.
+struct TruthPair {
+  std::string name;
+  cv::Mat left, right;  ///< 8-bit BGR or grey
+  cv::Mat truth;        ///< CV_32F px, left view; +inf where unknown
+  cv::Mat mask;         ///< CV_8U: non-occluded pixels with known truth
+  int num_disparities = 0;  ///< search range covering the truth, multiple of 16
+  double truth_step = 0;    ///< quantisation of the stored truth (px); 0 = float truth
+};
+
+/// Loads one of the pairs under `data_dir`/stereo_gt: "motorcycle" (Middlebury 2014, quarter
+/// size, PFM truth, non-occluded mask), "aloe" (Middlebury 2006, JPEG, 8-bit integer truth,
+/// 0 unknown; no occlusion mask, so the mask is the known truth) or "cones" (Middlebury 2003
+/// via CNES Pandora, float truth on a 1/4 px grid, occlusion mask). Throws hedgefit::Error
+/// naming the file that cannot be read.
+TruthPair LoadTruthPair(const std::string& data_dir, const std::string& name);
+
+/// Truth without its storage quantisation: where the stored truth in the (2r+1)^2 window
+/// is known everywhere, holds at least two stored values (a window of one value only says
+/// the truth lies within half a step) and a least-squares plane explains it to within 3/4 of a
+/// step at every pixel (half a step of rounding, a quarter of slack for the fit), the plane's value at the centre replaces the stored one (a slanted
+/// planar surface rounded to the grid); elsewhere the stored value stays, and `planar`
+/// (optional, CV_8U) is 0.
+/// With step 0 the truth is returned unchanged and every known pixel counts as planar.
+cv::Mat DequantiseTruth(const cv::Mat& truth, double step, int radius, cv::Mat* planar = nullptr);
+
 }  // namespace hedgefit::stereo

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -113,6 +114,80 @@ TEST(Matching, MiddleburyMotorcycleBad2UnderEightPercent) {
   const BadPixelScore base = ScoreDisparity(ComputeDisparity(l, r, stock).disparity, truth, mask, 2.0);
   EXPECT_GT(base.bad_percent, 11.0);
   EXPECT_LT(ours.bad_percent, base.bad_percent - 3.0);
+}
+
+// A slanted plane stored rounded to whole pixels (as Middlebury 2006's 8-bit truth is):
+// where the rounded values step inside the 5x5 window, the local plane recovers the
+// unrounded disparity; windows of a single stored value are not trusted (a fronto-parallel
+// patch rounded to k could be anywhere in k +- 0.5).
+TEST(Middlebury, DequantiseTruthRecoversARoundedSlantedPlane) {
+  // Left of x = 40 a slanted plane, right of it a fronto-parallel one at 30.2 px.
+  cv::Mat exact(60, 80, CV_32F), stored(60, 80, CV_32F);
+  for (int y = 0; y < exact.rows; ++y) {
+    for (int x = 0; x < exact.cols; ++x) {
+      exact.at<float>(y, x) = x < 40 ? 20.3f + 0.13f * x + 0.07f * y : 30.2f;
+      stored.at<float>(y, x) = std::round(exact.at<float>(y, x));
+    }
+  }
+  stored.at<float>(30, 20) = std::numeric_limits<float>::infinity();  // unknown truth
+  cv::Mat planar;
+  const cv::Mat fine = DequantiseTruth(stored, 1.0, 2, &planar);
+  double worst = 0, sum = 0;
+  int pinned = 0, inside = 0;
+  for (int y = 2; y < exact.rows - 2; ++y) {
+    for (int x = 2; x <= 37; ++x) {  // windows wholly on the slanted plane
+      ++inside;
+      if (!planar.at<std::uint8_t>(y, x)) continue;
+      ++pinned;
+      const double e = std::abs(fine.at<float>(y, x) - exact.at<float>(y, x));
+      worst = std::max(worst, e), sum += e;
+    }
+  }
+  // The plane through 25 values each rounded by up to +-0.5 px (sd 0.29): its centre has an
+  // sd of about 0.29 / 5 = 0.06 px, so a mean |error| near 0.05 and a worst case over ~1800
+  // windows near 3.5 sd; the stored values are off by 0.25 px on average, 0.5 at worst.
+  EXPECT_LT(sum / std::max(1, pinned), 0.08);
+  EXPECT_LT(worst, 0.25);
+  // A window spans 4 x 0.13 + 4 x 0.07 = 0.8 px of disparity, so about a fifth of them hold a
+  // single rounded value and are rightly not pinned; a few more hold the unknown pixel.
+  EXPECT_GT(pinned, inside * 3 / 5);
+  EXPECT_EQ(planar.at<std::uint8_t>(30, 20), 0);
+  EXPECT_EQ(planar.at<std::uint8_t>(28, 22), 0);
+  EXPECT_EQ(planar.at<std::uint8_t>(0, 0), 0);  // no full window at the border
+  for (int y = 0; y < exact.rows; ++y) {
+    for (int x = 43; x < exact.cols; ++x) EXPECT_EQ(planar.at<std::uint8_t>(y, x), 0) << x << "," << y;  // one value: not pinned
+  }
+}
+
+// On the three real pairs, the sub-pixel refinement must bring the matched disparities
+// closer to the truth than SGBM's parabola (mean |error| of the pixels within 1 px, against
+// the de-quantised truth where it is pinned).
+TEST(Middlebury, RefinementLowersSubpixelErrorOnRealPairs) {
+  HEDGEFIT_REQUIRE_DATA("stereo_gt/middlebury2003_cones_pandora/left.tif");
+  for (const char* name : {"cones", "motorcycle"}) {
+    const TruthPair p = LoadTruthPair(hedgefit::testing::DataDir(), name);
+    cv::Mat planar;
+    const cv::Mat fine = DequantiseTruth(p.truth, p.truth_step, 2, &planar);
+    SgbmOptions o;
+    o.num_disparities = p.num_disparities;
+    o.fill_holes = false;
+    o.refine_radius = 0;
+    const DisparityMap base = ComputeDisparity(p.left, p.right, o);
+    cv::Mat refined = base.disparity.clone();
+    RefineSubpixel(p.left, p.right, cv::Mat(), base.rejected, 2, 3, &refined);
+    auto error = [&](const cv::Mat& d) {
+      double sum = 0;
+      long n = 0;
+      for (int y = 0; y < d.rows; ++y) {
+        for (int x = 0; x < d.cols; ++x) {
+          const float e = d.at<float>(y, x) - fine.at<float>(y, x);
+          if (planar.at<std::uint8_t>(y, x) && p.mask.at<std::uint8_t>(y, x) && std::abs(e) < 1) sum += std::abs(e), ++n;
+        }
+      }
+      return sum / double(std::max(1L, n));
+    };
+    EXPECT_LT(error(refined), error(base.disparity)) << name;
+  }
 }
 
 // A band-limited texture (30 sinusoids up to 0.2 cycles/px, below half of Nyquist), so
