@@ -148,10 +148,18 @@ StereoRig ReadRig(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     std::string line;
     std::size_t line_no = 0;
-    bool yaml = false;
+    bool yaml = false, keys = false, ended = false;
     auto bad = [&](const std::string& why) {
       return Error(path + ":" + std::to_string(line_no) + ": " + why + "; a rig file is the YAML `hedgefit calibrate` writes");
     };
+    // A number as OpenCV writes it (1., -4.5e-02, .5, 3), or YAML's .nan / .inf, which
+    // RigProblem then refuses with a clear message.
+    static const std::string number = R"((?:[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:nan|NaN|NAN|inf|Inf|INF)))";
+    static const std::string list = number + "(?:, *" + number + ")*(?:,| *\\])?";
+    static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
+    static const std::regex data_row("^" + list + " *$");  // a matrix's data continued on the next line
+    static const std::regex plain_value("^( +(!!opencv-matrix|" + number + R"(|"[^"]*"|[A-Za-z0-9][A-Za-z0-9_.]*|\[ *\]|\[ *)" +
+                                        list + "))? *$");
     while (std::getline(in, line)) {
       ++line_no;
       if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -164,14 +172,22 @@ StereoRig ReadRig(const std::string& path) {
         continue;
       }
       const std::size_t first = line.find_first_not_of(" \t");
-      if (first == std::string::npos || line[first] == '#' || line == "---" || line == "...") continue;
+      if (first == std::string::npos || line[first] == '#') continue;
+      if (ended) throw bad("text after the end of the document ('...')");
+      if (line == "---") {
+        if (keys) throw bad("a second document ('---')");
+        continue;
+      }
+      if (line == "...") {
+        ended = true;
+        continue;
+      }
       const std::string body = line.substr(first);
-      static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
-      // Numbers include YAML's .nan and .inf, which RigProblem then refuses with a clear message.
-      static const std::regex numbers(R"(^[-+0-9.eEnaNifI, \]\[]*$)");
-      static const std::regex plain_value(R"(^( +(!!opencv-matrix|[-+0-9.eEnaNifI]+|"[^"]*"|[A-Za-z0-9_.]+|\[[-+0-9.eEnaNifI, \]]*))?$)");
-      if (std::regex_match(body, numbers)) continue;  // a matrix's data rows
+      // A matrix's data continued, or the calibration's list of pairs: "[]" when empty, else
+      // an item marker "-" on its own line before the item's keys.
+      if (body == "-" || body == "[]" || std::regex_match(body, data_row)) continue;
       if (!std::regex_match(body, key_value)) throw bad("not a 'key: value' line");
+      keys = true;
       const std::string value = body.substr(body.find(':') + 1);
       if (!std::regex_match(value, plain_value)) throw bad("a value that is not a number, a word or a matrix");
     }
