@@ -28,6 +28,7 @@ void AddRigCommand(CLI::App& app, CommandFn* run);
 void AddSimulateCommand(CLI::App& app, CommandFn* run);
 void AddRenderCommand(CLI::App& app, CommandFn* run);
 void AddConvertCommand(CLI::App& app, CommandFn* run);
+void AddMeasureCommand(CLI::App& app, CommandFn* run);
 void AddBenchCommand(CLI::App& app, CommandFn* run);
 
 /// The global registry with every built-in stage and the plugins on the search path.

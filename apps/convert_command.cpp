@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "apps/capture_flags.hpp"
 #include "apps/stage_flags.hpp"
 #include "cloud/parallel.hpp"
 #include "cloud/pipeline.hpp"
@@ -85,10 +86,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       "--garden finds every hedge by depth and writes one PCD per hedge: '#' in -o (or _# added before the\n"
       "extension) becomes the hedge's id, 1, 2, ... left to right.\n");
   struct Args {
-    std::string left, right, input, rig, output, output_dir = "clouds", shard, mask, matcher = "stereo.sgbm";
+    std::string left, right, input, rig, output, output_dir = "clouds", shard;
     int threads = 0;
-    bool debug = false, quiet = false, full_frame = false, print_pipeline = false, garden = false;
-    StageFlags flags;
+    bool debug = false, quiet = false, print_pipeline = false;
+    CaptureFlags capture;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("--left", a->left, "left image of one capture");
@@ -97,19 +98,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--rig", a->rig, "rig file from `hedgefit calibrate`")->required();
   cmd->add_option("-o,--output", a->output, "PCD for a single capture");
   cmd->add_option("--output-dir", a->output_dir, "directory for NAME.pcd (batch)")->capture_default_str();
-  cmd->add_option("--matcher", a->matcher,
-                  "the matching stage: stereo.sgbm, or a plugin's stage that makes 'disparity' (default options)")
-      ->capture_default_str();
-  cmd->add_option("--mask", a->mask, "segment with this mask image (drawn on the left view) instead of by colour");
-  cmd->add_flag("--garden", a->garden,
-                "find every hedge by depth (lawn, hedge rows, several hedges): stereo.segment_garden; one PCD per hedge");
-  // The stages' own options, declared once in their tables.
-  a->flags.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"});
-  a->flags.Add(cmd, stereo::MatchOptions::Table().Specs());
-  a->flags.Add(cmd, stereo::GardenSegmentOptions::Table().Specs());
-  a->flags.Add(cmd, stereo::SegmentOptions::Table().Specs());
-  a->flags.Add(cmd, stereo::ReprojectOptions::Table().Specs());
-  cmd->add_flag("--full-frame", a->full_frame, "match the whole image, not just the hedge's region");
+  a->capture.Add(cmd);
   cmd->add_option("--shard", a->shard, "i/n: convert only every n-th capture starting at i (0-based)");
   cmd->add_option("--threads", a->threads, "captures converted in parallel (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
@@ -122,46 +111,8 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       namespace fs = std::filesystem;
       PrepareRegistry(true);  // a plugin may bring the matcher
       const cloud::Registry& registry = cloud::Registry::Global();
-      const cloud::StageDescriptor& matcher = registry.Get(a->matcher, "--matcher: ");
-      if (std::find(matcher.info.outputs.begin(), matcher.info.outputs.end(), "disparity") == matcher.info.outputs.end()) {
-        throw Error("--matcher " + a->matcher + ": this stage makes no 'disparity'; give a matching stage such as stereo.sgbm");
-      }
-      // Options: each stage's declared options, as typed (messages name the flag).
-      stereo::ConvertOptions o;
-      const auto given = a->flags.Given();
-      auto bind = [&](const auto& table, auto* out, const char* stage) {
-        const auto specs = table.Specs();
-        std::map<std::string, cloud::OptionValue> mine;
-        for (const auto& spec : specs) {
-          if (given.count(spec.name)) mine[spec.name] = given.at(spec.name);
-        }
-        cloud::StageInfo info{stage, "", specs, {}, {}, {}};
-        *out = table.FromOptions(cloud::ResolveOptions(info, mine, stage));
-      };
-      bind(stereo::SegmentOptions::Table(), &o.segment, "stereo.segment");
-      bind(stereo::MaskOptions::Table(), &o.mask, "stereo.mask");
-      bind(stereo::DepthSegmentOptions::Table(), &o.depth, "stereo.segment_depth");
-      bind(stereo::MatchOptions::Table(), &o.match, "stereo.sgbm");
-      bind(stereo::GardenSegmentOptions::Table(), &o.garden, "stereo.segment_garden");
-      bind(stereo::ReprojectOptions::Table(), &o.reproject, "stereo.reproject");
-      if (a->full_frame) o.match.region_only = false;
-      o.matcher = a->matcher;
-      if (int(!a->mask.empty()) + int(given.count("box")) + int(a->garden) > 1) {
-        throw Error("--mask, --box and --garden: give one way to find the hedge, not several");
-      }
-      if (a->garden) {
-        o.mode = stereo::SegmentMode::kGarden;
-      } else if (!a->mask.empty()) {
-        o.mode = stereo::SegmentMode::kMask;
-        o.mask.filename = a->mask;
-      } else if (given.count("box")) {
-        o.mode = stereo::SegmentMode::kDepth;
-      }
-      try {
-        o.Check();
-      } catch (const Error& e) {
-        throw Error(AsFlagMessage(e.what()));  // as typed on the command line
-      }
+      const stereo::ConvertOptions o = a->capture.Resolve(registry);
+      const bool garden = a->capture.garden();
       const bool single = !a->left.empty() || !a->right.empty();
       if (single && !a->input.empty()) throw Error("--input and --left/--right: give one capture or a batch, not both");
       if (single && (a->left.empty() || a->right.empty() || a->output.empty())) {
@@ -171,7 +122,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       if (a->print_pipeline) {
         const std::string shown = single ? a->output : "OUTPUT.pcd";
         std::printf("%s\n", stereo::CapturePipelineJson(o, single ? a->left : "LEFT.png", single ? a->right : "RIGHT.png",
-                                                        a->rig, a->garden && shown.find('#') == std::string::npos
+                                                        a->rig, garden && shown.find('#') == std::string::npos
                                                                     ? (fs::path(shown).parent_path() / (fs::path(shown).stem().string() + "_#.pcd")).string()
                                                                     : shown)
                                 .c_str());
@@ -180,18 +131,8 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       stereo::ReadRig(a->rig);  // a bad rig fails once, before any capture
       std::vector<Capture> captures;
       if (single) {
-        const fs::path dir = fs::path(a->output).parent_path();
-        std::error_code ec;
-        if (!dir.empty() && !fs::is_directory(dir, ec)) {
-          throw Error("-o " + a->output + ": directory '" + dir.string() + "' does not exist; create it first");
-        }
-        // A missing or unreadable image is bad input (exit 1), found before any work.
-        for (const std::string& image : {a->left, a->right}) {
-          if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
-          if (!cv::haveImageReader(image)) {
-            throw Error(image + ": not an image OpenCV can read; give a PNG or JPEG file");
-          }
-        }
+        CheckOutputDirectory("-o", a->output);
+        CheckCaptureImages(a->left, a->right);  // a missing or unreadable image: exit 1, before any work
         std::string name = fs::path(a->output).stem().string();  // "row_#" -> "row"
         if (const auto hash = name.rfind('#'); hash != std::string::npos) {
           const bool sep = hash > 0 && (name[hash - 1] == '_' || name[hash - 1] == '-');
@@ -221,7 +162,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       int failed = 0;
       // Several hedges per capture: one file per hedge, '#' standing for its id.
       auto per_hedge = [&](const std::string& path) {
-        if (!a->garden || path.find('#') != std::string::npos) return path;
+        if (!garden || path.find('#') != std::string::npos) return path;
         const fs::path p(path);
         return (p.parent_path() / (p.stem().string() + "_#" + p.extension().string())).string();
       };

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   AddSimulateCommand(app, &run);
   AddRenderCommand(app, &run);
   AddConvertCommand(app, &run);
+  AddMeasureCommand(app, &run);
   AddBenchCommand(app, &run);
   try {
     app.parse(argc, argv);

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -182,6 +183,53 @@ TEST(ConvertCli, GardenRowGivesOnePcdPerHedgeAndComparePerHedge) {
           dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("--garden"), std::string::npos) << r.err;
+}
+
+// measure: the capture path, cleaning and a fit in one step, one JSON line per hedge.
+TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  auto r = RunHedgefit("simulate --preset garden --scale 0.5 --supersample 2 -o garden", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string capture = " --rig garden/rig.yaml --left garden/garden_row_left.png --right garden/garden_row_right.png";
+  r = RunHedgefit("measure --garden --method envelope --overlay row.png" + capture, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "row.png"));
+  const auto truth = nlohmann::json::parse(std::ifstream(dir / "garden" / "garden_row.truth.json"))["hedges"];
+  std::istringstream lines(r.out);
+  std::vector<nlohmann::json> fits;
+  for (std::string line; std::getline(lines, line);) fits.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(fits.size(), 3u) << r.out;  // three hedges, not the pot
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto& f = fits[i];
+    EXPECT_EQ(f["hedge"].get<int>(), int(i) + 1);
+    EXPECT_EQ(f["method"], "envelope");
+    ASSERT_TRUE(f["converged"].get<bool>()) << f.dump();
+    EXPECT_EQ(f["image_box"].size(), 4u);
+    // As in ConvertCli.GardenRow...: half the paper's resolution doubles the depth error per
+    // point, so 10 mm on the radius; the centre, seen from one side, moves along the line of
+    // sight about 1.5 times as far as the radius errs. Neighbouring hedges are 1.4 m apart.
+    EXPECT_NEAR(f["radius_mm"].get<double>(), truth[i]["radius_mm"].get<double>(), 10.0) << "hedge " << i + 1;
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) d2 += std::pow(f["center_mm"][k].get<double>() - truth[i]["center_mm"][k].get<double>(), 2);
+    EXPECT_LT(std::sqrt(d2), 15.0) << "hedge " << i + 1;
+    EXPECT_GT(f["capture_ms"].get<double>(), 0.0);
+  }
+  // The pipeline it runs, as JSON; a bad method or an overlay into a missing directory is one
+  // line naming the flag, before any work, and writes nothing.
+  r = RunHedgefit("measure --print-pipeline --method kasa" + capture, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("\"fitters.algebraic\""), std::string::npos) << r.out;
+  r = RunHedgefit("measure --method bogus" + capture, dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err.rfind("hedgefit: --method: unknown method 'bogus'", 0), 0u) << r.err;
+  r = RunHedgefit("measure --overlay missing/o.png" + capture, dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --overlay missing/o.png: directory 'missing' does not exist; create it first\n");
+  // No hedge in the working range: exit 2, one line, no overlay.
+  r = RunHedgefit("measure --garden --min-z 8000 --max-z 9000 --overlay none.png" + capture, dir);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "none.png"));
 }
 
 TEST(ConvertCli, StageFlagErrorsNameTheFlag) {

@@ -1,0 +1,43 @@
+#pragma once
+// The capture path's flags, shared by `convert` and `measure`: how the hedge is found
+// (colour, --mask, --box, --garden), the matching stage, and every stereo.* stage option,
+// generated from the stages' own declarations. One flag sets that option in every stage that
+// has it (--min-z in the matcher and the depth segmenter).
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+#include "apps/stage_flags.hpp"
+#include "cloud/registry.hpp"
+#include "stereo/capture.hpp"
+
+namespace hedgefit::apps {
+
+class CaptureFlags {
+ public:
+  /// Adds --matcher, --mask, --garden, --full-frame and the stage option flags to `cmd`.
+  void Add(CLI::App* cmd);
+
+  /// The capture options as typed, checked: the matcher is a registered stage that makes
+  /// 'disparity', one way to find the hedge, every option in range. Throws hedgefit::Error
+  /// naming the flag.
+  stereo::ConvertOptions Resolve(const cloud::Registry& registry) const;
+
+  bool garden() const { return garden_; }
+
+ private:
+  std::string mask_, matcher_ = "stereo.sgbm";
+  bool garden_ = false, full_frame_ = false;
+  StageFlags flags_;
+};
+
+/// Checks the images of one capture before any work: each exists and OpenCV can read its
+/// format (a missing or unreadable image is bad input, exit 1).
+void CheckCaptureImages(const std::string& left, const std::string& right);
+
+/// Checks that the directory `path` would be written into exists, before any work:
+/// "`flag` PATH: directory 'D' does not exist; create it first".
+void CheckOutputDirectory(const std::string& flag, const std::string& path);
+
+}  // namespace hedgefit::apps
