@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "cloud/point_cloud.hpp"
 #include "fitting/evaluation.hpp"
 #include "fitting/methods.hpp"
+#include "fitting/trim.hpp"
 
 namespace hedgefit::fitting {
 
@@ -93,6 +95,80 @@ void RegisterFittingStages(cloud::Registry& r) {
             });
           });
   }
+  // The trim plan: cut depth per point against a target sphere, per hedge.
+  const std::string trim = "filters.trim_depth";
+  r.Add(StageInfo{trim,
+                  "Trim plan: each point's cut depth past a target sphere (field 'cut_depth', mm, + = cut), the share "
+                  "of the surface to cut, depth percentiles and the volume to remove, per hedge",
+                  {DoubleOption("radius", 0, "target radius; required", "mm").Min(0),
+                   ListOption("center", {}, 0,
+                              "target centre [x, y, z]; empty = each hedge's latest converged fit", "mm"),
+                   DoubleOption("tolerance", 5, "cut depths up to this count as on target", "mm").Min(0),
+                   DoubleOption("bin_deg", 3, "angular size of a volume bin", "deg").Range(0.1, 90),
+                   IntOption("min_bin_points", 3, "a volume bin with fewer points is unseen").Min(1)},
+                  {"cloud"},
+                  {"cloud", "trim_plans"},
+                  {}},
+        [trim](const Options& o) -> std::unique_ptr<Stage> {
+          if (!(o.GetDouble("radius") > 0)) throw Error("stage '" + trim + "', option 'radius': give the target radius (mm)");
+          const std::vector<double>& center = o.GetList("center");
+          if (!center.empty() && center.size() != 3) {
+            throw Error("stage '" + trim + "', option 'center': give [x, y, z] in mm, or leave it out to use the fit");
+          }
+          TrimOptions to;
+          to.tolerance_mm = o.GetDouble("tolerance");
+          to.bin_deg = o.GetDouble("bin_deg");
+          to.min_bin_points = int(o.GetInt("min_bin_points"));
+          return std::make_unique<LambdaStage>(o, [trim, to, center](const Options& opts, Context& ctx) {
+            PointCloud& c = ctx.Get<PointCloud>("cloud");
+            const std::vector<HedgeGroup> groups = HedgeGroups(c);
+            if (groups.empty()) throw Error("stage '" + trim + "': no point of the cloud belongs to a hedge (hedge_id >= 1)");
+            std::vector<float> depth(c.size(), std::numeric_limits<float>::quiet_NaN());
+            std::vector<TrimPlan> plans;
+            for (const HedgeGroup& g : groups) {
+              const std::string hedge = g.id ? "hedge " + std::to_string(g.id) : "the cloud";
+              Sphere target;
+              target.radius_mm = opts.GetDouble("radius");
+              if (center.size() == 3) {
+                target.center_mm = Eigen::Vector3d(center[0], center[1], center[2]);
+              } else {
+                const SphereFitResult* fit = nullptr;
+                if (const auto* fits = ctx.Find<std::vector<SphereFitResult>>("fits")) {
+                  for (auto it = fits->rbegin(); it != fits->rend() && !fit; ++it) {
+                    if (it->hedge_id == g.id && it->converged) fit = &*it;
+                  }
+                }
+                if (!fit) {
+                  throw Error("stage '" + trim + "': " + hedge +
+                              " has no converged fit to centre the target on; put a fitters.* stage before it or give 'center'");
+                }
+                target.center_mm = fit->sphere.center_mm;
+              }
+              std::vector<Eigen::Vector3d> pts;
+              pts.reserve(g.indices.size());
+              for (std::size_t i : g.indices) pts.push_back(c.points_mm[i].cast<double>());
+              TrimPlan plan = PlanTrim(pts, target, to);
+              plan.hedge_id = g.id;
+              for (std::size_t k = 0; k < g.indices.size(); ++k) depth[g.indices[k]] = plan.depth_mm[k];
+              const std::string prefix = groups.size() > 1 ? "hedge" + std::to_string(g.id) + "." : "";
+              ctx.Note(prefix + "target_radius_mm", target.radius_mm);
+              ctx.Note(prefix + "cut_share", plan.cut_share);
+              ctx.Note(prefix + "cut_p50_mm", plan.cut_p50_mm);
+              ctx.Note(prefix + "cut_p90_mm", plan.cut_p90_mm);
+              ctx.Note(prefix + "cut_max_mm", plan.cut_max_mm);
+              ctx.Note(prefix + "volume_seen_l", plan.volume_seen_l);
+              ctx.Note(prefix + "seen_share", plan.seen_share);
+              plan.depth_mm.clear();  // the field holds them
+              plans.push_back(std::move(plan));
+            }
+            c.fields["cut_depth"] = std::move(depth);
+            ctx.Put("trim_plans", std::move(plans));
+          });
+        });
+  r.SetOptionInputs(trim, [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
+    if (o.GetList("center").empty()) return {{"fits", "no option 'center' (the target is centred on the fit)"}};
+    return {};
+  });
   for (const char* stage : {"fitters.geometric", "fitters.envelope"}) {
     r.SetOptionInputs(stage, [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
       if (o.GetString("initial") == "previous") return {{"fits", "option 'initial' = previous (start from an earlier fit)"}};

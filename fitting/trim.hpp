@@ -1,0 +1,54 @@
+#pragma once
+/// The trim plan: how far each point of a hedge sticks out past the shape the gardener wants
+/// (a target sphere), how much of the surface needs cutting, and the volume to remove.
+///
+/// Cut depth of a point p: |p - c| - R for the target centre c and radius R, in mm; positive
+/// = outside the target (to cut), negative = inside (a gap that no cut fills).
+///
+/// Volume: the directions from the target centre are binned on an equal-area grid (rings of
+/// equal cos(theta) about a pole, equal sectors of phi). The pole is the camera's vertical
+/// (y) axis, so the side the camera sees lies about the grid's equator, where the bins are
+/// nearly square (about a pole they are long thin wedges). In each bin seen by at
+/// least `min_bin_points` points the hedge's surface radius is the median of their distances
+/// to c (the median, so sensor noise neither inflates nor shrinks it), and the bin's volume
+/// outside the target is dOmega (r^3 - R^3) / 3 where r > R. The sum covers only what the
+/// camera saw; `seen_share` says how much of the sphere that is, and `volume_all_round_l` scales
+/// the seen volume to the whole sphere on the assumption that the unseen side sticks out as the
+/// seen side does.
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "fitting/sphere_fit.hpp"
+
+namespace hedgefit::fitting {
+
+struct TrimOptions {
+  double tolerance_mm = 5.0;  ///< cut depths up to this count as "on target" (a trimmer's resolution)
+  double bin_deg = 3.0;       ///< angular size of a volume bin at the equator, degrees
+  int min_bin_points = 3;     ///< a bin with fewer points is unseen
+};
+
+struct TrimPlan {
+  int hedge_id = 0;  ///< which hedge of a capture (0: the cloud is one hedge)
+  Sphere target;
+  std::vector<float> depth_mm;   ///< per input point, signed (NaN for non-finite points)
+  std::size_t points = 0;        ///< finite points
+  std::size_t points_to_cut = 0; ///< depth > tolerance
+  /// Share of the seen surface (solid angle of the seen bins) whose median depth > tolerance.
+  double cut_share = 0;
+  /// Percentiles of the depth of the points to cut (50, 90, 99 %) and the largest, mm; 0 if none.
+  double cut_p50_mm = 0, cut_p90_mm = 0, cut_p99_mm = 0, cut_max_mm = 0;
+  double seen_share = 0;          ///< solid angle of the seen bins / 4 pi
+  double volume_seen_l = 0;       ///< litres outside the target, over the seen bins
+  double volume_all_round_l = 0;  ///< volume_seen_l / seen_share (see above); 0 if nothing seen
+};
+
+/// Plans the trim of one hedge's points (mm) to `target`. `pole` is the axis the bins' rings
+/// are taken about (the camera's vertical by default). Throws hedgefit::Error for a target
+/// with a non-positive or non-finite radius or centre, or bad options.
+TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& target, const TrimOptions& options = {},
+                  const Eigen::Vector3d& pole = Eigen::Vector3d::UnitY());
+
+}  // namespace hedgefit::fitting

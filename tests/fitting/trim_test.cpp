@@ -1,0 +1,129 @@
+// The trim plan on a simulated hedge whose excess over the target is known: a ball of radius
+// 500 mm with a bulge (a 25-degree cap standing out to 540 mm), seen from the camera's side,
+// with 2 mm of radial noise; the target is the 500 mm sphere.
+
+#include "fitting/trim.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "cloud/pipeline.hpp"
+#include "cloud/point_cloud.hpp"
+#include "cloud/registry.hpp"
+#include "fitting/fitting_stages.hpp"
+
+namespace hedgefit::fitting {
+namespace {
+
+constexpr double kR = 500, kBulgeR = 540, kBulgeDeg = 25, kNoise = 2;
+
+struct Hedge {
+  Eigen::Vector3d center{100, -50, 2500}, bulge_axis;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> true_depth;  // noise-free radius minus the target radius
+  double seen_cos = 0.2;           // directions with d . (camera - c) / |camera - c| > 0.2 are seen
+};
+
+Hedge MakeHedge(std::size_t n, unsigned seed) {
+  Hedge h;
+  const Eigen::Vector3d to_camera = (-h.center).normalized();
+  h.bulge_axis = (to_camera + Eigen::Vector3d(0, -0.3, 0)).normalized();  // towards the camera, a little up
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0, 1);
+  while (h.points.size() < n) {
+    const Eigen::Vector3d d = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+    if (d.dot(to_camera) <= h.seen_cos) continue;
+    const double r = d.dot(h.bulge_axis) > std::cos(kBulgeDeg * M_PI / 180) ? kBulgeR : kR;
+    h.points.push_back(h.center + d * (r + kNoise * g(rng)));
+    h.true_depth.push_back(r - kR);
+  }
+  return h;
+}
+
+TEST(Trim, CutDepthsShareAndVolumeOfAKnownBulge) {
+  const Hedge h = MakeHedge(200000, 3);
+  Sphere target{h.center, kR};
+  const TrimPlan plan = PlanTrim(h.points, target);
+  ASSERT_EQ(plan.depth_mm.size(), h.points.size());
+  // Each point's depth is its true excess plus its own radial noise: within 4.5 sigma of the
+  // truth for all but a handful of 200000 points (|z| > 4.5 has probability 7e-6).
+  int far = 0;
+  double bulge_sum = 0;
+  std::size_t bulge_points = 0;
+  for (std::size_t i = 0; i < h.points.size(); ++i) {
+    far += std::abs(plan.depth_mm[i] - h.true_depth[i]) > 4.5 * kNoise;
+    if (h.true_depth[i] > 0) bulge_sum += plan.depth_mm[i], ++bulge_points;
+  }
+  EXPECT_LE(far, 10);
+  // Points to cut: the bulge's (depth 40 mm), none of the rest (0 +- 2 mm, tolerance 5 mm =
+  // 2.5 sigma, so about 0.6 % of them by noise alone).
+  const double rest = double(h.points.size() - bulge_points);
+  EXPECT_NEAR(double(plan.points_to_cut), double(bulge_points) + 0.0062 * rest, 0.003 * rest);
+  // The cut points' depths: 40 mm +- the noise; the median within a few hundredths (plus the
+  // 0.6 % of noise points near 5 mm, which pull it down by ~0.1 mm), the 99th percentile at
+  // 40 + 2.33 sigma.
+  EXPECT_NEAR(bulge_sum / double(bulge_points), kBulgeR - kR, 0.05);
+  EXPECT_NEAR(plan.cut_p50_mm, kBulgeR - kR, 0.3);
+  EXPECT_NEAR(plan.cut_p99_mm, kBulgeR - kR + 2.33 * kNoise, 0.5);
+  EXPECT_GT(plan.cut_max_mm, kBulgeR - kR + 3 * kNoise);
+  // Share and volume against the geometry: the bulge covers 2 pi (1 - cos 25 deg) sr of the
+  // 2 pi (1 - 0.2) sr seen; its volume is that solid angle times (540^3 - 500^3) / 3. The
+  // issue's bar is 10 %. Bins on the bulge's rim and the clipped noise of the others move the
+  // volume by about 1 %; the bins on the edge of the seen region count whole, which adds about
+  // 4 % to the seen solid angle and takes as much off the share.
+  const double bulge_sr = 2 * M_PI * (1 - std::cos(kBulgeDeg * M_PI / 180)), seen_sr = 2 * M_PI * (1 - h.seen_cos);
+  EXPECT_NEAR(plan.seen_share, seen_sr / (4 * M_PI), 0.02);
+  EXPECT_NEAR(plan.cut_share, bulge_sr / seen_sr, 0.1 * bulge_sr / seen_sr);
+  const double volume_l = bulge_sr * (std::pow(kBulgeR, 3) - std::pow(kR, 3)) / 3 * 1e-6;
+  EXPECT_NEAR(plan.volume_seen_l, volume_l, 0.1 * volume_l);
+  EXPECT_NEAR(plan.volume_all_round_l, plan.volume_seen_l / plan.seen_share, 1e-9);
+}
+
+TEST(Trim, NothingToCutInsideTheTargetAndBadTargetsAreRefused) {
+  const Hedge h = MakeHedge(50000, 5);
+  // A target 60 mm larger than the bulge: every depth is negative, nothing to cut.
+  const TrimPlan plan = PlanTrim(h.points, Sphere{h.center, 600});
+  EXPECT_EQ(plan.points_to_cut, 0u);
+  EXPECT_EQ(plan.cut_share, 0.0);
+  EXPECT_EQ(plan.volume_seen_l, 0.0);
+  EXPECT_EQ(plan.cut_max_mm, 0.0);
+  EXPECT_THROW(PlanTrim(h.points, Sphere{h.center, 0}), Error);
+  EXPECT_THROW(PlanTrim(h.points, Sphere{Eigen::Vector3d(NAN, 0, 0), 500}), Error);
+  TrimOptions o;
+  o.bin_deg = 0;
+  EXPECT_THROW(PlanTrim(h.points, Sphere{h.center, 500}, o), Error);
+}
+
+// The stage: a fit centres the target, the cut depths become a field, and a pipeline without
+// a fit or a radius is refused before it runs.
+TEST(Trim, StageCentresOnTheFitAndWritesTheField) {
+  cloud::Registry reg;
+  cloud::RegisterCloudStages(reg);
+  RegisterFittingStages(reg);
+  const Hedge h = MakeHedge(20000, 7);
+  cloud::PointCloud c;
+  for (const auto& p : h.points) c.points_mm.push_back(p.cast<float>());
+  c.Flatten();
+  cloud::Context ctx;
+  ctx.Put("cloud", c);
+  cloud::Pipeline p = cloud::Pipeline::FromJson(
+      R"([{"type": "fitters.ransac_geometric", "distance_threshold": 8}, {"type": "filters.trim_depth", "radius": 500}])",
+      "p", reg, {}, {"cloud"});
+  p.Run(ctx);
+  const auto& plans = ctx.Get<std::vector<TrimPlan>>("trim_plans");
+  ASSERT_EQ(plans.size(), 1u);
+  // RANSAC keeps the 500 mm ball (most points) and drops the bulge: the centre within a
+  // millimetre, so the bulge is still ~40 mm proud.
+  EXPECT_LT((plans[0].target.center_mm - h.center).norm(), 1.0);
+  EXPECT_NEAR(plans[0].cut_p50_mm, kBulgeR - kR, 1.5);
+  const auto& field = ctx.Get<cloud::PointCloud>("cloud").fields.at("cut_depth");
+  EXPECT_EQ(field.size(), h.points.size());
+  EXPECT_THROW(cloud::Pipeline::FromJson(R"([{"type": "filters.trim_depth", "radius": 500}])", "p", reg, {}, {"cloud"}),
+               Error);  // no fit and no centre
+  EXPECT_THROW(cloud::Pipeline::FromJson(R"([{"type": "filters.trim_depth"}])", "p", reg, {}, {"cloud"}), Error);
+}
+
+}  // namespace
+}  // namespace hedgefit::fitting
