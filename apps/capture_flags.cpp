@@ -70,6 +70,11 @@ stereo::ConvertOptions CaptureFlags::Resolve(const cloud::Registry& registry) co
   return o;
 }
 
+nlohmann::json DefaultCleaning() {
+  return nlohmann::json::array({{{"type", "filters.nonfinite"}},
+                                {{"type", "filters.statistical_outlier"}, {"mean_k", 30}, {"stddev_mul", 1.0}}});
+}
+
 void CheckCaptureImages(const std::string& left, const std::string& right) {
   namespace fs = std::filesystem;
   std::error_code ec;

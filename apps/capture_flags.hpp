@@ -5,6 +5,7 @@
 // has it (--min-z in the matcher and the depth segmenter).
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <string>
 
@@ -31,6 +32,11 @@ class CaptureFlags {
   bool garden_ = false, full_frame_ = false;
   StageFlags flags_;
 };
+
+/// The cleaning `compare`, `measure` and `trim` apply unless told otherwise, as pipeline stages:
+/// NaN removal, then a statistical outlier filter (30 neighbours, 1 sigma), which drops the
+/// stereo mismatches that float off the surface at a silhouette.
+nlohmann::json DefaultCleaning();
 
 /// Checks the images of one capture before any work: each exists and OpenCV can read its
 /// format (a missing or unreadable image is bad input, exit 1).

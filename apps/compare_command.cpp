@@ -11,6 +11,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "apps/stage_flags.hpp"
 #include "cloud/cloud_io.hpp"
@@ -52,8 +53,7 @@ struct CloudReport {
 // The cleaning stages as JSON: the user's pipeline file, or NaN removal + statistical outliers.
 json CleaningStages(const CompareArgs& a) {
   if (a.pipeline.empty()) {
-    return json::array({{{"type", "filters.nonfinite"}},
-                        {{"type", "filters.statistical_outlier"}, {"mean_k", 30}, {"stddev_mul", 1.0}}});
+    return DefaultCleaning();
   }
   std::ifstream in(a.pipeline);
   if (!in) throw Error(a.pipeline + ": cannot open the cleaning pipeline; check the path");

@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   AddRenderCommand(app, &run);
   AddConvertCommand(app, &run);
   AddMeasureCommand(app, &run);
+  AddTrimCommand(app, &run);
   AddBenchCommand(app, &run);
   try {
     app.parse(argc, argv);

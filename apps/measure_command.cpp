@@ -45,9 +45,7 @@ struct MeasureArgs {
 json MeasurePipeline(const MeasureArgs& a, const stereo::ConvertOptions& o, const std::vector<std::string>& methods) {
   json p = json::parse(stereo::CapturePipelineJson(o, a.left, a.right, a.rig));
   if (!a.no_clean) {
-    // The same cleaning `compare` applies by default: stereo mismatches at the silhouette
-    // float off the surface, and a statistical outlier filter (30 neighbours, 1 sigma) drops them.
-    p.push_back({{"type", "filters.statistical_outlier"}, {"mean_k", 30}, {"stddev_mul", 1.0}});
+    for (const auto& stage : DefaultCleaning()) p.push_back(json(stage));  // as `compare` cleans
   }
   for (const std::string& name : methods) p.push_back({{"type", fitting::FindFitMethod(name, "--method").stage}});
   if (!a.overlay.empty()) p.push_back({{"type", "writers.overlay"}, {"filename", a.overlay}});

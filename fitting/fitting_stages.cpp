@@ -104,7 +104,8 @@ void RegisterFittingStages(cloud::Registry& r) {
                    ListOption("center", {}, 0,
                               "target centre [x, y, z]; empty = each hedge's latest converged fit", "mm"),
                    DoubleOption("tolerance", 5, "cut depths up to this count as on target", "mm").Min(0),
-                   DoubleOption("bin_deg", 3, "angular size of a volume bin", "deg").Range(0.1, 90),
+                   DoubleOption("bin_deg", 0, "angular size of a volume bin; 0 = about 20 points per bin", "deg")
+                       .Range(0, 90),
                    IntOption("min_bin_points", 3, "a volume bin with fewer points is unseen").Min(1)},
                   {"cloud"},
                   {"cloud", "trim_plans"},
@@ -158,6 +159,7 @@ void RegisterFittingStages(cloud::Registry& r) {
               ctx.Note(prefix + "cut_max_mm", plan.cut_max_mm);
               ctx.Note(prefix + "volume_seen_l", plan.volume_seen_l);
               ctx.Note(prefix + "seen_share", plan.seen_share);
+              ctx.Note(prefix + "bin_deg", plan.bin_deg);
               plan.depth_mm.clear();  // the field holds them
               plans.push_back(std::move(plan));
             }

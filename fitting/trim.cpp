@@ -27,7 +27,9 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   if (!(target.radius_mm > 0) || !std::isfinite(target.radius_mm) || !target.center_mm.allFinite()) {
     throw Error("trim: the target needs a finite centre and a radius > 0 mm");
   }
-  if (!(o.bin_deg >= 0.1 && o.bin_deg <= 90)) throw Error("trim: option 'bin_deg' must be in [0.1, 90] degrees");
+  if (!(o.bin_deg == 0 || (o.bin_deg >= 0.1 && o.bin_deg <= 90))) {
+    throw Error("trim: option 'bin_deg' must be 0 (automatic) or in [0.1, 90] degrees");
+  }
   if (!(o.tolerance_mm >= 0) || !std::isfinite(o.tolerance_mm)) throw Error("trim: option 'tolerance' must be >= 0 mm");
   if (o.min_bin_points < 1) throw Error("trim: option 'min_bin_points' must be >= 1");
   if (!pole.allFinite() || pole.norm() == 0) throw Error("trim: the grid's pole must be a non-zero vector");
@@ -37,11 +39,11 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   // An orthonormal frame with z along the pole: rings of equal cos(theta) about it.
   const Eigen::Vector3d z = pole.normalized();
   const Eigen::Vector3d x = z.unitOrthogonal(), y = z.cross(x);
-  const double bin = o.bin_deg * M_PI / 180;
-  const int sectors = std::max(4, static_cast<int>(std::lround(2 * M_PI / bin)));
-  const int rings = std::max(2, static_cast<int>(std::lround(2.0 / bin)));  // cos(theta) steps of ~bin at the equator
-  const double bin_solid_angle = 4 * M_PI / (double(rings) * double(sectors));
-  std::map<long, std::vector<double>> bins;  // radius samples per seen bin
+  struct Direction {
+    double cos_theta, phi, r;
+  };
+  std::vector<Direction> dirs;
+  dirs.reserve(points_mm.size());
   std::vector<double> cut;
   plan.depth_mm.assign(points_mm.size(), std::numeric_limits<float>::quiet_NaN());
   for (std::size_t i = 0; i < points_mm.size(); ++i) {
@@ -51,20 +53,57 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     ++plan.points;
     plan.depth_mm[i] = static_cast<float>(r - R);
     if (r - R > o.tolerance_mm) cut.push_back(r - R), ++plan.points_to_cut;
-    if (r == 0) continue;
-    const double c = std::clamp(d.dot(z) / r, -1.0, 1.0);
-    const double phi = std::atan2(d.dot(y), d.dot(x)) + M_PI;
-    const int ring = std::min(rings - 1, static_cast<int>((c + 1) / 2 * rings));
-    const int sector = std::min(sectors - 1, static_cast<int>(phi / (2 * M_PI) * sectors));
-    bins[long(ring) * sectors + sector].push_back(r);
+    if (r > 0) dirs.push_back({std::clamp(d.dot(z) / r, -1.0, 1.0), std::atan2(d.dot(y), d.dot(x)) + M_PI, r});
   }
+  // Equal-area grid of about bin x bin radians at the equator.
+  struct Grid {
+    int rings, sectors;
+    double cell_sr;
+    explicit Grid(double bin) {
+      sectors = std::max(4, static_cast<int>(std::lround(2 * M_PI / bin)));
+      rings = std::max(2, static_cast<int>(std::lround(2.0 / bin)));  // cos(theta) steps of ~bin at the equator
+      cell_sr = 4 * M_PI / (double(rings) * double(sectors));
+    }
+    long Cell(const Direction& d) const {
+      const int ring = std::min(rings - 1, static_cast<int>((d.cos_theta + 1) / 2 * rings));
+      const int sector = std::min(sectors - 1, static_cast<int>(d.phi / (2 * M_PI) * sectors));
+      return long(ring) * sectors + sector;
+    }
+  };
+  double bin = o.bin_deg * M_PI / 180;
+  if (o.bin_deg == 0 && !dirs.empty()) {
+    // Automatic: about 20 points per bin over the part seen (estimated on a 10-degree grid),
+    // so the median radius of a bin is steady; between 0.5 and 15 degrees.
+    const Grid coarse(10 * M_PI / 180);
+    std::map<long, int> seen_coarse;
+    for (const Direction& d : dirs) ++seen_coarse[coarse.Cell(d)];
+    const double seen_sr = double(seen_coarse.size()) * coarse.cell_sr;
+    bin = std::clamp(std::sqrt(seen_sr * 20.0 / double(dirs.size())), 0.5 * M_PI / 180, 15 * M_PI / 180);
+  }
+  const Grid grid(bin);
+  plan.bin_deg = bin * 180 / M_PI;
+  std::map<long, std::vector<double>> bins;  // radius samples per bin
+  for (const Direction& d : dirs) bins[grid.Cell(d)].push_back(d.r);
+  auto is_seen = [&](long cell) {
+    const auto it = bins.find(cell);
+    return it != bins.end() && int(it->second.size()) >= o.min_bin_points;
+  };
   double seen = 0, cut_angle = 0, volume_mm3 = 0;
-  for (auto& [key, radii] : bins) {
+  for (auto& [cell, radii] : bins) {
     if (int(radii.size()) < o.min_bin_points) continue;
-    seen += bin_solid_angle;
+    // A bin on the edge of the seen part (a neighbour unseen) is on average half covered.
+    const int ring = int(cell / grid.sectors), sector = int(cell % grid.sectors);
+    const long left = long(ring) * grid.sectors + (sector + grid.sectors - 1) % grid.sectors;
+    const long right = long(ring) * grid.sectors + (sector + 1) % grid.sectors;
+    bool edge = !is_seen(left) || !is_seen(right);
+    if (ring > 0) edge = edge || !is_seen(cell - grid.sectors);
+    if (ring + 1 < grid.rings) edge = edge || !is_seen(cell + grid.sectors);
+    const double sr = grid.cell_sr * (edge ? 0.5 : 1.0);
+    seen += sr;
     const double r = Percentile(radii, 0.5);
-    if (r - R > o.tolerance_mm) cut_angle += bin_solid_angle;
-    if (r > R) volume_mm3 += bin_solid_angle * (r * r * r - R * R * R) / 3;
+    // Only bins that need cutting: counting every r > R would add the noise of the bins on the
+    // target (half of them read a little outside) as volume.
+    if (r - R > o.tolerance_mm) cut_angle += sr, volume_mm3 += sr * (r * r * r - R * R * R) / 3;
   }
   plan.seen_share = seen / (4 * M_PI);
   plan.cut_share = seen > 0 ? cut_angle / seen : 0;

@@ -11,7 +11,9 @@
 /// nearly square (about a pole they are long thin wedges). In each bin seen by at
 /// least `min_bin_points` points the hedge's surface radius is the median of their distances
 /// to c (the median, so sensor noise neither inflates nor shrinks it), and the bin's volume
-/// outside the target is dOmega (r^3 - R^3) / 3 where r > R. The sum covers only what the
+/// outside the target is dOmega (r^3 - R^3) / 3 where r - R exceeds the tolerance (a bin on
+/// target is not cut; counting its noise would add volume). A bin on the edge of the seen
+/// part (a neighbour unseen) counts half its solid angle: on average it is half covered. The sum covers only what the
 /// camera saw; `seen_share` says how much of the sphere that is, and `volume_all_round_l` scales
 /// the seen volume to the whole sphere on the assumption that the unseen side sticks out as the
 /// seen side does.
@@ -26,7 +28,9 @@ namespace hedgefit::fitting {
 
 struct TrimOptions {
   double tolerance_mm = 5.0;  ///< cut depths up to this count as "on target" (a trimmer's resolution)
-  double bin_deg = 3.0;       ///< angular size of a volume bin at the equator, degrees
+  /// Angular size of a volume bin at the equator, degrees; 0 = automatic (about 20 points per
+  /// bin over the part seen, between 0.5 and 15 degrees).
+  double bin_deg = 0.0;
   int min_bin_points = 3;     ///< a bin with fewer points is unseen
 };
 
@@ -43,6 +47,7 @@ struct TrimPlan {
   double seen_share = 0;          ///< solid angle of the seen bins / 4 pi
   double volume_seen_l = 0;       ///< litres outside the target, over the seen bins
   double volume_all_round_l = 0;  ///< volume_seen_l / seen_share (see above); 0 if nothing seen
+  double bin_deg = 0;             ///< the bin size used, degrees
 };
 
 /// Plans the trim of one hedge's points (mm) to `target`. `pole` is the axis the bins' rings

@@ -51,7 +51,8 @@ ColorMode ParseColorMode(const std::string& name) {
   if (name == "own") return ColorMode::kOwn;
   if (name == "distance") return ColorMode::kDistance;
   if (name == "depth") return ColorMode::kDepth;
-  throw Error("'" + name + "' is not a colouring; use own, distance or depth");
+  if (name == "field") return ColorMode::kField;
+  throw Error("'" + name + "' is not a colouring; use own, distance, depth or field");
 }
 
 View ParseView(const std::string& name) {
@@ -70,8 +71,12 @@ const cloud::OptionTable<RenderOptions>& RenderOptions::Table() {
           .Add("width", &O::width, "width of each view", "px").Range(16, 8192)
           .Add("height", &O::height, "height of each view", "px").Range(16, 8192)
           .AddEnum("color", &O::color,
-                   {{"own", ColorMode::kOwn}, {"distance", ColorMode::kDistance}, {"depth", ColorMode::kDepth}},
-                   "point colours: own, distance (signed, to the best fit drawn) or depth")
+                   {{"own", ColorMode::kOwn},
+                    {"distance", ColorMode::kDistance},
+                    {"depth", ColorMode::kDepth},
+                    {"field", ColorMode::kField}},
+                   "point colours: own, distance (signed, to the best fit drawn), depth, or field (option 'field')")
+          .Add("field", &O::field, "per-point field for color field, on a diverging map about 0 (e.g. cut_depth)")
           .AddCustom(
               "view", cloud::OptionType::kString, "front (the left camera's view), side, top, iso, a comma list, or all (tiled)",
               "",
@@ -93,7 +98,7 @@ const cloud::OptionTable<RenderOptions>& RenderOptions::Table() {
           .Add("point_size", &O::point_size, "point size", "px").Range(0.1, 50)
           .Add("wireframe", &O::wireframe, "draw fitted spheres as wireframes")
           .Add("sphere_opacity", &O::sphere_opacity, "opacity of translucent spheres").Range(0.01, 1)
-          .Add("distance_range", &O::distance_range_mm, "colour-map half range for color distance (0 = automatic)", "mm")
+          .Add("distance_range", &O::distance_range_mm, "colour-map half range for color distance or field (0 = automatic)", "mm")
           .Min(0)
           .AddCustom(
               "background", cloud::OptionType::kDoubleList, "background colour [r, g, b], each in [0, 1]", "",
@@ -186,6 +191,17 @@ CloudLayer MakeCloudLayer(const cloud::PointCloud& cloud, const std::vector<Sphe
   if (options.color == ColorMode::kDistance && !options.distance_sphere && spheres.empty()) {
     throw Error("color: 'distance' needs a fitted sphere; give --fits (or --truth)");
   }
+  const std::vector<float>* field = nullptr;
+  if (options.color == ColorMode::kField) {
+    const auto it = cloud.fields.find(options.field);
+    if (it == cloud.fields.end() || it->second.size() != cloud.size()) {
+      std::string names;
+      for (const auto& [name, values] : cloud.fields) names += (names.empty() ? "" : ", ") + name;
+      throw Error("color field: the cloud has no field '" + options.field + "'" +
+                  (names.empty() ? " (it has none)" : "; its fields: " + names));
+    }
+    field = &it->second;
+  }
   // Sphere for signed distances (unused unless colouring by distance).
   const fitting::Sphere ref = options.distance_sphere ? *options.distance_sphere
                               : spheres.empty()       ? fitting::Sphere{}
@@ -210,6 +226,10 @@ CloudLayer MakeCloudLayer(const cloud::PointCloud& cloud, const std::vector<Sphe
       const double d = (p.cast<double>() - ref.center_mm).norm() - ref.radius_mm;
       scalar->InsertNextValue(static_cast<float>(d));
       magnitudes.push_back(static_cast<float>(std::abs(d)));
+    } else if (field) {
+      const float v = (*field)[i];
+      scalar->InsertNextValue(v);
+      if (std::isfinite(v)) magnitudes.push_back(std::abs(v));
     } else {
       scalar->InsertNextValue(p.z());
     }
@@ -246,6 +266,20 @@ CloudLayer MakeCloudLayer(const cloud::PointCloud& cloud, const std::vector<Sphe
       layer.lut->AddRGBPoint(0.0, 0.87, 0.87, 0.87);
       layer.lut->AddRGBPoint(hi, 0.71, 0.02, 0.15);
       layer.bar_title = "signed distance (mm)";
+    } else if (field) {
+      double range = options.distance_range_mm;
+      if (range <= 0 && !magnitudes.empty()) {
+        const std::size_t k = magnitudes.size() * 99 / 100;
+        std::nth_element(magnitudes.begin(), magnitudes.begin() + std::ptrdiff_t(k), magnitudes.end());
+        range = double(magnitudes[k]);
+      }
+      range = std::max(range, 1e-6);
+      lo = -range, hi = range;
+      layer.lut->AddRGBPoint(lo, 0.23, 0.30, 0.75);
+      layer.lut->AddRGBPoint(0.0, 0.87, 0.87, 0.87);
+      layer.lut->AddRGBPoint(hi, 0.71, 0.02, 0.15);
+      layer.lut->SetNanColor(0.5, 0.5, 0.5);
+      layer.bar_title = options.field;
     } else {
       lo = bounds[4], hi = std::max(bounds[4] + 1, bounds[5]);
       const double pts[5][3] = {{0.27, 0.00, 0.33}, {0.23, 0.32, 0.55}, {0.13, 0.57, 0.55}, {0.37, 0.79, 0.38},

@@ -13,10 +13,10 @@
 
 namespace hedgefit::render {
 
-enum class ColorMode { kOwn, kDistance, kDepth };
+enum class ColorMode { kOwn, kDistance, kDepth, kField };
 enum class View { kFront, kSide, kTop, kIso };
 
-/// "own", "distance", "depth" / "front", "side", "top", "iso"; parsers throw hedgefit::Error.
+/// "own", "distance", "depth", "field" / "front", "side", "top", "iso"; parsers throw hedgefit::Error.
 ColorMode ParseColorMode(const std::string& name);
 View ParseView(const std::string& name);
 
@@ -34,6 +34,9 @@ struct RenderOptions {
   /// Sphere for ColorMode::kDistance (signed distance |p - c| - r); default: the first overlay.
   std::optional<fitting::Sphere> distance_sphere;
   double distance_range_mm = 0;        ///< colour-map half range, mm; 0 = 3 robust sigmas of |d|
+  /// Per-point field for ColorMode::kField (e.g. "cut_depth"), on a diverging map about 0 with
+  /// half range distance_range_mm (0 = the 99th percentile of |value|).
+  std::string field = "cut_depth";
   std::vector<View> views{View::kFront};  ///< several are tiled into one image
   std::array<double, 3> background{1, 1, 1};  ///< RGB in [0, 1]
   double point_size = 2.0;             ///< px

@@ -32,6 +32,8 @@ $H pipeline examples/garden_to_fit.json -q \
   --set readers.stereo.left=$G/garden_row_left.png --set readers.stereo.right=$G/garden_row_right.png \
   --set readers.stereo.rig=$G/rig.yaml --set "writers.pcd.filename=$G/row_#.pcd" \
   --set writers.overlay.filename=docs/garden_row_overlay.png
+# The trim plan of the middle ball (envelope 520 mm) against a 500 mm target.
+$H trim $G/row_2.pcd --radius 500 --method envelope --render docs/trim_row2.png > /dev/null
 # PCL's real outdoor pair (grey): the round shrub, segmented by depth inside a box.
 D=../shared/data/stereo_plants/pcl_outdoor_stereo_pair
 if [ -f $D/stereo_left.png ]; then
@@ -42,4 +44,4 @@ if [ -f $D/stereo_left.png ]; then
   $H render build/docs/shrub.pcd --fits build/docs/fits_shrub.json --view front,side --size 480x400 --wireframe \
     --point-size 4 -o docs/pcl_outdoor_shrub.png
 fi
-echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruction_z2300.png docs/garden_row_overlay.png docs/pcl_outdoor_shrub.png"
+echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruction_z2300.png docs/garden_row_overlay.png docs/trim_row2.png docs/pcl_outdoor_shrub.png"

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -90,6 +92,36 @@ TEST(Compare, BadArgumentsAreOneLine) {
   r = RunHedgefit("compare sample_clouds/cap_z2000_a60_o10.pcd --truth missing.json", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("missing.json: cannot open the truth file"), std::string::npos) << r.err;
+}
+
+// hedgefit trim on a sample cap of a 300 mm sphere (truth file beside it), target 280 mm about
+// the fitted centre: every point stands 20 mm proud, and all round the volume to remove is
+// 4 pi (300^3 - 280^3) / 3 = 21.1 L.
+TEST(Trim, SampleCapTwentyMillimetresProud) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  Result r = RunHedgefit("trim sample_clouds/cap_z2300_a60_o0.pcd --radius 280 --format json -o " +
+                             (dir / "trim.pcd").string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out)["hedges"];
+  ASSERT_EQ(j.size(), 1u);
+  // Depth noise is Z^2 sigma_d / (f b) = 4 mm per point (the generator's 0.1 px), so the median
+  // of 4000 points is within a few tenths, plus the fit's radius error (~0.5 mm).
+  EXPECT_NEAR(j[0]["cut_p50_mm"].get<double>(), 20.0, 1.5);
+  EXPECT_NEAR(j[0]["cut_share"].get<double>(), 1.0, 0.02);
+  const double all_round = 4 * M_PI * (std::pow(300.0, 3) - std::pow(280.0, 3)) / 3 * 1e-6;
+  EXPECT_NEAR(j[0]["volume_all_round_l"].get<double>(), all_round, 0.1 * all_round);
+  EXPECT_TRUE(fs::exists(dir / "trim.pcd"));
+  // Bad input: one line, exit 1, nothing written.
+  r = RunHedgefit("trim sample_clouds/cap_z2300_a60_o0.pcd --radius 280 --center 1,2", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err.rfind("hedgefit: --center", 0), 0u) << r.err;
+  r = RunHedgefit("trim sample_clouds/cap_z2300_a60_o0.pcd --radius -5", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = RunHedgefit("trim sample_clouds/cap_z2300_a60_o0.pcd --radius 280 --render " + (dir / "no" / "t.png").string(), dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
 }
 
 }  // namespace

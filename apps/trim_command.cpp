@@ -1,0 +1,141 @@
+// hedgefit trim CLOUD --radius R: the trim plan of each hedge in a cloud against a target
+// sphere: cut depth per point, share of the surface to cut, depth percentiles, volume.
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "apps/capture_flags.hpp"
+#include "apps/commands.hpp"
+#include "apps/parse.hpp"
+#include "cloud/cloud_io.hpp"
+#include "cloud/pipeline.hpp"
+#include "cloud/registry.hpp"
+#include "fitting/methods.hpp"
+#include "fitting/trim.hpp"
+#include "render/render.hpp"
+
+namespace hedgefit::apps {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+struct TrimArgs {
+  std::string cloud, center, method = "ransac_geometric", output, render, format = "table";
+  double radius = 0, tolerance = 5;
+  bool no_clean = false, print_pipeline = false;
+};
+
+json Stages(const TrimArgs& a, const std::vector<double>& center) {
+  json p = json::array({{{"filename", a.cloud}}});  // the reader chosen by extension
+  if (!a.no_clean) {
+    for (const auto& stage : DefaultCleaning()) p.push_back(json(stage));
+  }
+  if (center.empty()) p.push_back({{"type", fitting::FindFitMethod(a.method, "--method").stage}});
+  json trim = {{"type", "filters.trim_depth"}, {"radius", a.radius}, {"tolerance", a.tolerance}};
+  if (!center.empty()) trim["center"] = center;
+  p.push_back(trim);
+  if (!a.output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", a.output}, {"encoding", "binary_compressed"}});
+  return p;
+}
+
+json PlanJson(const fitting::TrimPlan& t) {
+  auto r3 = [](double v) { return std::round(v * 1000) / 1000; };
+  const auto& c = t.target.center_mm;
+  return {{"hedge", t.hedge_id ? t.hedge_id : 1},
+          {"target_center_mm", {r3(c.x()), r3(c.y()), r3(c.z())}},
+          {"target_radius_mm", t.target.radius_mm},
+          {"points", t.points},
+          {"points_to_cut", t.points_to_cut},
+          {"cut_share", r3(t.cut_share)},
+          {"cut_p50_mm", r3(t.cut_p50_mm)},
+          {"cut_p90_mm", r3(t.cut_p90_mm)},
+          {"cut_p99_mm", r3(t.cut_p99_mm)},
+          {"cut_max_mm", r3(t.cut_max_mm)},
+          {"seen_share", r3(t.seen_share)},
+          {"volume_seen_l", r3(t.volume_seen_l)},
+          {"volume_all_round_l", r3(t.volume_all_round_l)}};
+}
+
+}  // namespace
+
+void AddTrimCommand(CLI::App& app, CommandFn* run) {
+  auto* cmd = app.add_subcommand(
+      "trim", "Trim plan: how far each hedge sticks out past a target sphere, the share to cut and the volume to remove");
+  cmd->footer(
+      "Examples:\n"
+      "  hedgefit trim build/demo/sphere_2300.pcd --radius 280 --render build/trim.png -o build/trim.pcd\n"
+      "  hedgefit trim row_2.pcd --radius 480 --method envelope --format json\n"
+      "  hedgefit trim row_2.pcd --radius 480 --center 80,252,2557   # a given target, no fit\n"
+      "The target is a sphere of --radius about each hedge's fitted centre (--method), or about --center.\n"
+      "Cut depth = distance to the target's centre minus its radius: + sticks out (cut), - lies inside.\n"
+      "The volume counts what the camera saw (seen_share of the sphere); volume_all_round_l assumes the\n"
+      "unseen side sticks out as the seen side does.\n");
+  auto a = std::make_shared<TrimArgs>();
+  cmd->add_option("cloud", a->cloud, "cloud file (.pcd, .ply, .xyz); a hedge_id field gives one plan per hedge")->required();
+  cmd->add_option("--radius", a->radius, "target radius, mm")->required()->check(CLI::PositiveNumber);
+  cmd->add_option("--center", a->center, "target centre X,Y,Z in mm (default: each hedge's fitted centre)");
+  cmd->add_option("--method", a->method, "fit that centres the target (without --center)")->capture_default_str();
+  cmd->add_option("--tolerance", a->tolerance, "cut depths up to this count as on target, mm")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("-o,--output", a->output, "also write the cloud with a 'cut_depth' field (PCD)");
+  cmd->add_option("--render", a->render, "also render the cloud coloured by cut depth with the target drawn (PNG)");
+  cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
+  cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and statistical outlier filter before the fit");
+  cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
+  cmd->callback([=]() {
+    *run = [=]() {
+      PrepareRegistry(true);
+      std::vector<double> center;
+      if (!a->center.empty()) center = ParseNumbers(a->center, 3, "--center");
+      const json stages = Stages(*a, center);
+      if (a->print_pipeline) {
+        std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
+        return kExitOk;
+      }
+      if (!a->output.empty()) CheckOutputDirectory("-o", a->output);
+      if (!a->render.empty()) CheckOutputDirectory("--render", a->render);
+      cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "trim", cloud::Registry::Global());
+      cloud::Context ctx;
+      ctx.quiet = true;
+      p.Run(ctx);
+      const auto& plans = ctx.Get<std::vector<fitting::TrimPlan>>("trim_plans");
+      if (!a->render.empty()) {
+        render::RenderOptions ro;
+        ro.color = render::ColorMode::kField;
+        ro.field = "cut_depth";
+        ro.views = {render::View::kFront, render::View::kSide};
+        ro.wireframe = true;
+        std::vector<render::SphereOverlay> spheres;
+        for (const auto& t : plans) {
+          spheres.push_back({"target" + (t.hedge_id ? " hedge " + std::to_string(t.hedge_id) : std::string()), t.target, false});
+        }
+        render::RenderToPng(ctx.Get<cloud::PointCloud>("cloud"), spheres, ro, a->render);
+      }
+      if (a->format == "json") {
+        json out = {{"cloud", a->cloud}, {"hedges", json::array()}};
+        for (const auto& t : plans) out["hedges"].push_back(PlanJson(t));
+        std::printf("%s\n", out.dump(2).c_str());
+        return kExitOk;
+      }
+      std::printf("%-5s %-28s %7s %8s %6s %6s %6s %7s %6s %9s %10s\n", "hedge", "target centre (x, y, z) mm", "R mm",
+                  "cut %", "p50", "p90", "p99", "max mm", "seen %", "volume L", "all round");
+      for (const auto& t : plans) {
+        char centre[64];
+        std::snprintf(centre, sizeof(centre), "(%.0f, %.0f, %.0f)", t.target.center_mm.x(), t.target.center_mm.y(),
+                      t.target.center_mm.z());
+        std::printf("%-5d %-28s %7.1f %7.1f%% %6.1f %6.1f %6.1f %7.1f %5.1f%% %9.2f %10.2f\n", t.hedge_id ? t.hedge_id : 1,
+                    centre, t.target.radius_mm, 100 * t.cut_share, t.cut_p50_mm, t.cut_p90_mm, t.cut_p99_mm, t.cut_max_mm,
+                    100 * t.seen_share, t.volume_seen_l, t.volume_all_round_l);
+      }
+      return kExitOk;
+    };
+  });
+}
+
+}  // namespace hedgefit::apps
