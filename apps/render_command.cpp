@@ -90,7 +90,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("-o,--output", a->output, "PNG to write")->capture_default_str();
   // --size and --background are the command line's spellings of width/height and background.
   a->flags.Add(cmd, render::RenderOptions::Table().Specs(),
-               {"color", "view", "point_size", "wireframe", "sphere_opacity", "distance_range"});
+               {"color", "field", "view", "point_size", "wireframe", "sphere_opacity", "distance_range"});
   cmd->add_option("--size", a->size, "WxH of each view, px")->capture_default_str();
   cmd->add_option("--background", a->background, "R,G,B in 0..255")->capture_default_str();
   cmd->add_option("--methods", a->methods, "draw only these fits (comma-separated)")->delimiter(',');

@@ -112,6 +112,10 @@ TEST(Trim, SampleCapTwentyMillimetresProud) {
   const double all_round = 4 * M_PI * (std::pow(300.0, 3) - std::pow(280.0, 3)) / 3 * 1e-6;
   EXPECT_NEAR(j[0]["volume_all_round_l"].get<double>(), all_round, 0.1 * all_round);
   EXPECT_TRUE(fs::exists(dir / "trim.pcd"));
+  // The written cloud carries the field, and render colours by it (or names what it has).
+  r = RunHedgefit("render " + (dir / "trim.pcd").string() + " --color field --field nope -o " + (dir / "t.png").string(), dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("no field 'nope'; its fields: cut_depth"), std::string::npos) << r.err;
   // Bad input: one line, exit 1, nothing written.
   r = RunHedgefit("trim sample_clouds/cap_z2300_a60_o0.pcd --radius 280 --center 1,2", dir);
   EXPECT_EQ(r.code, 1);
