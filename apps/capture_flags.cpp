@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cloud/error.hpp"
+#include "cloud/pipeline.hpp"
 #include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
@@ -71,8 +72,7 @@ stereo::ConvertOptions CaptureFlags::Resolve(const cloud::Registry& registry) co
 }
 
 nlohmann::json DefaultCleaning() {
-  return nlohmann::json::array({{{"type", "filters.nonfinite"}},
-                                {{"type", "filters.statistical_outlier"}, {"mean_k", 30}, {"stddev_mul", 1.0}}});
+  return nlohmann::json::parse(cloud::DefaultCleaningJson());
 }
 
 void CheckCaptureImages(const std::string& left, const std::string& right) {

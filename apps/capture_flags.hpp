@@ -33,9 +33,7 @@ class CaptureFlags {
   StageFlags flags_;
 };
 
-/// The cleaning `compare`, `measure` and `trim` apply unless told otherwise, as pipeline stages:
-/// NaN removal, then a statistical outlier filter (30 neighbours, 1 sigma), which drops the
-/// stereo mismatches that float off the surface at a silhouette.
+/// cloud::DefaultCleaningJson() as JSON: the cleaning `compare` and `trim` apply by default.
 nlohmann::json DefaultCleaning();
 
 /// Checks the images of one capture before any work: each exists and OpenCV can read its

@@ -41,17 +41,6 @@ struct MeasureArgs {
   CaptureFlags capture;
 };
 
-// The capture stages, cleaning, one fit stage per method, and the overlay.
-json MeasurePipeline(const MeasureArgs& a, const stereo::ConvertOptions& o, const std::vector<std::string>& methods) {
-  json p = json::parse(stereo::CapturePipelineJson(o, a.left, a.right, a.rig));
-  if (!a.no_clean) {
-    for (const auto& stage : DefaultCleaning()) p.push_back(json(stage));  // as `compare` cleans
-  }
-  for (const std::string& name : methods) p.push_back({{"type", fitting::FindFitMethod(name, "--method").stage}});
-  if (!a.overlay.empty()) p.push_back({{"type", "writers.overlay"}, {"filename", a.overlay}});
-  return p;
-}
-
 }  // namespace
 
 void AddMeasureCommand(CLI::App& app, CommandFn* run) {
@@ -84,7 +73,10 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       const cloud::Registry& registry = cloud::Registry::Global();
       const stereo::ConvertOptions o = a->capture.Resolve(registry);
       const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--method");
-      const json stages = MeasurePipeline(*a, o, methods);
+      std::vector<std::string> fit_stages;
+      for (const std::string& name : methods) fit_stages.push_back(fitting::FindFitMethod(name, "--method").stage);
+      const json stages =
+          json::parse(stereo::MeasurePipelineJson(o, fit_stages, !a->no_clean, a->left, a->right, a->rig, a->overlay));
       if (a->print_pipeline) {
         std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
         return kExitOk;

@@ -116,6 +116,8 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         stereo::WriteBoardTruth((fs::path(a->out) / "board.truth.json").string(), b);
       }
       cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
+      // The exact rig as a rig file: one capture can be converted or measured without calibrating.
+      stereo::WriteRig((fs::path(a->out) / "rig.yaml").string(), stereo::RigFromSimulation(rig));
       std::printf("wrote a %dx%d pair to %s in %.2f s\n", rig.left.size.width, rig.left.size.height, a->out.c_str(),
                   seconds());
       return kExitOk;

@@ -51,6 +51,10 @@ struct Parsed {
 
 }  // namespace
 
+std::string DefaultCleaningJson() {
+  return R"([{"type": "filters.nonfinite"}, {"type": "filters.statistical_outlier", "mean_k": 30, "stddev_mul": 1.0}])";
+}
+
 std::map<std::string, std::string> LibraryVersions() {
   return {{"hedgefit", kVersion},
           {"pcl", PCL_VERSION_PRETTY},

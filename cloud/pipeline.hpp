@@ -57,6 +57,11 @@ class Pipeline {
   std::vector<PlannedStage> stages_;
 };
 
+/// The cleaning `compare`, `measure` and `trim` (and the Python module) apply unless told
+/// otherwise, as a JSON array of stages: NaN removal, then a statistical outlier filter (30
+/// neighbours, 1 sigma), which drops the stereo mismatches floating off a silhouette.
+std::string DefaultCleaningJson();
+
 /// Versions of hedgefit and the libraries it was built with, as "name": "version".
 std::map<std::string, std::string> LibraryVersions();
 

@@ -10,6 +10,7 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libfmt-dev libtbb-dev libnanoflann-dev
   xvfb xauth
   clang libclang-rt-14-dev
+  pybind11-dev python3-dev python3-numpy
 )
 
 missing=()

@@ -169,6 +169,19 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
   return p.dump(2);
 }
 
+std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector<std::string>& fit_stages, bool clean,
+                                const std::string& left, const std::string& right, const std::string& rig,
+                                const std::string& overlay) {
+  using nlohmann::json;
+  json p = json::parse(CapturePipelineJson(options, left, right, rig));
+  if (clean) {
+    for (const auto& stage : json::parse(cloud::DefaultCleaningJson())) p.push_back(stage);
+  }
+  for (const std::string& type : fit_stages) p.push_back({{"type", type}});
+  if (!overlay.empty()) p.push_back({{"type", "writers.overlay"}, {"filename", overlay}});
+  return p.dump(2);
+}
+
 ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig,
                              const ConvertOptions& options) {
   options.Check();

@@ -91,6 +91,13 @@ std::string CapturePipelineJson(const ConvertOptions& options, const std::string
                                 const std::string& right = "", const std::string& rig = "",
                                 const std::string& output = "");
 
+/// `hedgefit measure`'s pipeline: the capture stages (without a writer), the default cleaning
+/// when `clean` (cloud::DefaultCleaningJson), one stage per entry of `fit_stages` (e.g.
+/// "fitters.ransac_geometric"), and writers.overlay when `overlay` is not empty.
+std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector<std::string>& fit_stages, bool clean,
+                                const std::string& left = "", const std::string& right = "",
+                                const std::string& rig = "", const std::string& overlay = "");
+
 struct ConvertResult {
   cloud::PointCloud cloud;
   cv::Mat left_rect, right_rect, mask, disparity;  ///< for debug images

@@ -1,0 +1,278 @@
+// The Python module `hedgefit` (pybind11): clouds as numpy arrays, every fitter, `measure` on
+// a pair of numpy images with a rig file, the trim plan, and JSON pipelines. It wraps the same
+// library code as the `hedgefit` command; errors raise hedgefit.Error (a ValueError) with the
+// command's one-line message.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "cloud/cloud_io.hpp"
+#include "cloud/error.hpp"
+#include "cloud/pipeline.hpp"
+#include "cloud/registry.hpp"
+#include "cloud/version.hpp"
+#include "fitting/evaluation.hpp"
+#include "fitting/fitting_stages.hpp"
+#include "fitting/methods.hpp"
+#include "fitting/trim.hpp"
+#include "render/render_stages.hpp"
+#include "stereo/capture.hpp"
+#include "stereo/rig.hpp"
+#include "stereo/stereo_stages.hpp"
+
+namespace py = pybind11;
+using namespace hedgefit;
+
+namespace {
+
+const cloud::Registry& Stages() {
+  static cloud::Registry& registry = [] () -> cloud::Registry& {
+    cloud::Registry& r = cloud::Registry::Global();
+    fitting::RegisterFittingStages(r);
+    render::RegisterRenderStages(r);
+    stereo::RegisterStereoStages(r);
+    return r;
+  }();
+  return registry;
+}
+
+py::object ToPython(const cloud::OptionValue& v) {
+  return std::visit([](const auto& x) -> py::object { return py::cast(x); }, v);
+}
+
+cloud::OptionValue FromPython(const std::string& name, const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) return v.cast<bool>();
+  if (py::isinstance<py::int_>(v)) return v.cast<std::int64_t>();
+  if (py::isinstance<py::float_>(v)) return v.cast<double>();
+  if (py::isinstance<py::str>(v)) return v.cast<std::string>();
+  if (py::isinstance<py::sequence>(v) || py::isinstance<py::array>(v)) return v.cast<std::vector<double>>();
+  throw Error("option '" + name + "': give a bool, a number, a string or a list of numbers");
+}
+
+py::dict FitDict(const fitting::SphereFitResult& f) {
+  py::dict d;
+  d["hedge"] = f.hedge_id ? f.hedge_id : 1;
+  for (const auto& [key, value] : fitting::FitFields(f)) {
+    if (key != "hedge_id") d[py::str(key)] = ToPython(value);
+  }
+  return d;
+}
+
+// (N, 3) points in mm from any numeric array.
+std::vector<Eigen::Vector3d> Points(const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz) {
+  if (xyz.ndim() != 2 || xyz.shape(1) != 3) throw Error("xyz: give an (N, 3) array of points in mm");
+  std::vector<Eigen::Vector3d> pts(static_cast<std::size_t>(xyz.shape(0)));
+  const double* p = xyz.data();
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+  return pts;
+}
+
+py::dict CloudDict(const cloud::PointCloud& c) {
+  py::dict d;
+  py::array_t<float> xyz({static_cast<py::ssize_t>(c.size()), py::ssize_t(3)});
+  for (std::size_t i = 0; i < c.size(); ++i) std::memcpy(xyz.mutable_data(py::ssize_t(i), 0), c.points_mm[i].data(), 12);
+  d["xyz"] = xyz;
+  if (c.HasColor()) {
+    py::array_t<std::uint8_t> rgb({static_cast<py::ssize_t>(c.size()), py::ssize_t(3)});
+    for (std::size_t i = 0; i < c.size(); ++i) std::memcpy(rgb.mutable_data(py::ssize_t(i), 0), c.colors[i].data(), 3);
+    d["rgb"] = rgb;
+  }
+  for (const auto& [name, values] : c.fields) {
+    if (!values.empty()) d[py::str(name)] = py::array_t<float>(py::ssize_t(values.size()), values.data());
+  }
+  return d;
+}
+
+cloud::PointCloud CloudFrom(const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const py::object& rgb,
+                            const py::dict& fields) {
+  cloud::PointCloud c;
+  for (const auto& p : Points(xyz)) c.points_mm.push_back(p.cast<float>());
+  if (!rgb.is_none()) {
+    const auto a = rgb.cast<py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>>();
+    if (a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != c.size()) {
+      throw Error("rgb: give an (N, 3) uint8 array, one colour per point");
+    }
+    c.colors.resize(c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) std::memcpy(c.colors[i].data(), a.data(py::ssize_t(i), 0), 3);
+  }
+  for (const auto& [key, value] : fields) {
+    const auto a = value.cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+    const std::string name = key.cast<std::string>();
+    if (a.ndim() != 1 || std::size_t(a.shape(0)) != c.size()) throw Error("field '" + name + "': give one value per point");
+    c.fields[name] = std::vector<float>(a.data(), a.data() + a.shape(0));
+  }
+  c.Flatten();
+  return c;
+}
+
+cv::Mat ImageFrom(const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& a, const char* what) {
+  if (!(a.ndim() == 2 || (a.ndim() == 3 && a.shape(2) == 3))) {
+    throw Error(std::string(what) + ": give an (H, W, 3) BGR or (H, W) grey uint8 array");
+  }
+  const cv::Mat view(int(a.shape(0)), int(a.shape(1)), a.ndim() == 3 ? CV_8UC3 : CV_8UC1,
+                     const_cast<std::uint8_t*>(a.data()));
+  return view.clone();
+}
+
+// Runs a pipeline on a context; returns its fits, its cloud and its metadata.
+py::dict RunAndCollect(cloud::Pipeline& p, cloud::Context& ctx) {
+  cloud::RunReport report;
+  {
+    py::gil_scoped_release release;
+    report = p.Run(ctx);
+  }
+  py::dict out;
+  py::list fits;
+  if (const auto* f = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
+    for (const auto& r : *f) fits.append(FitDict(r));
+  }
+  out["fits"] = fits;
+  if (const auto* c = ctx.Find<cloud::PointCloud>("cloud")) out["cloud"] = CloudDict(*c);
+  out["metadata"] = py::module_::import("json").attr("loads")(p.MetadataJson(report, ctx));
+  return out;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(hedgefit, m) {
+  m.doc() = "hedgefit: measure spherical hedges from a binocular camera (clouds as numpy arrays, sphere fits, "
+            "stereo measurement, trim plans, JSON pipelines)";
+  m.attr("__version__") = kVersion;
+  static py::exception<Error> error(m, "Error", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      error(e.what());
+    }
+  });
+
+  m.def("read_cloud", [](const std::string& path) { return CloudDict(cloud::ReadCloud(path)); }, py::arg("path"),
+        "Reads a PCD, PLY or XYZ file: a dict with 'xyz' ((N, 3) float32, mm), 'rgb' ((N, 3) uint8) when the file "
+        "has colour, and one (N,) float32 array per extra field (e.g. 'hedge_id', 'cut_depth').");
+  m.def(
+      "write_cloud",
+      [](const std::string& path, const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz,
+         const py::object& rgb, const py::dict& fields) { cloud::WriteCloud(path, CloudFrom(xyz, rgb, fields)); },
+      py::arg("path"), py::arg("xyz"), py::arg("rgb") = py::none(), py::arg("fields") = py::dict(),
+      "Writes points ((N, 3), mm), optional colours ((N, 3) uint8) and fields ({name: (N,)}) to PCD, PLY or XYZ by "
+      "extension, atomically.");
+  m.def("methods", &fitting::FitMethodNames, "The fit methods, e.g. 'kasa', 'ransac_geometric', 'envelope'.");
+  m.def(
+      "fit",
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::string& method,
+         std::uint64_t seed, const py::kwargs& options) {
+        std::map<std::string, cloud::OptionValue> given;
+        const fitting::FitMethod& fm = fitting::FindFitMethod(method, "method");
+        for (const auto& [key, value] : options) {
+          const std::string name = key.cast<std::string>();
+          const bool declared = std::any_of(fm.options.begin(), fm.options.end(), [&](const auto& s) { return s.name == name; });
+          if (!declared) throw Error("fit(method='" + method + "'): unknown option '" + name + "'; see `hedgefit plugins`");
+          given[name] = FromPython(name, value);
+        }
+        const std::vector<Eigen::Vector3d> pts = Points(xyz);
+        fitting::SphereFitResult r;
+        {
+          py::gil_scoped_release release;
+          r = fitting::RunFitMethod(method, pts, given, seed);
+        }
+        return FitDict(r);
+      },
+      py::arg("xyz"), py::arg("method") = "ransac_geometric", py::arg("seed") = 42,
+      "Fits a sphere to (N, 3) points in mm with any method of hedgefit.methods(); keyword arguments are the "
+      "method's options (as in a pipeline). Returns a dict: converged, center_mm, radius_mm, rms_mm, std_error_mm, "
+      "inliers, ...");
+  m.def("read_image",
+        [](const std::string& path) {
+          const cv::Mat img = stereo::ReadCaptureImage(path, 1 /* cv::IMREAD_COLOR */);
+          py::array_t<std::uint8_t> a({py::ssize_t(img.rows), py::ssize_t(img.cols), py::ssize_t(3)});
+          for (int y = 0; y < img.rows; ++y) std::memcpy(a.mutable_data(y, 0, 0), img.ptr(y), std::size_t(img.cols) * 3);
+          return a;
+        },
+        py::arg("path"), "Reads a capture image (PNG, JPEG, TIFF, BMP, PNM) as an (H, W, 3) uint8 BGR array.");
+  m.def(
+      "measure",
+      [](const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& left,
+         const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& right, const std::string& rig_path,
+         const std::string& method, bool garden, bool clean, const py::kwargs& options) {
+        const cloud::Registry& registry = Stages();
+        stereo::ConvertOptions o;
+        if (garden) o.mode = stereo::SegmentMode::kGarden;
+        nlohmann::json stages = nlohmann::json::parse(
+            stereo::MeasurePipelineJson(o, {fitting::FindFitMethod(method, "method").stage}, clean));
+        // Each keyword sets that option in every capture stage that declares it (as a
+        // `hedgefit measure` flag does); one no stage declares is an error.
+        for (const auto& [key, value] : options) {
+          const std::string name = key.cast<std::string>();
+          bool used = false;
+          for (auto& s : stages) {
+            if (s["type"].get<std::string>().rfind("stereo.", 0) != 0) continue;  // capture stages only
+            const auto& info = registry.Get(s["type"].get<std::string>(), "").info;
+            if (info.FindOption(name) == nullptr) continue;
+            s[name] = std::visit([](const auto& x) { return nlohmann::json(x); }, FromPython(name, value));
+            used = true;
+          }
+          if (!used) throw Error("measure: no capture stage has an option '" + name + "'; see `hedgefit measure --help`");
+        }
+        cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "measure", registry, {},
+                                                      {"left_image", "right_image", "rig"});
+        cloud::Context ctx;
+        ctx.quiet = true;
+        stereo::PutCapture(ImageFrom(left, "left"), ImageFrom(right, "right"), stereo::ReadRig(rig_path), &ctx);
+        py::dict run = RunAndCollect(p, ctx);
+        return py::list(run["fits"]);
+      },
+      py::arg("left"), py::arg("right"), py::arg("rig"), py::arg("method") = "ransac_geometric",
+      py::arg("garden") = false, py::arg("clean") = true,
+      "Measures every hedge of a stereo pair: left and right as (H, W, 3) uint8 BGR arrays (hedgefit.read_image), "
+      "the rig file from `hedgefit calibrate`. Runs what `hedgefit measure` runs; keyword arguments set capture "
+      "options (min_z=1500, max_z=3500, erode=3, ...). Returns one dict per hedge (hedge, center_mm, radius_mm, "
+      "std_error_mm, inliers, rms_mm, wall_ms, ...).");
+  m.def(
+      "trim",
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::vector<double>& center,
+         double radius, double tolerance) {
+        if (center.size() != 3) throw Error("trim: center: give [x, y, z] in mm");
+        fitting::TrimOptions to;
+        to.tolerance_mm = tolerance;
+        const fitting::TrimPlan t =
+            fitting::PlanTrim(Points(xyz), fitting::Sphere{Eigen::Vector3d(center[0], center[1], center[2]), radius}, to);
+        py::dict d;
+        d["cut_depth"] = py::array_t<float>(py::ssize_t(t.depth_mm.size()), t.depth_mm.data());
+        d["points_to_cut"] = t.points_to_cut;
+        d["cut_share"] = t.cut_share;
+        d["cut_p50_mm"] = t.cut_p50_mm;
+        d["cut_p90_mm"] = t.cut_p90_mm;
+        d["cut_p99_mm"] = t.cut_p99_mm;
+        d["cut_max_mm"] = t.cut_max_mm;
+        d["seen_share"] = t.seen_share;
+        d["volume_seen_l"] = t.volume_seen_l;
+        d["volume_all_round_l"] = t.volume_all_round_l;
+        return d;
+      },
+      py::arg("xyz"), py::arg("center"), py::arg("radius"), py::arg("tolerance") = 5.0,
+      "The trim plan of (N, 3) points against a target sphere: per-point cut depth (mm, + = cut), share to cut, "
+      "depth percentiles, volume to remove (litres), as `hedgefit trim`.");
+  m.def(
+      "run_pipeline",
+      [](const std::string& pipeline, std::uint64_t seed) {
+        const bool text = pipeline.find_first_of("[{") != std::string::npos;
+        cloud::Pipeline p = text ? cloud::Pipeline::FromJson(pipeline, "pipeline", Stages())
+                                 : cloud::Pipeline::FromFile(pipeline, Stages());
+        cloud::Context ctx;
+        ctx.quiet = true;
+        ctx.seed = seed;
+        return RunAndCollect(p, ctx);
+      },
+      py::arg("pipeline"), py::arg("seed") = 42,
+      "Runs a JSON pipeline (its text, or a file name) as `hedgefit pipeline` does; returns a dict with 'fits' (one "
+      "dict per fit), 'cloud' (the final cloud, as read_cloud gives it) and 'metadata'.");
+}
