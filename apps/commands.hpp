@@ -30,6 +30,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run);
 void AddConvertCommand(CLI::App& app, CommandFn* run);
 void AddMeasureCommand(CLI::App& app, CommandFn* run);
 void AddTrimCommand(CLI::App& app, CommandFn* run);
+void AddStreamCommand(CLI::App& app, CommandFn* run);
 void AddBenchCommand(CLI::App& app, CommandFn* run);
 
 /// The global registry with every built-in stage and the plugins on the search path.

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   AddConvertCommand(app, &run);
   AddMeasureCommand(app, &run);
   AddTrimCommand(app, &run);
+  AddStreamCommand(app, &run);
   AddBenchCommand(app, &run);
   try {
     app.parse(argc, argv);

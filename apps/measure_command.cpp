@@ -3,7 +3,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -11,29 +10,17 @@
 
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "apps/measure_lines.hpp"
 #include "cloud/pipeline.hpp"
 #include "cloud/registry.hpp"
-#include "fitting/evaluation.hpp"
 #include "fitting/methods.hpp"
 #include "stereo/capture.hpp"
-#include "stereo/garden.hpp"
 
 namespace hedgefit::apps {
 
 namespace {
 
 using json = nlohmann::ordered_json;  // keys in the order written: hedge first
-
-// Millimetres and milliseconds to the micrometre / microsecond: more digits are noise.
-json Rounded(const json& v) {
-  if (v.is_number_float()) return std::round(v.get<double>() * 1000) / 1000;
-  if (v.is_array()) {
-    json out = json::array();
-    for (const auto& x : v) out.push_back(Rounded(x));
-    return out;
-  }
-  return v;
-}
 
 struct MeasureArgs {
   std::string left, right, rig, overlay, methods = "ransac_geometric";
@@ -93,28 +80,10 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       } catch (const Error& e) {
         throw ProcessingError(a->left + ": " + e.what());
       }
-      const auto* hedges = ctx.Find<std::vector<stereo::HedgeRegion>>("hedges");
-      int converged = 0;
-      std::string failure;
-      for (const auto& f : ctx.Get<std::vector<fitting::SphereFitResult>>("fits")) {
-        json j;
-        j["hedge"] = f.hedge_id ? f.hedge_id : 1;
-        for (const auto& [key, value] : fitting::FitFields(f)) {
-          if (key != "hedge_id") j[key] = Rounded(std::visit([](const auto& v) { return json(v); }, value));
-        }
-        if (hedges) {
-          for (const auto& h : *hedges) {
-            if (h.id == f.hedge_id) j["image_box"] = {h.image_box.x, h.image_box.y, h.image_box.width, h.image_box.height};
-          }
-        }
-        j["capture_ms"] = Rounded(report.total_ms);
-        std::printf("%s\n", a->pretty ? j.dump(2).c_str() : j.dump().c_str());
-        if (f.converged) {
-          ++converged;
-        } else if (failure.empty()) {
-          failure = "hedge " + std::to_string(j["hedge"].get<int>()) + ", " + f.method + ": " + f.message;
-        }
-      }
+      const MeasureLines m = CollectMeasureLines(ctx, report);
+      for (const auto& j : m.lines) std::printf("%s\n", a->pretty ? j.dump(2).c_str() : j.dump().c_str());
+      const int converged = m.converged;
+      const std::string failure = m.first_failure;
       std::fflush(stdout);
       if (converged == 0) throw ProcessingError(a->left + ": no fit converged (" + failure + ")");
       if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());

@@ -1,0 +1,26 @@
+#pragma once
+// The JSON objects `measure` and `stream` print, one per hedge and fit of a capture pipeline's
+// run: the hedge id, the fit's fields (as `compare --format json`), the hedge's image box when
+// the garden segmentation found it, and the capture's time. Keys keep this order.
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+#include "cloud/pipeline.hpp"
+
+namespace hedgefit::apps {
+
+struct MeasureLines {
+  std::vector<nlohmann::ordered_json> lines;  ///< one per fit, in the pipeline's order
+  int converged = 0;
+  std::string first_failure;  ///< "hedge N, METHOD: why" of the first fit that did not converge
+};
+
+/// Millimetres and milliseconds to the micrometre / microsecond (more digits are noise).
+nlohmann::ordered_json Rounded(const nlohmann::ordered_json& value);
+
+MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& report);
+
+}  // namespace hedgefit::apps
