@@ -13,7 +13,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   cmd->footer(
       "Examples:\n"
       "  hedgefit bench lab                        # renders into build/lab-bench, about a minute\n"
-      "  hedgefit bench lab --reuse --json lab.json\n");
+      "  hedgefit bench lab --reuse --json lab.json\n"
+      "  hedgefit bench lab --renderer povray --camera real --dir build/lab-povray   # POV-Ray, ~20 minutes\n");
   struct Args {
     bench::LabOptions lab;
     std::string json;
@@ -37,6 +38,15 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   cmd->add_flag("--true-rig", a->lab.true_rig,
                 "use the simulator's exact rig instead of calibrating from the boards (separates calibration "
                 "error from matching error)");
+  cmd->add_option("--renderer", a->lab.renderer,
+                  "hedgefit (its own simulator) or povray (an independent ray tracer: its own camera, textures, "
+                  "lights, anti-aliasing)")
+      ->check(CLI::IsMember({"hedgefit", "povray"}))
+      ->capture_default_str();
+  cmd->add_option("--camera", a->lab.camera,
+                  "ideal (as rendered) or real (gains, white balance, vignetting, Bayer, shot and read noise per camera)")
+      ->check(CLI::IsMember({"ideal", "real"}))
+      ->capture_default_str();
   cmd->add_option("--json", a->json, "also write the table as JSON here");
   cmd->callback([=]() {
     *run = [=]() {

@@ -9,6 +9,8 @@
 
 #include "fitting/methods.hpp"
 #include "stereo/calibration.hpp"
+#include "stereo/camera_model.hpp"
+#include "stereo/povray.hpp"
 #include "stereo/simulator.hpp"
 
 namespace hedgefit::bench {
@@ -26,11 +28,26 @@ const std::map<std::string, cloud::OptionValue> kLabFitOptions = {
 LabResult RunLab(const LabOptions& a) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
+  if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
+  if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
+  const stereo::CameraModel camera = a.camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal();
   if (!(a.reuse && fs::exists(fs::path(a.dir) / "sphere_2600_right.png"))) {
-    stereo::RenderOptions ro;
-    ro.supersample = 3;
-    ro.blur_sigma_px = 0.5;
-    stereo::WritePaperLab(a.dir, a.scale, ro);
+    if (a.renderer == "povray") {
+      stereo::WritePovrayLab(a.dir, a.scale, camera);
+    } else {
+      stereo::RenderOptions ro;
+      ro.supersample = 3;
+      ro.blur_sigma_px = 0.5;
+      const auto files = stereo::WritePaperLab(a.dir, a.scale, ro);
+      if (a.camera == "real") {
+        std::uint64_t view = 0;
+        for (const auto& f : files) {
+          if (f.size() < 4 || f.compare(f.size() - 4, 4, ".png") != 0) continue;
+          const bool right = f.find("_right.png") != std::string::npos;
+          cv::imwrite(f, stereo::ApplyCameraModel(cv::imread(f), camera, right, 1 + view++ / 2));
+        }
+      }
+    }
   }
   std::vector<std::pair<std::string, std::string>> boards;
   for (int i = 1; i <= 16; ++i) {
@@ -45,7 +62,7 @@ LabResult RunLab(const LabOptions& a) {
   co.alpha = a.alpha;
   cv::Size size;
   const stereo::StereoRig rig =
-      a.true_rig ? stereo::RigFromSimulation(stereo::PaperRig(a.scale))
+      a.true_rig ? stereo::RigFromSimulation(a.renderer == "povray" ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale))
                  : stereo::CalibrateFromCorners(stereo::DetectBoards(boards, co.board, &size), size, co);
   LabResult out;
   out.rms_stereo_px = rig.rms_stereo_px;

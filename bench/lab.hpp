@@ -18,6 +18,11 @@ struct LabOptions {
   double alpha;                         ///< rectification scaling; set from CalibrationOptions
   bool reuse = false;                   ///< reuse captures already in `dir`
   bool true_rig = false;                ///< the simulator's exact rig instead of calibrating
+  /// "hedgefit" (its own simulator) or "povray" (an independent ray tracer, stereo/povray.hpp).
+  std::string renderer = "hedgefit";
+  /// "ideal" (as rendered) or "real": every image through stereo::CameraModel's defaults
+  /// (gains, white balance, vignetting, Bayer, shot and read noise, independent per camera).
+  std::string camera = "ideal";
   stereo::ConvertOptions convert;       ///< the capture path's options
   LabOptions();
 };

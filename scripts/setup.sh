@@ -11,6 +11,7 @@ PACKAGES=(
   xvfb xauth
   clang libclang-rt-14-dev
   pybind11-dev python3-dev python3-numpy
+  povray
 )
 
 missing=()

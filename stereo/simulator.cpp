@@ -640,6 +640,36 @@ void WriteBoardTruth(const std::string& path, const BoardScene& b) {
   cloud::WriteTextFileAtomic(path, j.dump() + "\n");
 }
 
+std::vector<BoardScene> PaperLabBoards() {
+  // 16 board poses: 1.0-1.6 m away, tilted up to 30 degrees, spread over the view.
+  std::vector<BoardScene> out;
+  for (int i = 0; i < 16; ++i) {
+    BoardScene b;
+    const double tilt_x = (std::vector<double>{-25, -10, 10, 25})[std::size_t(i % 4)] * kPi / 180;
+    const double tilt_y = (std::vector<double>{-30, -12, 12, 30})[std::size_t((i / 4) % 4)] * kPi / 180;
+    const double roll = (i % 3 - 1) * 8 * kPi / 180;
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Matx31d(tilt_x, tilt_y, roll), R);
+    b.rotation = R;
+    const double z = 1000 + 150 * ((i * 7) % 5);
+    const cv::Vec3d centre_world((i % 4 - 1.5) * 0.18 * z + 70, ((i / 4) % 4 - 1.5) * 0.13 * z, z);
+    const cv::Vec3d centre_board((b.squares.width - 2) * b.square_mm / 2, (b.squares.height - 2) * b.square_mm / 2, 0);
+    b.translation = centre_world - R * centre_board;
+    out.push_back(b);
+  }
+  return out;
+}
+
+std::vector<SphereScene> PaperLabSpheres() {
+  std::vector<SphereScene> out;
+  for (int z = 2000; z <= 2600; z += 100) {
+    SphereScene sc;
+    sc.center = cv::Vec3d(70, 50, z);  // between the cameras, slightly below the optical axis
+    out.push_back(sc);
+  }
+  return out;
+}
+
 std::vector<std::string> WritePaperLab(const std::string& dir, double scale, const RenderOptions& options) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -656,30 +686,17 @@ std::vector<std::string> WritePaperLab(const std::string& dir, double scale, con
   };
   cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
   written.push_back((fs::path(dir) / "rig_truth.json").string());
-  // 16 board poses: 1.0-1.6 m away, tilted up to 30 degrees, spread over the view.
-  for (int i = 0; i < 16; ++i) {
-    BoardScene b;
-    const double tilt_x = (std::vector<double>{-25, -10, 10, 25})[std::size_t(i % 4)] * kPi / 180;
-    const double tilt_y = (std::vector<double>{-30, -12, 12, 30})[std::size_t((i / 4) % 4)] * kPi / 180;
-    const double roll = (i % 3 - 1) * 8 * kPi / 180;
-    cv::Matx33d R;
-    cv::Rodrigues(cv::Matx31d(tilt_x, tilt_y, roll), R);
-    b.rotation = R;
-    const double z = 1000 + 150 * ((i * 7) % 5);
-    const cv::Vec3d centre_world((i % 4 - 1.5) * 0.18 * z + 70, ((i / 4) % 4 - 1.5) * 0.13 * z, z);
-    const cv::Vec3d centre_board((b.squares.width - 2) * b.square_mm / 2, (b.squares.height - 2) * b.square_mm / 2, 0);
-    b.translation = centre_world - R * centre_board;
+  const std::vector<BoardScene> boards = PaperLabBoards();
+  for (std::size_t i = 0; i < boards.size(); ++i) {
     char name[64];
-    std::snprintf(name, sizeof(name), "board_%02d", i + 1);
-    save(std::string(name) + "_left.png", RenderBoard(rig, false, b, options));
-    save(std::string(name) + "_right.png", RenderBoard(rig, true, b, options));
-    WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), b);
+    std::snprintf(name, sizeof(name), "board_%02zu", i + 1);
+    save(std::string(name) + "_left.png", RenderBoard(rig, false, boards[i], options));
+    save(std::string(name) + "_right.png", RenderBoard(rig, true, boards[i], options));
+    WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), boards[i]);
   }
-  for (int z = 2000; z <= 2600; z += 100) {
-    SphereScene sc;
-    sc.center = cv::Vec3d(70, 50, z);  // between the cameras, slightly below the optical axis
+  for (const SphereScene& sc : PaperLabSpheres()) {
     char name[64];
-    std::snprintf(name, sizeof(name), "sphere_%04d", z);
+    std::snprintf(name, sizeof(name), "sphere_%04d", static_cast<int>(std::lround(sc.center[2])));
     save(std::string(name) + "_left.png", RenderSphere(rig, false, sc, options));
     save(std::string(name) + "_right.png", RenderSphere(rig, true, sc, options));
     WriteSphereTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), sc);

@@ -121,6 +121,12 @@ void WriteSphereTruth(const std::string& path, const SphereScene& scene);
 /// Rodrigues vector) and translation (mm).
 void WriteBoardTruth(const std::string& path, const BoardScene& board);
 
+/// The paper's lab scenes: 16 board poses (1.0-1.6 m away, tilted up to 30 degrees, spread
+/// over the view) and a r = 300 mm sphere at Z = 2000, 2100, ... 2600 mm. Every renderer of
+/// the lab (WritePaperLab, WritePovrayLab) draws these.
+std::vector<BoardScene> PaperLabBoards();
+std::vector<SphereScene> PaperLabSpheres();
+
 /// Writes the paper's laboratory test into `dir`: 16 board pairs (board_NN_left/right.png)
 /// and the r = 300 mm sphere at Z = 2000, 2100, ..., 2600 mm (sphere_ZZZZ_left/right.png),
 /// each with a truth JSON, plus rig_truth.json. Returns the files written.

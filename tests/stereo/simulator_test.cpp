@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "stereo/calibration.hpp"
+#include "stereo/camera_model.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
@@ -114,6 +115,39 @@ TEST(Simulator, PairOfColourImagesHasTheRigsSize) {
   EXPECT_EQ(img.cols, 480);
   EXPECT_EQ(img.rows, 300);
   EXPECT_EQ(img.type(), CV_8UC3);
+}
+
+// The camera model: Ideal() changes nothing; the Bayer mosaic and OpenCV's demosaicing give a
+// flat colour back (a swapped pattern would swap red and blue); the noise has the variance
+// asked for and is independent between the cameras; vignetting darkens the corners by the
+// factor asked for.
+TEST(CameraModel, IdealBayerNoiseAndVignetting) {
+  const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(50, 120, 200));  // B, G, R
+  EXPECT_EQ(cv::norm(ApplyCameraModel(flat, CameraModel::Ideal(), false, 1), flat, cv::NORM_INF), 0.0);
+  CameraModel bayer = CameraModel::Ideal();
+  bayer.bayer = true;
+  const cv::Mat demosaiced = ApplyCameraModel(flat, bayer, false, 1);
+  const cv::Scalar inner = cv::mean(demosaiced(cv::Rect(4, 4, 312, 232)));
+  EXPECT_NEAR(inner[0], 50, 1.0);
+  EXPECT_NEAR(inner[1], 120, 1.0);
+  EXPECT_NEAR(inner[2], 200, 1.0);
+  CameraModel noisy = CameraModel::Ideal();
+  noisy.read_noise = 2.0;
+  const cv::Mat grey(240, 320, CV_8UC3, cv::Scalar(100, 100, 100));
+  cv::Mat l, r;
+  ApplyCameraModel(grey, noisy, false, 3).convertTo(l, CV_64FC3, 1, -100);
+  ApplyCameraModel(grey, noisy, true, 3).convertTo(r, CV_64FC3, 1, -100);
+  // 230400 samples: the sample sd of N(0, 2) rounded to integers (sd sqrt(4 + 1/12) = 2.02)
+  // is within 1 % of that; the correlation of independent fields is within ~0.01 of zero.
+  cv::Scalar mean_l, sd_l;
+  cv::meanStdDev(l.reshape(1), mean_l, sd_l);
+  EXPECT_NEAR(sd_l[0], std::sqrt(4 + 1.0 / 12), 0.03);
+  EXPECT_NEAR(l.dot(r) / (l.total() * 3) / (sd_l[0] * sd_l[0]), 0.0, 0.01);
+  CameraModel vignette = CameraModel::Ideal();
+  vignette.vignetting = 0.25;
+  const cv::Mat v = ApplyCameraModel(grey, vignette, false, 1);
+  EXPECT_NEAR(v.at<cv::Vec3b>(0, 0)[1], 75, 1);       // the corner: 1 - 0.25
+  EXPECT_NEAR(v.at<cv::Vec3b>(120, 160)[1], 100, 1);  // the centre
 }
 
 }  // namespace

@@ -1,0 +1,42 @@
+#pragma once
+/// The paper's lab rendered by an independent ray tracer, POV-Ray (Debian package `povray`),
+/// so hedgefit's accuracy is not judged only on the renderer it was tuned on. The scenes are
+/// the same (PaperLabBoards, PaperLabSpheres) but everything else is POV-Ray's own: its
+/// camera, its adaptive anti-aliasing, its solid textures (granite foliage, a soil ground, a
+/// brick wall), an area light with soft shadows and a fill light, so the boards are not evenly
+/// lit. The images then go through a CameraModel (noise, gains, vignetting, Bayer).
+
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+#include "stereo/camera_model.hpp"
+#include "stereo/simulator.hpp"
+
+namespace hedgefit::stereo {
+
+/// The POV-Ray rig: the paper's geometry (f = 933.3 px, the same R and T) with pinhole
+/// cameras (POV-Ray has no lens distortion) whose principal points are offset by whole pixels
+/// (rendered on a larger canvas and cropped). `scale` shrinks it like PaperRig.
+SimRig PovrayRig(double scale = 1.0);
+
+/// POV-Ray scene text of a board or a sphere scene seen by the left or right camera of `rig`,
+/// for a canvas of `canvas` px (the camera's image plus the crop margin).
+std::string PovrayBoardScene(const SimRig& rig, bool right, const BoardScene& board, cv::Size canvas);
+std::string PovraySphereScene(const SimRig& rig, bool right, const SphereScene& scene, cv::Size canvas);
+
+/// Whether `povray` is on PATH.
+bool HavePovray();
+
+/// Renders one view with POV-Ray in `work_dir` and returns the camera's 8-bit BGR image.
+/// Throws hedgefit::Error when POV-Ray is missing or fails (naming its log).
+cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& scene_kind_board_or_sphere,
+                     const BoardScene& board, const SphereScene& sphere, const std::string& work_dir);
+
+/// WritePaperLab's files (board_NN_*, sphere_ZZZZ_*, truths, rig_truth.json, and rig.yaml, the
+/// exact rig) rendered by POV-Ray and recorded through `camera` (noise drawn from `seed`).
+std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
+                                        std::uint64_t seed = 1);
+
+}  // namespace hedgefit::stereo
