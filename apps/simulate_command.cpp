@@ -10,6 +10,7 @@
 #include "apps/commands.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
+#include "stereo/camera_model.hpp"
 #include "stereo/simulator.hpp"
 
 namespace hedgefit::apps {
@@ -38,8 +39,9 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
     std::string preset, sphere, board, out = "simulated", squares = "13x12";
     double square = 30.0;
     double scale = 1.0, blur = 0.5, noise = 0.0;
-    int supersample = 3;
+    int supersample = 3, jpeg = 0;
     std::uint64_t seed = 1;
+    std::string camera = "ideal";
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("--preset", a->preset, "paper-lab (the paper's lab: boards and spheres) or garden (leafy hedge balls on a lawn)")
@@ -55,6 +57,14 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--blur", a->blur, "Gaussian blur sigma, px")->check(CLI::Range(0.0, 10.0))->capture_default_str();
   cmd->add_option("--noise", a->noise, "sensor noise sigma, grey levels")->check(CLI::Range(0.0, 100.0))->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
+  cmd->add_option("--camera", a->camera,
+                  "ideal (as rendered) or real: each image as a camera records it (exposure and white balance per "
+                  "camera, vignetting, Bayer + demosaicing, shot and read noise independent per camera)")
+      ->check(CLI::IsMember({"ideal", "real"}))
+      ->capture_default_str();
+  cmd->add_option("--jpeg", a->jpeg, "also compress every image as JPEG of this quality (1-100; 0 = lossless)")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   cmd->callback([=]() {
     *run = [=]() {
       const int modes = !a->preset.empty() + !a->sphere.empty() + !a->board.empty();
@@ -86,11 +96,26 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       std::error_code ec;
       fs::create_directories(a->out, ec);
       if (!fs::is_directory(a->out, ec)) throw Error(a->out + ": cannot create the output directory");
+      stereo::CameraModel camera = a->camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal();
+      camera.jpeg_quality = a->jpeg;
+      const bool recorded = a->camera == "real" || a->jpeg > 0;
+      // Every capture image written, as the model records it (stereo/camera_model.hpp); the
+      // two views of a pair share a seed, which ApplyCameraModel splits per camera.
+      auto record = [&](const std::vector<std::string>& files) {
+        if (!recorded) return;
+        std::uint64_t view = 0;
+        for (const auto& f : files) {
+          const bool left = f.find("_left.png") != std::string::npos, right = f.find("_right.png") != std::string::npos;
+          if (!left && !right) continue;
+          SaveImage(f, stereo::ApplyCameraModel(cv::imread(f), camera, right, a->seed * 1000 + view++ / 2));
+        }
+      };
       const auto t0 = std::chrono::steady_clock::now();
       auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
       if (a->preset == "garden") {
         const auto names = stereo::GardenPresetNames();
         const auto files = stereo::WriteGarden(a->out, a->scale, ro, names);
+        record(files);
         std::printf("wrote %zu files to %s in %.1f s (%zu garden captures: ", files.size(), a->out.c_str(), seconds(),
                     names.size());
         for (std::size_t i = 0; i < names.size(); ++i) std::printf("%s%s", i ? ", " : "", ("garden_" + names[i]).c_str());
@@ -99,6 +124,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       }
       if (!a->preset.empty()) {
         const auto files = stereo::WritePaperLab(a->out, a->scale, ro);
+        record(files);
         std::printf("wrote %zu files to %s in %.1f s (23 pairs, %.2f s per pair)\n", files.size(), a->out.c_str(),
                     seconds(), seconds() / 23.0);
         return kExitOk;
@@ -108,11 +134,13 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         const cv::Mat l = stereo::RenderSphere(rig, false, sc, ro), r = stereo::RenderSphere(rig, true, sc, ro);
         SaveImage(fs::path(a->out) / "sphere_left.png", l);
         SaveImage(fs::path(a->out) / "sphere_right.png", r);
+        record({(fs::path(a->out) / "sphere_left.png").string(), (fs::path(a->out) / "sphere_right.png").string()});
         stereo::WriteSphereTruth((fs::path(a->out) / "sphere.truth.json").string(), sc);
       } else {
         const cv::Mat l = stereo::RenderBoard(rig, false, b, ro), r = stereo::RenderBoard(rig, true, b, ro);
         SaveImage(fs::path(a->out) / "board_left.png", l);
         SaveImage(fs::path(a->out) / "board_right.png", r);
+        record({(fs::path(a->out) / "board_left.png").string(), (fs::path(a->out) / "board_right.png").string()});
         stereo::WriteBoardTruth((fs::path(a->out) / "board.truth.json").string(), b);
       }
       cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");

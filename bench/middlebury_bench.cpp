@@ -18,7 +18,7 @@
 //  - locking: the largest mean signed error over 8 bins of the truth's fractional part
 //    (SGBM's parabola pulls estimates to whole pixels);
 //  - measured %: share of the scored pixels with a matched (not filled) disparity.
-// Usage: bench_middlebury [--repeats N] [--pairs motorcycle,aloe,cones]
+// Usage: bench_middlebury [--repeats N] [--pairs motorcycle,aloe,cones] [--refine-radius N]
 //        (data: $HEDGEFIT_DATA_DIR or ../shared/data)
 
 #include <algorithm>
@@ -83,14 +83,18 @@ SubpixelScore ScoreSubpixel(const DisparityMap& m, const TruthPair& p, const cv:
 int main(int argc, char** argv) {
   int repeats = 3;
   std::string pairs = "motorcycle,aloe,cones";
+  int refine_radius = hedgefit::stereo::SgbmOptions().refine_radius;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--repeats") {
       repeats = std::max(1, std::atoi(argv[i + 1]));
     } else if (a == "--pairs") {
       pairs = argv[i + 1];
+    } else if (a == "--refine-radius") {
+      refine_radius = std::max(1, std::atoi(argv[i + 1]));
     } else {
-      std::fprintf(stderr, "bench_middlebury: unknown option '%s'; use --repeats N or --pairs a,b,c\n", argv[i]);
+      std::fprintf(stderr, "bench_middlebury: unknown option '%s'; use --repeats N, --pairs a,b,c or --refine-radius N\n",
+                   argv[i]);
       return 2;
     }
   }
@@ -116,6 +120,12 @@ int main(int argc, char** argv) {
                 "sub-px*", "bias", "spread", "locking", "measured", "ms");
     SgbmOptions ours;
     ours.num_disparities = p.num_disparities;
+    ours.refine_radius = refine_radius;
+    // A dense map: a pixel the refinement cannot settle keeps SGBM's value. The capture path
+    // drops it instead (it only leaves a hole in the cloud); that is the last row.
+    ours.refine_drop_uncertain = false;
+    SgbmOptions dropping = ours;
+    dropping.refine_drop_uncertain = true;
     SgbmOptions stock = ours;  // SGBM alone: no check, no filling, no refinement
     stock.lrc_tolerance_px = -1;
     stock.fill_holes = false;
@@ -142,6 +152,7 @@ int main(int argc, char** argv) {
     row("paper: HH + LRC, filling, bilateral", paper);
     row("hedgefit without refinement (HH, LRC, fill)", unrefined);
     row("hedgefit (HH, LRC, fill, sub-pixel refinement)", ours);
+    row("hedgefit, uncertain pixels dropped (clouds)", dropping);
   }
   std::printf("\nsub-px: against the de-quantised truth on planar pixels; sub-px*: against the truth as stored\n");
   return 0;

@@ -38,8 +38,10 @@ const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
           .Range(0, 15)
           .Add("refine_iterations", &O::refine_iterations, "Gauss-Newton steps per pixel").Range(1, 50)
           .Add("refine_max_sigma", &O::refine_max_sigma_px,
-               "keep SGBM's value where the refined one's standard deviation is larger", "px")
-          .Min(1e-6);
+               "a refined value whose standard deviation is larger is not used", "px")
+          .Min(1e-6)
+          .Add("refine_drop_uncertain", &O::refine_drop_uncertain,
+               "drop pixels the refinement cannot settle (else keep SGBM's value, biased far on a dome)");
   return table;
 }
 
@@ -106,7 +108,7 @@ cv::Mat GreyFloat(const cv::Mat& img) {
 }  // namespace
 
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
-                   int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out) {
+                   int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out, cv::Mat* dropped) {
   if (sigma_out) sigma_out->create(disparity->size(), CV_32F), sigma_out->setTo(std::numeric_limits<float>::quiet_NaN());
   if (radius <= 0 || iterations <= 0) return 0;
   const cv::Mat L = GreyFloat(left);
@@ -142,7 +144,13 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
             if (!m || m[i] != 0) window.push_back({i - x, j - y, lrow[i], R.ptr<float>(j)});
           }
         }
-        if (int(window.size()) < min_samples) continue;
+        auto drop = [&] {
+          if (dropped) drow[x] = std::numeric_limits<float>::quiet_NaN(), dropped->at<std::uint8_t>(y, x) = 255;
+        };
+        if (int(window.size()) < min_samples) {
+          drop();
+          continue;
+        }
         // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
         // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
         // gain and offset between the cameras.
@@ -194,6 +202,8 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
           drow[x] = static_cast<float>(q[0]);
           if (sigma_out) sigma_out->at<float>(y, x) = static_cast<float>(sigma);
           ++local;
+        } else {
+          drop();
         }
       }
     }
@@ -277,7 +287,8 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
   }
   if (o.refine_radius > 0) {
     RefineSubpixel(left, right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
-                   o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma);
+                   o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma,
+                   o.refine_drop_uncertain ? &out.rejected : nullptr);
   }
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
   if (!off_grid.empty()) {

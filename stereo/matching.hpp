@@ -27,7 +27,11 @@ struct SgbmOptions {
   double bilateral_sigma_space = 3.0; ///< bilateral filter spatial sigma (px)
   int refine_radius = 2;           ///< sub-pixel refinement window half-size (px); 0 = off (see RefineSubpixel)
   int refine_iterations = 3;       ///< Gauss-Newton steps per pixel
-  double refine_max_sigma_px = 0.2;  ///< keep SGBM's value where the refined one is less certain
+  double refine_max_sigma_px = 0.2;  ///< a refined value less certain than this is not used
+  /// Where the refinement fails or is less certain than refine_max_sigma: drop the pixel (it
+  /// becomes a hole, filled in the dense map but left out of the cloud) instead of keeping
+  /// SGBM's value, which on a convex surface is biased far (see RefineSubpixel).
+  bool refine_drop_uncertain = true;
   void Check() const;  ///< throws hedgefit::Error naming the option
   /// The options a user sets (not the disparity range, which comes from the working range).
   static const cloud::OptionTable<SgbmOptions>& Table();
@@ -59,10 +63,12 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
 /// when its window is textureless or mostly outside the mask, when the estimate moves more
 /// than 1 px, or when its standard deviation (residuals and the inverse Hessian) exceeds
 /// `max_sigma_px`. Returns the number of pixels refined; `sigma` (optional, CV_32F, same
-/// size) receives each refined pixel's standard deviation (px), NaN elsewhere.
+/// size) receives each refined pixel's standard deviation (px), NaN elsewhere. With `dropped`
+/// (CV_8U, same size), a pixel that would keep its SGBM value is instead set to NaN and
+/// marked 255 there.
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip,
                    int radius, int iterations, cv::Mat* disparity, double max_sigma_px = 0.2,
-                   cv::Mat* sigma = nullptr);
+                   cv::Mat* sigma = nullptr, cv::Mat* dropped = nullptr);
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.
