@@ -36,6 +36,13 @@ const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
           .Add("refine_radius", &O::refine_radius,
                "sub-pixel refinement window half-size (slanted window, masked); 0 = off", "px")
           .Range(0, 15)
+          .Add("refine_max_radius", &O::refine_max_radius,
+               "a pixel the refine_radius window does not pin to refine_retry_sigma is tried with this one (0 = never)",
+               "px")
+          .Range(0, 15)
+          .Add("refine_retry_sigma", &O::refine_retry_sigma_px,
+               "below this standard deviation the refine_radius window's estimate is kept", "px")
+          .Min(0)
           .Add("refine_iterations", &O::refine_iterations, "Gauss-Newton steps per pixel").Range(1, 50)
           .Add("refine_max_sigma", &O::refine_max_sigma_px,
                "a refined value whose standard deviation is larger is not used", "px")
@@ -108,17 +115,18 @@ cv::Mat GreyFloat(const cv::Mat& img) {
 }  // namespace
 
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
-                   int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out, cv::Mat* dropped) {
+                   int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out, cv::Mat* dropped,
+                   int max_radius, double retry_sigma_px) {
   if (sigma_out) sigma_out->create(disparity->size(), CV_32F), sigma_out->setTo(std::numeric_limits<float>::quiet_NaN());
   if (radius <= 0 || iterations <= 0) return 0;
+  max_radius = std::max(radius, max_radius);
   const cv::Mat L = GreyFloat(left);
   // The right image is interpolated along rows only (rectified geometry), with cubic
   // B-splines: their prefilter makes the interpolant exact at the samples, and their
   // sub-pixel phase error - a periodic bias in the disparity, as in image correlation -
   // is several times smaller than Keys' or linear interpolation's on textured images.
   const cv::Mat R = BSplineCoefficientsAlongRows(GreyFloat(right));
-  const int w = L.cols, h = L.rows, side = 2 * radius + 1;
-  const int min_samples = std::max(9, (side * side * 2) / 5);  // 40 % of the window
+  const int w = L.cols, h = L.rows;
   std::atomic<int> refined{0};
   struct Sample {
     int di, dj;
@@ -127,8 +135,65 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
   };
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
     std::vector<Sample> window;
-    window.reserve(std::size_t(side * side));
+    window.reserve(std::size_t((2 * max_radius + 1) * (2 * max_radius + 1)));
     int local = 0;
+    // Gauss-Newton in a (2r+1)^2 window about (x, y) from SGBM's d0: true and the estimate
+    // and its standard deviation when it settles.
+    auto solve = [&](int x, int y, float d0, int r, double* d_out, double* sigma_out_px) {
+      const int side = 2 * r + 1, min_samples = std::max(9, (side * side * 2) / 5);  // 40 % of the window
+      window.clear();
+      for (int j = std::max(0, y - r); j <= std::min(h - 1, y + r); ++j) {
+        const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(j);
+        const float* lrow = L.ptr<float>(j);
+        for (int i = std::max(0, x - r); i <= std::min(w - 1, x + r); ++i) {
+          if (!m || m[i] != 0) window.push_back({i - x, j - y, lrow[i], R.ptr<float>(j)});
+        }
+      }
+      if (int(window.size()) < min_samples) return false;
+      // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
+      // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
+      // gain and offset between the cameras.
+      Eigen::Matrix<double, 5, 1> q;
+      q << d0, 0, 0, 0, 0;
+      double sigma = 0;
+      for (int it = 0; it < iterations; ++it) {
+        Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+        Eigen::Matrix<double, 5, 1> b = Eigen::Matrix<double, 5, 1>::Zero();
+        int used = 0;
+        double ssr = 0;
+        for (const Sample& sm : window) {
+          const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
+          const int x0 = static_cast<int>(std::floor(xr));
+          if (x0 < 1 || x0 + 2 >= w) continue;
+          const double t = xr - x0;
+          const float* rr = sm.right_row;
+          double wt[4], dt[4];
+          BSplineWeights(t, wt, dt);
+          const double rv = wt[0] * rr[x0 - 1] + wt[1] * rr[x0] + wt[2] * rr[x0 + 1] + wt[3] * rr[x0 + 2];
+          const double gv = (1 + q[3]) * (dt[0] * rr[x0 - 1] + dt[1] * rr[x0] + dt[2] * rr[x0 + 1] + dt[3] * rr[x0 + 2]);
+          const double res = sm.left - (1 + q[3]) * rv - q[4];
+          Eigen::Matrix<double, 5, 1> J;
+          J << gv, gv * sm.di, gv * sm.dj, -rv, -1.0;
+          b.noalias() -= J * res;
+          ssr += res * res;
+          H.selfadjointView<Eigen::Upper>().rankUpdate(J);
+          ++used;
+        }
+        // Textureless windows (tiny gradient energy) or a singular system: not settled.
+        if (used < min_samples || H(0, 0) < 0.25 * used) return false;
+        const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
+        if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
+        const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
+        // The estimate's standard deviation from the window's residuals and H^-1.
+        sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
+        q += step;
+        if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) return false;
+        if (std::abs(step[0]) < 1e-3) break;
+      }
+      *d_out = q[0];
+      *sigma_out_px = sigma;
+      return sigma <= max_sigma_px;
+    };
     for (int y = rows.start; y < rows.end; ++y) {
       float* drow = disparity->ptr<float>(y);
       const std::uint8_t* mrow = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y);
@@ -136,74 +201,22 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
       for (int x = 0; x < w; ++x) {
         const float d0 = drow[x];
         if (!std::isfinite(d0) || (mrow && mrow[x] == 0) || (srow && srow[x] != 0)) continue;
-        window.clear();
-        for (int j = std::max(0, y - radius); j <= std::min(h - 1, y + radius); ++j) {
-          const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(j);
-          const float* lrow = L.ptr<float>(j);
-          for (int i = std::max(0, x - radius); i <= std::min(w - 1, x + radius); ++i) {
-            if (!m || m[i] != 0) window.push_back({i - x, j - y, lrow[i], R.ptr<float>(j)});
-          }
+        double d = d0, sigma = 0;
+        // The small window where it pins the disparity well (sigma <= retry_sigma); else the
+        // large one, which averages more of the noise (Kanade and Okutomi's adaptive window);
+        // else the small one if it settled at all.
+        bool ok = solve(x, y, d0, radius, &d, &sigma);
+        if (max_radius > radius && !(ok && sigma <= retry_sigma_px)) {
+          double d2 = d0, sigma2 = 0;
+          if (solve(x, y, d0, max_radius, &d2, &sigma2)) d = d2, sigma = sigma2, ok = true;
         }
-        auto drop = [&] {
-          if (dropped) drow[x] = std::numeric_limits<float>::quiet_NaN(), dropped->at<std::uint8_t>(y, x) = 255;
-        };
-        if (int(window.size()) < min_samples) {
-          drop();
-          continue;
-        }
-        // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
-        // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
-        // gain and offset between the cameras.
-        Eigen::Matrix<double, 5, 1> q;
-        q << d0, 0, 0, 0, 0;
-        bool ok = true;
-        double sigma = 0;
-        for (int it = 0; it < iterations && ok; ++it) {
-          Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-          Eigen::Matrix<double, 5, 1> b = Eigen::Matrix<double, 5, 1>::Zero();
-          int used = 0;
-          double ssr = 0;
-          for (const Sample& sm : window) {
-            const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
-            const int x0 = static_cast<int>(std::floor(xr));
-            if (x0 < 1 || x0 + 2 >= w) continue;
-            const double t = xr - x0;
-            const float* rr = sm.right_row;
-            double wt[4], dt[4];
-            BSplineWeights(t, wt, dt);
-            const double rv = wt[0] * rr[x0 - 1] + wt[1] * rr[x0] + wt[2] * rr[x0 + 1] + wt[3] * rr[x0 + 2];
-            const double gv = (1 + q[3]) * (dt[0] * rr[x0 - 1] + dt[1] * rr[x0] + dt[2] * rr[x0 + 1] + dt[3] * rr[x0 + 2]);
-            const double res = sm.left - (1 + q[3]) * rv - q[4];
-            Eigen::Matrix<double, 5, 1> J;
-            J << gv, gv * sm.di, gv * sm.dj, -rv, -1.0;
-            b.noalias() -= J * res;
-            ssr += res * res;
-            H.selfadjointView<Eigen::Upper>().rankUpdate(J);
-            ++used;
-          }
-          // Textureless windows (tiny gradient energy) or a singular system: keep SGBM's value.
-          if (used < min_samples || H(0, 0) < 0.25 * used) {
-            ok = false;
-            break;
-          }
-          const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
-          if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
-            ok = false;
-            break;
-          }
-          const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
-          // The estimate's standard deviation from the window's residuals and H^-1.
-          sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
-          q += step;
-          if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) ok = false;
-          if (std::abs(step[0]) < 1e-3) break;
-        }
-        if (ok && sigma <= max_sigma_px) {
-          drow[x] = static_cast<float>(q[0]);
+        if (ok) {
+          drow[x] = static_cast<float>(d);
           if (sigma_out) sigma_out->at<float>(y, x) = static_cast<float>(sigma);
           ++local;
-        } else {
-          drop();
+        } else if (dropped) {
+          drow[x] = std::numeric_limits<float>::quiet_NaN();
+          dropped->at<std::uint8_t>(y, x) = 255;
         }
       }
     }
@@ -288,7 +301,7 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
   if (o.refine_radius > 0) {
     RefineSubpixel(left, right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
                    o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma,
-                   o.refine_drop_uncertain ? &out.rejected : nullptr);
+                   o.refine_drop_uncertain ? &out.rejected : nullptr, o.refine_max_radius, o.refine_retry_sigma_px);
   }
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
   if (!off_grid.empty()) {

@@ -26,6 +26,10 @@ struct SgbmOptions {
   double bilateral_sigma_disp = 0.0;  ///< bilateral filter range sigma (px of disparity); 0 = off (see below)
   double bilateral_sigma_space = 3.0; ///< bilateral filter spatial sigma (px)
   int refine_radius = 2;           ///< sub-pixel refinement window half-size (px); 0 = off (see RefineSubpixel)
+  /// A pixel the refine_radius window does not pin to refine_retry_sigma (too little texture
+  /// for the noise) is tried again with this larger window; 0 or <= refine_radius = never.
+  int refine_max_radius = 4;
+  double refine_retry_sigma_px = 0.1;
   int refine_iterations = 3;       ///< Gauss-Newton steps per pixel
   double refine_max_sigma_px = 0.2;  ///< a refined value less certain than this is not used
   /// Where the refinement fails or is less certain than refine_max_sigma: drop the pixel (it
@@ -65,10 +69,12 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
 /// `max_sigma_px`. Returns the number of pixels refined; `sigma` (optional, CV_32F, same
 /// size) receives each refined pixel's standard deviation (px), NaN elsewhere. With `dropped`
 /// (CV_8U, same size), a pixel that would keep its SGBM value is instead set to NaN and
-/// marked 255 there.
+/// marked 255 there. With `max_radius` > `radius`, a pixel whose first window does not pin it
+/// to `retry_sigma_px` is tried again with the larger window, whose estimate wins if it settles.
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip,
                    int radius, int iterations, cv::Mat* disparity, double max_sigma_px = 0.2,
-                   cv::Mat* sigma = nullptr, cv::Mat* dropped = nullptr);
+                   cv::Mat* sigma = nullptr, cv::Mat* dropped = nullptr, int max_radius = 0,
+                   double retry_sigma_px = 0.0);
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.

@@ -29,7 +29,9 @@ const cloud::OptionTable<SegmentOptions>& SegmentOptions::Table() {
           .Add("bilateral_sigma_space", &O::bilateral_sigma_space, "bilateral spatial sigma", "px").Min(0)
           .Add("largest_component", &O::largest_component, "keep only the largest region")
           .Add("fill_holes", &O::fill_holes, "fill holes inside the region")
-          .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200);
+          .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200)
+          .Add("green_floor", &O::green_floor, "pixels with 2G-R-B below this are never hedge (0-255 per channel)")
+          .Range(-510, 510);
   return table;
 }
 
@@ -98,12 +100,18 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
   // Excess green 2G - R - B in [-510, 510], mapped to 8 bits ([0, 255] ~ ExG / 4 + 127.5):
   // 8-bit images make the bilateral filter ~3x faster (table-driven range weights), and
   // Otsu bins 256 levels anyway.
-  cv::Mat exg(bgr.size(), CV_8U);
+  // `green`: the pixels at or above the green floor, from the raw (unsmoothed) excess green.
+  cv::Mat exg(bgr.size(), CV_8U), green(bgr.size(), CV_8U);
   cv::parallel_for_(cv::Range(0, bgr.rows), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
       const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
       std::uint8_t* out = exg.ptr<std::uint8_t>(y);
-      for (int x = 0; x < bgr.cols; ++x) out[x] = std::uint8_t((2 * p[x][1] - p[x][2] - p[x][0] + 510) >> 2);
+      std::uint8_t* g = green.ptr<std::uint8_t>(y);
+      for (int x = 0; x < bgr.cols; ++x) {
+        const int e = 2 * p[x][1] - p[x][2] - p[x][0];
+        out[x] = std::uint8_t((e + 510) >> 2);
+        g[x] = e >= o.green_floor ? 255 : 0;
+      }
     }
   });
   if (o.bilateral_diameter > 0) {
@@ -124,6 +132,12 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
   cv::LUT(exg, lut, g8);
   cv::Mat mask;
   cv::threshold(g8, mask, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  mask &= green;  // Otsu's split counts only among green pixels
+  if (cv::countNonZero(green) == 0) {
+    throw Error("no hedge found: nothing in the image is green (2G-R-B below green_floor = " +
+                std::to_string(int(std::lround(o.green_floor))) +
+                " everywhere); give a mask (--mask) or a box around the hedge (--box)");
+  }
   if (o.largest_component) {
     cv::Mat labels, stats, centroids;
     const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);

@@ -24,6 +24,10 @@ struct SegmentOptions {
   bool largest_component = true;  ///< keep only the largest region
   bool fill_holes = true;         ///< fill holes inside it
   int erode_px = 5;               ///< drop this many silhouette pixels (least reliable disparity)
+  /// Pixels whose 2G - R - B is below this are never hedge, whatever Otsu decides: Otsu always
+  /// splits the image in two, and with a small hedge before a grey wall and brown soil it can
+  /// split soil from wall instead of hedge from the rest.
+  double green_floor = 20.0;
   void Check() const;
   static const cloud::OptionTable<SegmentOptions>& Table();  ///< the options, declared once
 };
