@@ -6,8 +6,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+# Warnings are not errors here: with -fsanitize, gcc 12's flow analysis reports false
+# maybe-uninitialized warnings inside libstdc++ (std::regex); the normal build keeps -Werror.
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEDGEFIT_SANITIZE=ON -DHEDGEFIT_BUILD_TESTS=ON \
-  -DHEDGEFIT_BUILD_BENCH=OFF > /dev/null
+  -DHEDGEFIT_BUILD_BENCH=OFF -DHEDGEFIT_WERROR=OFF > /dev/null
 cmake --build build-asan -j2
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1
 export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
