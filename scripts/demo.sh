@@ -23,6 +23,9 @@ L=build/demo/lab
 ./build/apps/hedgefit convert --left $L/sphere_2300_left.png --right $L/sphere_2300_right.png --rig build/demo/rig.yaml \
   -o build/demo/sphere_2300.pcd
 ./build/apps/hedgefit compare build/demo/sphere_2300.pcd --truth $L/sphere_2300.truth.json
+echo "== the same capture in one step, as a robot would ask: hedgefit measure (one JSON line per hedge)"
+./build/apps/hedgefit measure --rig build/demo/rig.yaml --left $L/sphere_2300_left.png --right $L/sphere_2300_right.png \
+  --overlay build/demo/sphere_2300_measure.png
 echo "== the same capture as one pipeline: examples/capture_to_fit.json"
 ./build/apps/hedgefit pipeline examples/capture_to_fit.json
 echo "== hedgefit render (the last step writes a picture of the reconstruction and its fits)"
