@@ -321,6 +321,15 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
         total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         ++frames;
       }
+      if (frames == 0) {
+        char idle[32];
+        std::snprintf(idle, sizeof(idle), "%g", a->idle_s);
+        const std::string source = !a->watch.empty() ? "--watch " + a->watch + ": no capture arrived within " + idle +
+                                                           " s (--idle-timeout)"
+                                 : !a->side_by_side.empty() ? "--side-by-side " + a->side_by_side + ": no frame could be read"
+                                                            : "--left " + a->left + ": no frame pair could be read";
+        throw ProcessingError(source);
+      }
       std::string per_stage;
       for (const auto& [type, ms] : stage_ms) {
         char buf[96];

@@ -77,7 +77,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       "unseen side sticks out as the seen side does.\n");
   auto a = std::make_shared<TrimArgs>();
   cmd->add_option("cloud", a->cloud, "cloud file (.pcd, .ply, .xyz); a hedge_id field gives one plan per hedge")->required();
-  cmd->add_option("--radius", a->radius, "target radius, mm")->required()->check(CLI::PositiveNumber);
+  cmd->add_option("--radius", a->radius, "target radius, mm (up to 100 m)")->required()->check(CLI::Range(1e-3, 1e5));
   cmd->add_option("--center", a->center, "target centre X,Y,Z in mm (default: each hedge's fitted centre)");
   cmd->add_option("--method", a->method, "fit that centres the target (without --center)")->capture_default_str();
   cmd->add_option("--tolerance", a->tolerance, "cut depths up to this count as on target, mm")

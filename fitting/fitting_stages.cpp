@@ -100,7 +100,7 @@ void RegisterFittingStages(cloud::Registry& r) {
   r.Add(StageInfo{trim,
                   "Trim plan: each point's cut depth past a target sphere (field 'cut_depth', mm, + = cut), the share "
                   "of the surface to cut, depth percentiles and the volume to remove, per hedge",
-                  {DoubleOption("radius", 0, "target radius; required", "mm").Min(0),
+                  {DoubleOption("radius", 0, "target radius; required", "mm").Range(0, 1e5),
                    ListOption("center", {}, 0,
                               "target centre [x, y, z]; empty = each hedge's latest converged fit", "mm"),
                    DoubleOption("tolerance", 5, "cut depths up to this count as on target", "mm").Min(0),

@@ -109,6 +109,11 @@ TEST(StreamCli, VideosSideBySideAndAWatchedDirectory) {
   r = RunHedgefit("stream --rig z2100/rig.yaml --left missing.avi --right right.avi", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "hedgefit: --left missing.avi: no such video file or camera number\n");
+  // A directory nothing arrives in: exit 2 and one line saying so.
+  fs::create_directories(dir / "empty");
+  r = RunHedgefit("stream --rig z2100/rig.yaml --watch empty --idle-timeout 0.2", dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("hedgefit: --watch empty: no capture arrived within 0.2 s"), std::string::npos) << r.err;
   r = RunHedgefit("stream --rig z2100/rig.yaml --left left.avi --right right.avi --watch incoming", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("give one source"), std::string::npos) << r.err;
