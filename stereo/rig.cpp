@@ -163,6 +163,9 @@ StereoRig ReadRig(const std::string& path) {
     while (std::getline(in, line)) {
       ++line_no;
       if (!line.empty() && line.back() == '\r') line.pop_back();
+      // OpenCV writes short lines; a very long one would also overflow std::regex's recursive
+      // matcher below (found by fuzzing: a 31 kB line).
+      if (line.size() > 1024) throw bad("a line of " + std::to_string(line.size()) + " characters (a rig file's are short)");
       for (unsigned char u : line) {
         if ((u < 0x20 && u != '\t') || u >= 0x7f) throw bad("a byte that is not ASCII text (" + std::to_string(u) + ")");
       }
