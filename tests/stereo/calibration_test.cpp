@@ -5,6 +5,7 @@
 #include "stereo/calibration.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -21,7 +22,10 @@ class SimulatedCalibration : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     rig_ = new SimRig(PaperRig(0.5));
-    const auto dir = std::filesystem::temp_directory_path() / "hedgefit_test_simulated_calibration";
+    // One directory per process: ctest runs each test of this suite as its own process, in
+    // parallel, and they would otherwise read each other's half-written images.
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("hedgefit_test_simulated_calibration_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     RenderOptions ro;
     ro.supersample = 4;
