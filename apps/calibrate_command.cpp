@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <fstream>
 #include <iostream>
 #include <opencv2/calib3d.hpp>
@@ -13,10 +14,15 @@
 #include "apps/commands.hpp"
 #include "apps/parse.hpp"
 #include "stereo/calibration.hpp"
+#include "stereo/rig.hpp"
 
 namespace hedgefit::apps {
 
 namespace {
+
+// The principal point's standard deviation above which `calibrate` warns (px): 0.2 px moves a
+// hedge about 0.5 mm sideways at 2.3 m on the paper's rig.
+constexpr double kPrincipalPointWarnPx = 0.2;
 
 std::vector<std::string> Glob(const std::string& pattern, const char* option) {
   glob_t g{};
@@ -110,14 +116,51 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
         for (std::size_t i = 0; i < l.size(); ++i) pairs.emplace_back(l[i], r[i]);
       }
       cv::Size size;
-      const auto corners = stereo::DetectBoards(pairs, o.board, &size);
+      const auto corners = stereo::DetectBoards(pairs, o.board, &size, a->json ? nullptr : &std::cerr);
       const stereo::StereoRig rig = stereo::CalibrateFromCorners(corners, size, o);
+      // The distortion model by evidence: the same corners with one term fewer (k3, or k4..k6
+      // for the rational model), and the dropped terms' size against their standard deviations.
+      stereo::CalibrationOptions simpler = o;
+      simpler.model = o.model == stereo::DistortionModel::kRational ? stereo::DistortionModel::kK1K2P1P2K3
+                                                                  : stereo::DistortionModel::kK1K2P1P2;
+      std::optional<stereo::StereoRig> other;
+      if (o.model != stereo::DistortionModel::kK1K2P1P2) other = stereo::CalibrateFromCorners(corners, size, simpler);
+      const std::vector<double> sd = stereo::RigStdDevs(rig);
+      // Largest |term| / sd among the terms the simpler model drops.
+      double z_dropped = 0;
+      const std::vector<int> dropped = o.model == stereo::DistortionModel::kRational ? std::vector<int>{9, 10, 11}
+                                                                                      : std::vector<int>{8};
+      const auto theta = stereo::RigParameters(rig);
+      for (int c = 0; c < 2 && !sd.empty() && other; ++c) {
+        for (int i : dropped) {
+          const std::size_t k = std::size_t(12 * c + i);
+          if (sd[k] > 0) z_dropped = std::max(z_dropped, std::abs(theta[int(k)]) / sd[k]);
+        }
+      }
+      const char* dropped_name = o.model == stereo::DistortionModel::kRational ? "k4..k6" : "k3";
       stereo::WriteRig(a->output, rig);
       cv::Mat rvec;
       cv::Rodrigues(rig.R, rvec);
       const double angle_deg = cv::norm(rvec) * 180.0 / CV_PI;
       int used = 0;
       for (const auto& p : rig.pairs) used += p.used;
+      // The principal point is what moves a hedge sideways; say when the poses leave it loose.
+      std::vector<std::string> warnings;
+      if (!sd.empty()) {
+        const char* axis_hint[2] = {"tilt the board about the vertical axis and show it near the left and right edges",
+                                    "tilt the board about the horizontal axis and show it near the top and bottom edges"};
+        for (int c = 0; c < 2; ++c) {
+          for (int k = 0; k < 2; ++k) {
+            const double s_pp = sd[std::size_t(12 * c + 2 + k)];
+            if (s_pp > kPrincipalPointWarnPx) {
+              char buf[256];
+              std::snprintf(buf, sizeof(buf), "%s camera's %s is loose (+-%.2f px > %.1f px): %s", c ? "right" : "left",
+                            k ? "cy" : "cx", s_pp, kPrincipalPointWarnPx, axis_hint[k]);
+              warnings.emplace_back(buf);
+            }
+          }
+        }
+      }
       if (a->json) {
         nlohmann::json j;
         j["rig_file"] = a->output;
@@ -128,6 +171,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
         j["rms_right_px"] = rig.rms_right_px;
         j["rms_stereo_px"] = rig.rms_stereo_px;
         j["baseline"] = rig.baseline_mm;
+        j["baseline_std"] = stereo::BaselineStdDev(rig);
         j["rotation_deg"] = angle_deg;
         auto vec = [](const cv::Mat& m) {
           std::vector<double> v;
@@ -140,29 +184,51 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
         j["D2"] = vec(rig.D2);
         j["R"] = vec(rig.R);
         j["T"] = vec(rig.T);
+        if (!sd.empty()) {
+          for (std::size_t k = 0; k < sd.size(); ++k) j["std"][stereo::RigParameterNames()[k]] = sd[k];
+        }
+        if (other) {
+          j["model_check"] = {{"without", dropped_name},
+                              {"rms_stereo_px_without", other->rms_stereo_px},
+                              {"largest_dropped_term_in_std", z_dropped}};
+        }
+        j["warnings"] = warnings;
         for (const auto& p : rig.pairs) {
           j["pairs"].push_back({{"left", p.left}, {"right", p.right}, {"used", p.used}, {"status", p.status},
                                 {"rms_left_px", p.rms_left_px}, {"rms_right_px", p.rms_right_px},
                                 {"rms_stereo_px", p.rms_stereo_px}});
         }
         std::cout << j.dump(2) << "\n";
+        for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
         return kExitOk;
       }
       std::printf("calibrated from %d of %zu pairs (%dx%d images)\n", used, rig.pairs.size(), rig.image_size.width,
                   rig.image_size.height);
       std::printf("  RMS reprojection: left %.3f px, right %.3f px, stereo %.3f px\n", rig.rms_left_px,
                   rig.rms_right_px, rig.rms_stereo_px);
-      std::printf("  baseline %.4f (units of --square), rotation between cameras %.3f deg\n", rig.baseline_mm,
-                  angle_deg);
-      auto cam = [](const char* name, const cv::Mat& K, const cv::Mat& D) {
-        std::printf("  %-5s fx %.2f fy %.2f cx %.2f cy %.2f  dist", name, K.at<double>(0, 0), K.at<double>(1, 1),
-                    K.at<double>(0, 2), K.at<double>(1, 2));
-        for (int i = 0; i < static_cast<int>(D.total()); ++i) std::printf(" %.4f", D.at<double>(i));
+      std::printf("  baseline %.4f +- %.4f (units of --square), rotation between cameras %.3f deg\n", rig.baseline_mm,
+                  stereo::BaselineStdDev(rig), angle_deg);
+      auto cam = [&](const char* name, const cv::Mat& K, const cv::Mat& D, int offset) {
+        auto pm = [&](int k) { return sd.empty() ? 0.0 : sd[std::size_t(offset + k)]; };
+        std::printf("  %-5s fx %.2f+-%.2f fy %.2f+-%.2f cx %.2f+-%.2f cy %.2f+-%.2f\n        dist", name,
+                    K.at<double>(0, 0), pm(0), K.at<double>(1, 1), pm(1), K.at<double>(0, 2), pm(2), K.at<double>(1, 2),
+                    pm(3));
+        for (int i = 0; i < std::min(8, static_cast<int>(D.total())); ++i) std::printf(" %.4f+-%.4f", D.at<double>(i), pm(4 + i));
         std::printf("\n");
       };
-      cam("left", rig.K1, rig.D1);
-      cam("right", rig.K2, rig.D2);
-      std::printf("  T [%.4f, %.4f, %.4f]\npairs:\n", rig.T.at<double>(0), rig.T.at<double>(1), rig.T.at<double>(2));
+      cam("left", rig.K1, rig.D1, 0);
+      cam("right", rig.K2, rig.D2, 12);
+      std::printf("  T [%.4f, %.4f, %.4f] +- [%.4f, %.4f, %.4f]\n", rig.T.at<double>(0), rig.T.at<double>(1),
+                  rig.T.at<double>(2), sd.empty() ? 0 : sd[27], sd.empty() ? 0 : sd[28], sd.empty() ? 0 : sd[29]);
+      std::printf("  (+- one standard deviation, from the calibration's Jacobian and its residuals)\n");
+      if (other) {
+        std::printf("  model: without %s the stereo RMS is %.4f px (with: %.4f px); the largest %s is %.1f standard "
+                    "deviations from 0, %s\n",
+                    dropped_name, other->rms_stereo_px, rig.rms_stereo_px, dropped_name, z_dropped,
+                    z_dropped < 2 ? "so the data do not support it: consider the simpler --model"
+                                  : "so the data support it");
+      }
+      std::printf("pairs:\n");
       for (const auto& p : rig.pairs) {
         if (p.used || p.rms_stereo_px > 0) {
           std::printf("  %-40s %-40s L %.3f R %.3f px  %s\n", p.left.c_str(), p.right.c_str(), p.rms_left_px,
@@ -171,6 +237,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
           std::printf("  %-40s %-40s %s\n", p.left.c_str(), p.right.c_str(), p.status.c_str());
         }
       }
+      for (const auto& w : warnings) std::printf("warning: %s\n", w.c_str());
       std::printf("wrote %s\n", a->output.c_str());
       return kExitOk;
     };

@@ -18,6 +18,9 @@
 #include "cloud/pipeline.hpp"
 #include "fitting/evaluation.hpp"
 #include "fitting/methods.hpp"
+#include "fitting/uncertainty.hpp"
+#include "stereo/rig.hpp"
+#include "stereo/rig_uncertainty.hpp"
 #include "render/plot.hpp"
 
 namespace hedgefit::apps {
@@ -39,6 +42,7 @@ struct CompareArgs {
   std::uint64_t seed = 42;
   StageFlags fit_flags;  // the robust methods' options, from the method table
   std::string plot;
+  std::string rig;
 };
 
 struct CloudReport {
@@ -125,6 +129,9 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
   }
   a->fit_flags.Add(cmd, robust);
   cmd->add_option("--seed", a->seed, "RANSAC sampler seed")->capture_default_str();
+  cmd->add_option("--rig", a->rig,
+                  "the rig the clouds were measured with (hedgefit calibrate's YAML): each fit's uncertainty then "
+                  "includes the rig's calibration");
   cmd->add_option("--plot", a->plot, "also draw |AER| and LD per method (against distance when several clouds have truth) to this PNG");
   cmd->callback([=]() {
     *run = [=]() {
@@ -134,6 +141,15 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       const json cleaning = CleaningStages(*a);
       std::vector<Sphere> common_truth;
       if (!a->truth.empty()) common_truth = fitting::ReadTruthFiles(a->truth);
+      cloud::PointPerturbation rig_perturbation, matching_perturbation;
+      if (!a->rig.empty()) {
+        const stereo::StereoRig rig = stereo::ReadRig(a->rig);
+        if (rig.covariance.empty()) {
+          throw Error("--rig " + a->rig + ": the rig carries no calibration covariance; recalibrate it with `hedgefit calibrate`");
+        }
+        rig_perturbation = stereo::RigPerturbation(rig);
+        matching_perturbation = stereo::DisparityOffsetPerturbation(rig);
+      }
       // Validate the cleaning pipeline once, before any cloud is read.
       {
         json probe = json::array({a->clouds.front()});
@@ -173,6 +189,8 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
             for (const auto& m : methods) {
               rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed));
               rep.fits.back().hedge_id = g.id;
+              fitting::AddUncertainty(pts, a->rig.empty() ? nullptr : &rig_perturbation, &rep.fits.back(),
+                                      a->rig.empty() ? nullptr : &matching_perturbation);
             }
             mine.push_back(std::move(rep));
           }
@@ -259,7 +277,8 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
         std::cout << out.dump(2) << "\n";
       } else if (a->format == "csv") {
         std::printf("cloud,method,converged,cx_mm,cy_mm,cz_mm,r_mm,rms_mm,inliers,points_used,iterations,wall_ms,"
-                    "se_cx_mm,se_cy_mm,se_cz_mm,se_r_mm,true_r_mm,aer_mm,rer_percent,ld_mm,message\n");
+                    "se_cx_mm,se_cy_mm,se_cz_mm,se_r_mm,rig_se_cx_mm,rig_se_cy_mm,rig_se_cz_mm,rig_se_r_mm,ci95_cx_mm,ci95_cy_mm,"
+                    "ci95_cz_mm,ci95_r_mm,match_se_cx_mm,match_se_cy_mm,match_se_cz_mm,match_se_r_mm,true_r_mm,aer_mm,rer_percent,ld_mm,message\n");
         for (const auto& r : reports) {
           for (const auto& f : r.fits) {
             std::string msg = f.message;
@@ -272,11 +291,15 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
               std::printf(",,,,,");
             }
             std::printf("%zu,%zu,%d,%.3f,", f.inliers, f.points_used, f.iterations, f.wall_ms);
-            if (f.std_error_mm) {
-              const auto& e = *f.std_error_mm;
-              std::printf("%.4f,%.4f,%.4f,%.4f,", e[0], e[1], e[2], e[3]);
-            } else {
-              std::printf(",,,,");
+            const auto total = fitting::TotalStdError(f);
+            for (const auto& v : {f.std_error_mm, f.rig_std_error_mm,
+                                  total ? std::optional<Eigen::Vector4d>(1.96 * *total) : std::nullopt,
+                                  f.matching_std_error_mm}) {
+              if (v) {
+                std::printf("%.4f,%.4f,%.4f,%.4f,", (*v)[0], (*v)[1], (*v)[2], (*v)[3]);
+              } else {
+                std::printf(",,,,");
+              }
             }
             if (r.truth && f.converged) {
               const auto e = fitting::Evaluate(f.sphere, *r.truth);
@@ -294,8 +317,8 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
             std::printf("; truth r %.2f mm at [%.2f, %.2f, %.2f]", r.truth->radius_mm, r.truth->center_mm.x(),
                         r.truth->center_mm.y(), r.truth->center_mm.z());
           }
-          std::printf("\n  %-17s %10s %10s %10s %9s %7s %8s %8s %7s %6s", "method", "cx mm", "cy mm", "cz mm", "r mm",
-                      "rms", "inliers", "ms", "se(c)", "se(r)");
+          std::printf("\n  %-17s %10s %10s %10s %9s %7s %8s %8s %8s %7s", "method", "cx mm", "cy mm", "cz mm", "r mm",
+                      "rms", "inliers", "ms", "95%(c)", "95%(r)");
           if (r.truth) std::printf(" %8s %7s %8s", "AER mm", "RER %", "LD mm");
           std::printf("\n");
           for (const auto& f : r.fits) {
@@ -303,9 +326,11 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
               std::printf("  %-17s failed: %s\n", f.method.c_str(), f.message.c_str());
               continue;
             }
-            const std::string se_c = f.std_error_mm ? Num(f.std_error_mm->head<3>().norm(), 2) : "-";
-            const std::string se_r = f.std_error_mm ? Num((*f.std_error_mm)[3], 2) : "-";
-            std::printf("  %-17s %10.2f %10.2f %10.2f %9.2f %7.2f %8zu %8.2f %7s %6s", f.method.c_str(),
+            // The 95 % interval's half-width: the centre's largest axis, and the radius.
+            const auto total = fitting::TotalStdError(f);
+            const std::string se_c = total ? "+-" + Num(1.96 * total->head<3>().maxCoeff(), 2) : "-";
+            const std::string se_r = total ? "+-" + Num(1.96 * (*total)[3], 2) : "-";
+            std::printf("  %-17s %10.2f %10.2f %10.2f %9.2f %7.2f %8zu %8.2f %8s %7s", f.method.c_str(),
                         f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm,
                         f.rms_mm, f.inliers, f.wall_ms, se_c.c_str(), se_r.c_str());
             if (r.truth) {

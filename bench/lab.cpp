@@ -8,9 +8,11 @@
 #include <filesystem>
 
 #include "fitting/methods.hpp"
+#include "fitting/uncertainty.hpp"
 #include "stereo/calibration.hpp"
 #include "stereo/camera_model.hpp"
 #include "stereo/povray.hpp"
+#include "stereo/rig_uncertainty.hpp"
 #include "stereo/simulator.hpp"
 
 namespace hedgefit::bench {
@@ -69,6 +71,9 @@ LabResult RunLab(const LabOptions& a) {
   out.baseline_mm = rig.baseline_mm;
   out.exact_rig = a.true_rig;
   fitting::SummaryBuilder summary;
+  // The rig's calibration uncertainty, carried into every fit (none for the exact rig).
+  const cloud::PointPerturbation perturbation = stereo::RigPerturbation(rig);
+  const cloud::PointPerturbation matching = stereo::DisparityOffsetPerturbation(rig);
   for (int z = 2000; z <= 2600; z += 100) {
     char name[32];
     std::snprintf(name, sizeof(name), "sphere_%04d", z);
@@ -86,6 +91,7 @@ LabResult RunLab(const LabOptions& a) {
     row.points = pts.size();
     for (const auto& m : fitting::SphereMethodNames()) {
       row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions));
+      fitting::AddUncertainty(pts, &perturbation, &row.fits.back(), &matching);
       summary.Add(m, row.fits.back(), row.truth);
     }
     out.rows.push_back(std::move(row));
@@ -130,6 +136,34 @@ void PrintLab(const LabResult& r) {
   std::printf("  %-17s %10.2f %10.2f %9.3f %9.2f %9.2f %9.2f   (published, %s)\n", "paper", p.mean_abs_aer_mm,
               p.max_abs_aer_mm, p.mean_rer_percent, p.rmse_radius_mm, p.mean_ld_mm, p.max_ld_mm,
               fitting::kPaperTable2Label);
+  // Do the stated 95 % intervals (points + rig) hold the truth? Per method, over the 7
+  // captures x (cx, cy, cz, r); and the stated standard error against the actual error.
+  std::printf("\n95 %% intervals (points' scatter, rig calibration, matcher's common offset) against the truth\n  %-17s %9s "
+              "%14s %14s %9s %11s\n",
+              "method", "inside", "stated se mm", "actual rms mm", "rig %", "matching %");
+  for (std::size_t k = 0; k < methods.size(); ++k) {
+    int inside = 0, cases = 0;
+    double stated2 = 0, error2 = 0, rig2 = 0, match2 = 0;
+    for (const auto& row : r.rows) {
+      const auto& f = row.fits[k];
+      const auto total = fitting::TotalStdError(f);
+      if (!f.converged || !total) continue;
+      const Eigen::Vector4d err(f.sphere.center_mm.x() - row.truth.center_mm.x(), f.sphere.center_mm.y() - row.truth.center_mm.y(),
+                                f.sphere.center_mm.z() - row.truth.center_mm.z(), f.sphere.radius_mm - row.truth.radius_mm);
+      for (int c = 0; c < 4; ++c) {
+        ++cases;
+        inside += std::abs(err[c]) <= 1.96 * (*total)[c];
+        stated2 += (*total)[c] * (*total)[c];
+        error2 += err[c] * err[c];
+        if (f.rig_std_error_mm) rig2 += (*f.rig_std_error_mm)[c] * (*f.rig_std_error_mm)[c];
+        if (f.matching_std_error_mm) match2 += (*f.matching_std_error_mm)[c] * (*f.matching_std_error_mm)[c];
+      }
+    }
+    if (cases == 0) continue;
+    std::printf("  %-17s %4d/%-4d %14.2f %14.2f %9.0f %11.0f\n", methods[k].c_str(), inside, cases,
+                std::sqrt(stated2 / cases), std::sqrt(error2 / cases), stated2 > 0 ? 100 * rig2 / stated2 : 0.0,
+                stated2 > 0 ? 100 * match2 / stated2 : 0.0);
+  }
   double ms = 0;
   for (const auto& row : r.rows) ms += row.convert_ms;
   std::printf("capture to cloud: %.0f ms per 1920x1200-scaled pair on average; whole run %.1f s\n",

@@ -1,4 +1,5 @@
 #include "fitting/evaluation.hpp"
+#include "fitting/uncertainty.hpp"
 
 #include "cloud/truth_file.hpp"
 
@@ -129,6 +130,18 @@ std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFi
   if (f.std_error_mm) {
     const auto& e = *f.std_error_mm;
     out.emplace_back("std_error_mm", std::vector<double>{e[0], e[1], e[2], e[3]});
+  }
+  if (f.rig_std_error_mm) {
+    const auto& e = *f.rig_std_error_mm;
+    out.emplace_back("rig_std_error_mm", std::vector<double>{e[0], e[1], e[2], e[3]});
+  }
+  if (f.matching_std_error_mm) {
+    const auto& e = *f.matching_std_error_mm;
+    out.emplace_back("matching_std_error_mm", std::vector<double>{e[0], e[1], e[2], e[3]});
+  }
+  if (const auto t = TotalStdError(f); t && f.converged) {
+    out.emplace_back("total_std_error_mm", std::vector<double>{(*t)[0], (*t)[1], (*t)[2], (*t)[3]});
+    out.emplace_back("ci95_mm", std::vector<double>{1.96 * (*t)[0], 1.96 * (*t)[1], 1.96 * (*t)[2], 1.96 * (*t)[3]});
   }
   if (f.converged && f.surface_radius_mm) out.emplace_back("surface_radius_mm", *f.surface_radius_mm);
   if (f.converged && f.leaf_depth_mm) out.emplace_back("leaf_depth_mm", *f.leaf_depth_mm);

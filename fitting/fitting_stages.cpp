@@ -10,6 +10,7 @@
 #include "fitting/evaluation.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
+#include "fitting/uncertainty.hpp"
 
 namespace hedgefit::fitting {
 
@@ -80,6 +81,10 @@ void RegisterFittingStages(cloud::Registry& r) {
                   throw Error("stage '" + m.stage + "'" + (g.id ? ", hedge " + std::to_string(g.id) : "") + ", " + e.what());
                 }
                 res.hedge_id = g.id;
+                // How far it can be trusted: the points' scatter, and the rig's calibration and
+                // the matcher's common offset when the capture stages left their perturbations.
+                AddUncertainty(pts, ctx.Find<cloud::PointPerturbation>("point_perturbation"), &res,
+                               ctx.Find<cloud::PointPerturbation>("disparity_perturbation"));
                 if (m.has_inliers) ctx.Note("seed", static_cast<std::int64_t>(in.seed));
                 if (groups.size() > 1) ctx.Note("hedges", static_cast<std::int64_t>(groups.size()));
                 Record(ctx, res, groups.size() > 1);

@@ -26,6 +26,12 @@ struct SphereFitResult {
   double wall_ms = 0.0;         ///< time spent in the fitter, ms
   /// Standard errors of (cx, cy, cz, r), mm, where the method provides them.
   std::optional<Eigen::Vector4d> std_error_mm;
+  /// Standard errors of (cx, cy, cz, r), mm, from the rig's calibration uncertainty (sampled
+  /// rigs re-triangulating the points; fitting/uncertainty.hpp), when the rig's covariance is known.
+  std::optional<Eigen::Vector4d> rig_std_error_mm;
+  /// Standard errors of (cx, cy, cz, r), mm, from a disparity offset common to the hedge (the
+  /// matcher's bias on real images), for clouds from a stereo capture.
+  std::optional<Eigen::Vector4d> matching_std_error_mm;
   std::string message;          ///< empty, or why the fit failed, or a warning
   /// Shell fits (method "envelope"): `sphere` is the outer envelope; these are the mean
   /// leaf-surface radius and the mean leaf depth below the envelope, mm.

@@ -3,6 +3,7 @@
 /// stereo calibration, optional rejection of outlier pairs, then Bouguet rectification.
 
 #include <opencv2/core.hpp>
+#include <iosfwd>
 #include <string>
 #include <utility>
 #include <vector>
@@ -49,15 +50,26 @@ struct PairCorners {
   std::string status;                      ///< empty, or why the pair cannot be used
 };
 
-/// Finds the board in every pair (sub-pixel). Unreadable images, size mismatches and
-/// boards not found are recorded in `status`, not thrown. `image_size` gets the size of
-/// the first readable pair.
+/// Finds the board in every pair (sub-pixel), pairs in parallel (`threads`, 0 = all cores):
+/// searched on an image reduced to at most 1024 px a side, refined on the full one. Unreadable
+/// images, size mismatches and boards not found are recorded in `status`, not thrown.
+/// `image_size` gets the size of the first readable pair. With `progress`, one line per pair
+/// as it finishes.
 std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, std::string>>& pairs,
-                                      const BoardSpec& board, cv::Size* image_size);
+                                      const BoardSpec& board, cv::Size* image_size, std::ostream* progress = nullptr,
+                                      int threads = 0);
 
 /// Calibrates from detected corners. Throws hedgefit::Error if fewer than min_pairs remain.
 StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size image_size,
                                const CalibrationOptions& options);
+
+/// The joint least-squares problem cv::stereoCalibrate solves (both cameras, the rig, every
+/// board pose; the options' model and fixed parameters), refined by Ceres from `rig`'s K, D, R,
+/// T, which it replaces; sets `rig->covariance` from the Jacobian scaled by the residual
+/// variance. Returns the residual standard deviation per image coordinate, px.
+double RefineStereoBundle(const std::vector<std::vector<cv::Point2f>>& left_px,
+                          const std::vector<std::vector<cv::Point2f>>& right_px, const std::vector<cv::Point3f>& board,
+                          const CalibrationOptions& options, StereoRig* rig);
 
 /// The board's inner corners in its own frame (z = 0), row-major as OpenCV orders them.
 std::vector<cv::Point3f> BoardCorners(const BoardSpec& board);

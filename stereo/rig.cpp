@@ -1,5 +1,6 @@
 #include "stereo/rig.hpp"
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
 
 #include <cmath>
@@ -21,9 +22,14 @@ std::string RigProblem(const StereoRig& rig) {
   const std::pair<const char*, const cv::Mat*> mats[] = {{"K1", &rig.K1}, {"K2", &rig.K2}, {"D1", &rig.D1},
                                                          {"D2", &rig.D2}, {"R", &rig.R},   {"T", &rig.T},
                                                          {"R1", &rig.R1}, {"R2", &rig.R2}, {"P1", &rig.P1},
-                                                         {"P2", &rig.P2}, {"Q", &rig.Q}};
+                                                         {"P2", &rig.P2}, {"Q", &rig.Q}, {"covariance", &rig.covariance}};
   for (const auto& [name, m] : mats) {
     if (!finite(*m)) return std::string("'") + name + "' holds a NaN, an infinity or a number beyond 1e12";
+  }
+  if (!rig.covariance.empty()) {
+    for (int i = 0; i < rig.covariance.rows && i < rig.covariance.cols; ++i) {
+      if (rig.covariance.at<double>(i, i) < 0) return "'covariance' has a negative variance (parameter " + std::to_string(i) + ")";
+    }
   }
   for (const auto& [name, K] : {std::pair<const char*, const cv::Mat*>{"K1", &rig.K1}, {"K2", &rig.K2}}) {
     if (K->rows != 3 || K->cols != 3) return std::string("'") + name + "' is not 3x3";
@@ -85,6 +91,77 @@ StereoRig RigForRectifiedPair(const cv::Size& image_size, double f, double cx, d
   return rig;
 }
 
+const std::vector<std::string>& RigParameterNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const char* cam : {"left", "right"}) {
+      for (const char* p : {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"}) {
+        n.push_back(std::string(cam) + "." + p);
+      }
+    }
+    for (const char* p : {"rx", "ry", "rz", "tx", "ty", "tz"}) n.push_back(std::string("rig.") + p);
+    return n;
+  }();
+  return names;
+}
+
+cv::Vec<double, kRigParameters> RigParameters(const StereoRig& rig) {
+  cv::Vec<double, kRigParameters> v = cv::Vec<double, kRigParameters>::all(0);
+  const std::pair<const cv::Mat*, const cv::Mat*> cams[] = {{&rig.K1, &rig.D1}, {&rig.K2, &rig.D2}};
+  for (int c = 0; c < 2; ++c) {
+    const cv::Mat& K = *cams[c].first;
+    const cv::Mat& D = *cams[c].second;
+    double* o = &v[12 * c];
+    o[0] = K.at<double>(0, 0);
+    o[1] = K.at<double>(1, 1);
+    o[2] = K.at<double>(0, 2);
+    o[3] = K.at<double>(1, 2);
+    for (int i = 0; i < std::min(8, static_cast<int>(D.total())); ++i) o[4 + i] = D.at<double>(i);
+  }
+  cv::Mat rvec;
+  cv::Rodrigues(rig.R, rvec);
+  for (int i = 0; i < 3; ++i) {
+    v[24 + i] = rvec.at<double>(i);
+    v[27 + i] = rig.T.at<double>(i);
+  }
+  return v;
+}
+
+StereoRig RigWithParameters(const StereoRig& rig, const cv::Vec<double, kRigParameters>& p) {
+  StereoRig out = rig;
+  cv::Mat* cams[2][2] = {{&out.K1, &out.D1}, {&out.K2, &out.D2}};
+  for (int c = 0; c < 2; ++c) {
+    const double* o = &p[12 * c];
+    *cams[c][0] = (cv::Mat_<double>(3, 3) << o[0], 0, o[2], 0, o[1], o[3], 0, 0, 1);
+    cv::Mat D = cams[c][1]->clone();
+    if (D.empty()) D = cv::Mat::zeros(1, 5, CV_64F);
+    for (int i = 0; i < std::min(8, static_cast<int>(D.total())); ++i) D.at<double>(i) = o[4 + i];
+    *cams[c][1] = D;
+  }
+  // A fresh matrix: `out` shares its matrices' data with `rig`, and Rodrigues would write into it.
+  out.R = cv::Mat();
+  cv::Rodrigues(cv::Vec3d(p[24], p[25], p[26]), out.R);
+  out.T = (cv::Mat_<double>(3, 1) << p[27], p[28], p[29]);
+  out.baseline_mm = cv::norm(out.T);
+  out.E = out.F = out.R1 = out.R2 = out.P1 = out.P2 = out.Q = cv::Mat();
+  return out;
+}
+
+std::vector<double> RigStdDevs(const StereoRig& rig) {
+  std::vector<double> s;
+  if (rig.covariance.rows != kRigParameters || rig.covariance.cols != kRigParameters) return s;
+  for (int i = 0; i < kRigParameters; ++i) s.push_back(std::sqrt(std::max(0.0, rig.covariance.at<double>(i, i))));
+  return s;
+}
+
+double BaselineStdDev(const StereoRig& rig) {
+  if (rig.covariance.rows != kRigParameters || rig.T.total() != 3) return 0;
+  // Var |T| = g^T C g with g = T / |T|.
+  const cv::Mat g = rig.T / std::max(1e-12, cv::norm(rig.T));
+  const cv::Mat c = rig.covariance(cv::Rect(27, 27, 3, 3));
+  return std::sqrt(std::max(0.0, cv::Mat(g.t() * c * g).at<double>(0)));
+}
+
 void WriteRig(const std::string& path, const StereoRig& rig) {
   cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   fs << "image_width" << rig.image_size.width << "image_height" << rig.image_size.height;
@@ -93,6 +170,19 @@ void WriteRig(const std::string& path, const StereoRig& rig) {
   fs << "R1" << rig.R1 << "R2" << rig.R2 << "P1" << rig.P1 << "P2" << rig.P2 << "Q" << rig.Q;
   fs << "baseline_mm" << rig.baseline_mm;
   fs << "rms_left_px" << rig.rms_left_px << "rms_right_px" << rig.rms_right_px << "rms_stereo_px" << rig.rms_stereo_px;
+  if (const std::vector<double> sd = RigStdDevs(rig); !sd.empty()) {
+    // Standard deviations for people (fx fy cx cy, then the distortion terms the model has;
+    // the rotation vector in degrees), then the full covariance for programs.
+    auto row = [&](int from, int n, double scale) {
+      cv::Mat m(1, n, CV_64F);
+      for (int i = 0; i < n; ++i) m.at<double>(i) = sd[std::size_t(from + i)] * scale;
+      return m;
+    };
+    const int n1 = std::min(8, static_cast<int>(rig.D1.total())), n2 = std::min(8, static_cast<int>(rig.D2.total()));
+    fs << "std_K1" << row(0, 4, 1) << "std_D1" << row(4, n1, 1) << "std_K2" << row(12, 4, 1) << "std_D2" << row(16, n2, 1);
+    fs << "std_R_deg" << row(24, 3, 180.0 / CV_PI) << "std_T" << row(27, 3, 1) << "std_baseline_mm" << BaselineStdDev(rig);
+    fs << "covariance" << rig.covariance;
+  }
   fs << "pairs" << "[";
   for (const auto& p : rig.pairs) {
     fs << "{" << "left" << p.left << "right" << p.right << "used" << static_cast<int>(p.used) << "status" << p.status
@@ -108,7 +198,7 @@ namespace {
 // A matrix node ({rows, cols, dt, data}) read element by element: OpenCV's own reader allocates
 // whatever rows x cols it finds (or garbage when one is missing: fuzzing found a 51 GB
 // allocation), and a rig's matrices are small. An absent key gives an empty matrix.
-cv::Mat ReadMatrix(const cv::FileNode& node, const std::string& path, const char* key) {
+cv::Mat ReadMatrix(const cv::FileNode& node, const std::string& path, const char* key, int max_side = 16) {
   if (node.empty() || node.isNone()) return cv::Mat();
   const cv::FileNode rows = node["rows"], cols = node["cols"], data = node["data"];
   if (!node.isMap() || !rows.isInt() || !cols.isInt() || !data.isSeq()) {
@@ -116,9 +206,9 @@ cv::Mat ReadMatrix(const cv::FileNode& node, const std::string& path, const char
   }
   const int r = int(rows), c = int(cols);
   if (r == 0 || c == 0) return cv::Mat();
-  if (r < 0 || c < 0 || r > 16 || c > 16) {
+  if (r < 0 || c < 0 || r > max_side || c > max_side) {
     throw Error(path + ": key '" + key + "' is " + std::to_string(r) + " x " + std::to_string(c) +
-                "; a rig's matrices are at most 4 x 14");
+                "; a rig's matrices are at most " + std::to_string(max_side) + " a side");
   }
   if (data.size() != std::size_t(r) * std::size_t(c)) {
     throw Error(path + ": key '" + key + "' holds " + std::to_string(data.size()) + " values for a " + std::to_string(r) +
@@ -240,6 +330,11 @@ StereoRig ReadRig(const std::string& path) {
     fs["rms_left_px"] >> rig.rms_left_px;
     fs["rms_right_px"] >> rig.rms_right_px;
     fs["rms_stereo_px"] >> rig.rms_stereo_px;
+    rig.covariance = ReadMatrix(fs["covariance"], path, "covariance", kRigParameters);
+    if (!rig.covariance.empty() && (rig.covariance.rows != kRigParameters || rig.covariance.cols != kRigParameters)) {
+      throw Error(path + ": key 'covariance' must be " + std::to_string(kRigParameters) + " x " +
+                  std::to_string(kRigParameters) + " (the calibrated parameters); recalibrate or delete the key");
+    }
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {

@@ -29,7 +29,32 @@ struct StereoRig {
   double baseline_mm = 0;               ///< |T|
   double rms_left_px = 0, rms_right_px = 0, rms_stereo_px = 0;  ///< calibration RMS
   std::vector<PairReport> pairs;        ///< per-pair results, rejected pairs included
+  /// Covariance of the calibrated parameters (kRigParameters x kRigParameters, in the order of
+  /// RigParameterNames()), from the calibration's own Jacobian scaled by its residual variance;
+  /// empty when unknown (a rig written by hand or by an older hedgefit).
+  cv::Mat covariance;
 };
+
+/// The calibrated parameters, in the order StereoRig::covariance uses: for each camera (left,
+/// then right) fx fy cx cy (px) and k1 k2 p1 p2 k3 k4 k5 k6 (OpenCV's order, zero where the model
+/// has fewer), then the rotation between the cameras as a rotation vector (rad), then T (mm).
+constexpr int kRigParameters = 30;
+const std::vector<std::string>& RigParameterNames();
+
+/// The parameter vector of `rig` (K, D, R, T) in RigParameterNames() order.
+cv::Vec<double, kRigParameters> RigParameters(const StereoRig& rig);
+
+/// `rig` with K, D, R, T (and the baseline) set from `parameters`; D keeps its length. E, F and
+/// the rectification are cleared (they belonged to the old parameters); the covariance and the
+/// calibration report are kept.
+StereoRig RigWithParameters(const StereoRig& rig, const cv::Vec<double, kRigParameters>& parameters);
+
+/// Standard deviation of each parameter (sqrt of the covariance's diagonal); empty when the
+/// rig has no covariance.
+std::vector<double> RigStdDevs(const StereoRig& rig);
+
+/// Standard deviation of the baseline |T|, mm, from T's covariance; 0 when unknown.
+double BaselineStdDev(const StereoRig& rig);
 
 /// The rig of a pair that is already rectified (and undistorted): both cameras share the
 /// focal length and principal point, the right camera sits `baseline_mm` to the right.

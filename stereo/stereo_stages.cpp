@@ -11,6 +11,7 @@
 #include "cloud/parallel.hpp"
 #include "cloud/point_cloud.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/rig_uncertainty.hpp"
 
 namespace hedgefit::stereo {
 
@@ -78,6 +79,10 @@ void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoR
   ctx->Put("right_image", right_bgr);
   ctx->Put("rig", rig);
   ctx->Put("rectified", false);
+  // A calibrated rig's uncertainty, for the fitting stages to carry into each hedge's fit.
+  if (!rig.covariance.empty()) ctx->Put("point_perturbation", RigPerturbation(rig));
+  // And the matcher's: a disparity offset common to a hedge, as measured on real images.
+  ctx->Put("disparity_perturbation", DisparityOffsetPerturbation(rig));
 }
 
 void RegisterStereoStages(cloud::Registry& r) {

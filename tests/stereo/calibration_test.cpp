@@ -137,6 +137,12 @@ TEST(RealCalibration, OpenCvChessboardPairs) {
   const StereoRig back = ReadRig(path);
   EXPECT_LT(cv::norm(back.K1 - rig.K1), 1e-9);
   EXPECT_LT(cv::norm(back.T - rig.T), 1e-9);
+  // The parameters' covariance travels with the rig: every free parameter has a variance.
+  ASSERT_EQ(rig.covariance.rows, kRigParameters);
+  EXPECT_LT(cv::norm(back.covariance - rig.covariance), 1e-9 * cv::norm(rig.covariance));
+  const std::vector<double> sd = RigStdDevs(back);
+  for (int k : {0, 1, 2, 3, 4, 5, 8, 12, 14, 24, 27}) EXPECT_GT(sd[std::size_t(k)], 0) << RigParameterNames()[std::size_t(k)];
+  EXPECT_EQ(sd[9], 0);  // k4: not in the default model
   cv::FileStorage fs(path, cv::FileStorage::READ);
   cv::Mat q;
   fs["Q"] >> q;

@@ -1,0 +1,115 @@
+#include "fitting/uncertainty.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "fitting/geometric_fit.hpp"
+
+namespace hedgefit::fitting {
+
+namespace {
+
+double Median(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere) {
+  std::vector<double> res;
+  res.reserve(points_mm.size());
+  for (const auto& p : points_mm) {
+    if (p.allFinite()) res.push_back((p - sphere.center_mm).norm() - sphere.radius_mm);
+  }
+  if (res.empty()) return {};
+  const double med = Median(res);
+  std::vector<double> dev(res.size());
+  for (std::size_t i = 0; i < res.size(); ++i) dev[i] = std::abs(res[i] - med);
+  const double band = 3.0 * 1.4826 * Median(dev);
+  std::vector<Eigen::Vector3d> out;
+  for (const auto& p : points_mm) {
+    if (p.allFinite() && std::abs((p - sphere.center_mm).norm() - sphere.radius_mm - med) <= band) out.push_back(p);
+  }
+  return out;
+}
+
+std::optional<Eigen::Vector4d> ScatterStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                               double correlation_area) {
+  if (support.size() <= 4) return std::nullopt;
+  // Residual e = |p - c| - r; de/dc = -(p - c)/|p - c|, de/dr = -1.
+  Eigen::Matrix4d JtJ = Eigen::Matrix4d::Zero();
+  double sum = 0, sum2 = 0;
+  for (const auto& p : support) {
+    const Eigen::Vector3d d = p - sphere.center_mm;
+    const double n = d.norm();
+    if (!(n > 0)) continue;
+    Eigen::Vector4d j;
+    j << -d / n, -1.0;
+    JtJ += j * j.transpose();
+    const double e = n - sphere.radius_mm;
+    sum += e;
+    sum2 += e * e;
+  }
+  const double count = double(support.size());
+  const double mean = sum / count;
+  const double var = std::max(0.0, sum2 / count - mean * mean) * count / (count - 4.0);
+  Eigen::FullPivLU<Eigen::Matrix4d> lu(JtJ);
+  if (!lu.isInvertible()) return std::nullopt;
+  const Eigen::Matrix4d cov = lu.inverse() * var * std::max(1.0, correlation_area);
+  return Eigen::Vector4d(cov.diagonal().cwiseMax(0).cwiseSqrt());
+}
+
+std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                    const cloud::PointPerturbation& perturbation,
+                                                    std::size_t max_points) {
+  if (perturbation.samples < 2 || !perturbation.apply || support.size() < 5) return std::nullopt;
+  std::vector<Eigen::Vector3d> subset;
+  const std::size_t step = std::max<std::size_t>(1, support.size() / std::max<std::size_t>(1, max_points));
+  for (std::size_t i = 0; i < support.size(); i += step) subset.push_back(support[i]);
+  GeometricFitOptions go;
+  go.compute_covariance = false;
+  go.num_threads = 1;
+  std::vector<Eigen::Vector4d> draws;
+  std::vector<Eigen::Vector3d> moved, finite;
+  for (int s = 0; s < perturbation.samples; ++s) {
+    perturbation.apply(s, subset, &moved);
+    finite.clear();
+    for (const auto& p : moved) {
+      if (p.allFinite()) finite.push_back(p);
+    }
+    if (finite.size() < 5) continue;
+    const SphereFitResult f = FitSphereGeometric(finite, go, &sphere);
+    if (!f.sphere.center_mm.allFinite()) continue;
+    draws.emplace_back(f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm);
+  }
+  if (draws.size() < 2) return std::nullopt;
+  Eigen::Vector4d mean = Eigen::Vector4d::Zero();
+  for (const auto& d : draws) mean += d;
+  mean /= double(draws.size());
+  Eigen::Vector4d var = Eigen::Vector4d::Zero();
+  for (const auto& d : draws) var += (d - mean).cwiseAbs2();
+  return Eigen::Vector4d((var / double(draws.size() - 1)).cwiseSqrt());
+}
+
+void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::PointPerturbation* rig,
+                    SphereFitResult* fit, const cloud::PointPerturbation* matching) {
+  if (!fit->converged) return;
+  const std::vector<Eigen::Vector3d> support = SupportingPoints(points_mm, fit->sphere);
+  if (!fit->std_error_mm) fit->std_error_mm = ScatterStdError(support, fit->sphere);
+  if (rig && rig->samples > 1) fit->rig_std_error_mm = PerturbationStdError(support, fit->sphere, *rig);
+  if (matching && matching->samples > 1) fit->matching_std_error_mm = PerturbationStdError(support, fit->sphere, *matching);
+}
+
+std::optional<Eigen::Vector4d> TotalStdError(const SphereFitResult& fit) {
+  if (!fit.std_error_mm && !fit.rig_std_error_mm && !fit.matching_std_error_mm) return std::nullopt;
+  Eigen::Vector4d v = Eigen::Vector4d::Zero();
+  for (const auto* part : {&fit.std_error_mm, &fit.rig_std_error_mm, &fit.matching_std_error_mm}) {
+    if (*part) v += (*part)->cwiseAbs2();
+  }
+  return Eigen::Vector4d(v.cwiseSqrt());
+}
+
+}  // namespace hedgefit::fitting

@@ -1,0 +1,43 @@
+#pragma once
+/// How far a sphere fit can be trusted: standard errors from the points' scatter (any method)
+/// and from a systematic error source such as the rig's calibration (by refitting perturbed
+/// copies of the points), combined into a 95 % interval per coordinate.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "cloud/uncertainty.hpp"
+#include "fitting/sphere_fit.hpp"
+
+namespace hedgefit::fitting {
+
+/// The points a converged fit rests on: those within 3 robust standard deviations (1.4826 MAD)
+/// of the median residual |p - c| - r. For robust methods these are about its inliers.
+std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere);
+
+/// Standard errors of (cx, cy, cz, r) from the scatter of `support` about `sphere`: the inverse
+/// normal matrix of the geometric residuals times their variance, inflated by sqrt(correlation_area)
+/// because neighbouring stereo points share matching windows and are not independent.
+std::optional<Eigen::Vector4d> ScatterStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                               double correlation_area = 1.0);
+
+/// Standard deviations of (cx, cy, cz, r) over the perturbation's draws: each draw moves (up to
+/// `max_points` of, evenly taken) `support`, and a geometric least-squares fit from `sphere`
+/// is refitted. nullopt with fewer than 2 draws or points.
+std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                    const cloud::PointPerturbation& perturbation,
+                                                    std::size_t max_points = 3000);
+
+/// Fills a converged fit's uncertainty: std_error_mm from the scatter where the method gave
+/// none, rig_std_error_mm from the rig's perturbation and matching_std_error_mm from the
+/// disparity offset's, each when given with draws.
+void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::PointPerturbation* rig,
+                    SphereFitResult* fit, const cloud::PointPerturbation* matching = nullptr);
+
+/// Standard error of (cx, cy, cz, r) from every source the fit has (root sum of squares), and
+/// the half-width of its 95 % interval (1.96 standard errors); nullopt without any.
+std::optional<Eigen::Vector4d> TotalStdError(const SphereFitResult& fit);
+
+}  // namespace hedgefit::fitting
