@@ -183,7 +183,14 @@ std::string LabJson(const LabResult& r) {
       out["rows"].push_back({{"method", methods[k]}, {"z_mm", row.z_mm}, {"ar_mm", row.truth.radius_mm},
                              {"mr_mm", f.sphere.radius_mm}, {"aer_mm", e.aer_mm}, {"rer_percent", e.rer_percent},
                              {"ld_mm", e.ld_mm},
-                             {"ml_mm", {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()}}});
+                             {"ml_mm", {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()}},
+                             {"al_mm", {row.truth.center_mm.x(), row.truth.center_mm.y(), row.truth.center_mm.z()}}});
+      // The fit's stated uncertainty (fitting::FitFields: std_error_mm, rig_..., matching_..., ci95_mm).
+      for (const auto& [key, value] : fitting::FitFields(f)) {
+        if (key.find("std_error_mm") != std::string::npos || key == "ci95_mm") {
+          out["rows"].back()[key] = std::get<std::vector<double>>(value);
+        }
+      }
     }
   }
   for (const auto& m : methods) {

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 #include "fitting/geometric_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -62,6 +64,54 @@ std::optional<Eigen::Vector4d> ScatterStdError(const std::vector<Eigen::Vector3d
   return Eigen::Vector4d(cov.diagonal().cwiseMax(0).cwiseSqrt());
 }
 
+std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                      std::size_t max_points) {
+  if (support.size() < 64) return std::nullopt;
+  std::vector<Eigen::Vector3d> subset;
+  const std::size_t step = std::max<std::size_t>(1, support.size() / std::max<std::size_t>(1, max_points));
+  for (std::size_t i = 0; i < support.size(); i += step) subset.push_back(support[i]);
+  // Patches on the sphere: the polar angle from the axis towards the camera (at the origin;
+  // the z axis when the centre is the origin) split at its median, times 8 azimuth sectors.
+  Eigen::Vector3d axis = -sphere.center_mm;
+  axis = axis.norm() > 1e-9 ? Eigen::Vector3d(axis.normalized()) : Eigen::Vector3d(0, 0, -1);
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  std::vector<double> polar(subset.size());
+  std::vector<int> sector(subset.size());
+  for (std::size_t i = 0; i < subset.size(); ++i) {
+    const Eigen::Vector3d d = (subset[i] - sphere.center_mm).normalized();
+    polar[i] = d.dot(axis);
+    double az = std::atan2(d.dot(v), d.dot(u));
+    if (az < 0) az += 2 * M_PI;
+    sector[i] = std::min(7, static_cast<int>(az / (2 * M_PI) * 8));
+  }
+  const double median_polar = Median(polar);
+  constexpr int kGroups = 16;
+  GeometricFitOptions go;
+  go.compute_covariance = false;
+  go.num_threads = 1;
+  std::vector<Eigen::Vector4d> estimates;
+  std::vector<Eigen::Vector3d> rest;
+  for (int g = 0; g < kGroups; ++g) {
+    rest.clear();
+    for (std::size_t i = 0; i < subset.size(); ++i) {
+      const int group = sector[i] + (polar[i] >= median_polar ? 8 : 0);
+      if (group != g) rest.push_back(subset[i]);
+    }
+    if (rest.size() == subset.size()) continue;  // an empty patch (a cap seen from one side)
+    const SphereFitResult f = FitSphereGeometric(rest, go, &sphere);
+    if (!f.sphere.center_mm.allFinite()) continue;
+    estimates.emplace_back(f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm);
+  }
+  if (estimates.size() < 4) return std::nullopt;
+  const double n = double(estimates.size());
+  Eigen::Vector4d mean = Eigen::Vector4d::Zero();
+  for (const auto& e : estimates) mean += e;
+  mean /= n;
+  Eigen::Vector4d var = Eigen::Vector4d::Zero();
+  for (const auto& e : estimates) var += (e - mean).cwiseAbs2();
+  return Eigen::Vector4d((var * (n - 1) / n).cwiseSqrt());
+}
+
 std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
                                                     const cloud::PointPerturbation& perturbation,
                                                     std::size_t max_points) {
@@ -99,6 +149,11 @@ void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::
   if (!fit->converged) return;
   const std::vector<Eigen::Vector3d> support = SupportingPoints(points_mm, fit->sphere);
   if (!fit->std_error_mm) fit->std_error_mm = ScatterStdError(support, fit->sphere);
+  // Stereo errors are shared by neighbouring points (matching windows, smoothing, the rim): the
+  // block jackknife over surface patches counts what they share; keep the larger of the two.
+  if (const auto jack = BlockJackknifeStdError(support, fit->sphere)) {
+    fit->std_error_mm = fit->std_error_mm ? Eigen::Vector4d(fit->std_error_mm->cwiseMax(*jack)) : *jack;
+  }
   if (rig && rig->samples > 1) fit->rig_std_error_mm = PerturbationStdError(support, fit->sphere, *rig);
   if (matching && matching->samples > 1) fit->matching_std_error_mm = PerturbationStdError(support, fit->sphere, *matching);
 }

@@ -23,6 +23,14 @@ std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>
 std::optional<Eigen::Vector4d> ScatterStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
                                                double correlation_area = 1.0);
 
+/// Standard errors of (cx, cy, cz, r) by a delete-a-group jackknife over 16 patches of the
+/// surface (polar angle from the camera's axis above and below its median, times 8 azimuth
+/// sectors), refitting by geometric least squares from `sphere` without each patch in turn.
+/// Unlike ScatterStdError it counts errors that neighbouring points share, and errors that
+/// differ between the rim and the middle of the seen cap. On up to `max_points` (evenly taken).
+std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                      std::size_t max_points = 3000);
+
 /// Standard deviations of (cx, cy, cz, r) over the perturbation's draws: each draw moves (up to
 /// `max_points` of, evenly taken) `support`, and a geometric least-squares fit from `sphere`
 /// is refitted. nullopt with fewer than 2 draws or points.
@@ -30,8 +38,8 @@ std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vec
                                                     const cloud::PointPerturbation& perturbation,
                                                     std::size_t max_points = 3000);
 
-/// Fills a converged fit's uncertainty: std_error_mm from the scatter where the method gave
-/// none, rig_std_error_mm from the rig's perturbation and matching_std_error_mm from the
+/// Fills a converged fit's uncertainty: std_error_mm, the larger of the method's own (or the
+/// scatter's, where it gave none) and the block jackknife's, rig_std_error_mm from the rig's perturbation and matching_std_error_mm from the
 /// disparity offset's, each when given with draws.
 void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::PointPerturbation* rig,
                     SphereFitResult* fit, const cloud::PointPerturbation* matching = nullptr);
