@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <opencv2/calib3d.hpp>
@@ -15,6 +16,7 @@
 #include "apps/parse.hpp"
 #include "stereo/calibration.hpp"
 #include "stereo/rig.hpp"
+#include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
 
@@ -51,7 +53,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit calibrate --list pairs.txt --board 12x11 --square 30 --model rational -o rig.yaml --json\n"
       "Pairs are matched by sorted order; a list file has one 'LEFT RIGHT' pair per line.\n");
   struct Args {
-    std::string left, right, list, board = "9x6", model = "k1k2p1p2k3", output = "rig.yaml";
+    std::string left, right, list, board = "9x6", model = "k1k2p1p2k3", output = "rig.yaml", coverage;
     double square = 1.0, alpha = stereo::CalibrationOptions{}.alpha, reject = 3.0;
     bool fix_pp = false, fix_aspect = false, json = false, keep_intrinsics = false;
   };
@@ -72,6 +74,8 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_flag("--keep-intrinsics", a->keep_intrinsics, "do not refine per-camera intrinsics in the stereo step");
   cmd->add_option("-o,--output", a->output, "rig file to write (OpenCV YAML)")->capture_default_str();
   cmd->add_flag("--json", a->json, "print the result as JSON");
+  cmd->add_option("--coverage", a->coverage,
+                  "also draw where the corners fell in each image (PNG): uncovered cells of an 8 x 8 grid are hatched");
   cmd->callback([=]() {
     *run = [=]() {
       // Options first: a bad --board fails before any file is touched.
@@ -86,6 +90,12 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       o.alpha = a->alpha;
       o.reject_factor = a->reject;
       o.refine_intrinsics = !a->keep_intrinsics;
+      if (!a->coverage.empty()) {
+        const std::string ext = std::filesystem::path(a->coverage).extension().string();
+        if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") {
+          throw Error("--coverage " + a->coverage + ": give a .png or .jpg file name");
+        }
+      }
       try {
         o.Check();
       } catch (const Error& e) {
@@ -138,6 +148,9 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
         }
       }
       const char* dropped_name = o.model == stereo::DistortionModel::kRational ? "k4..k6" : "k3";
+      std::pair<double, double> share{0, 0};
+      const cv::Mat coverage = stereo::CoveragePicture(corners, rig.pairs, size, &share);
+      if (!a->coverage.empty()) stereo::WriteImageAtomic(a->coverage, coverage);
       stereo::WriteRig(a->output, rig);
       cv::Mat rvec;
       cv::Rodrigues(rig.R, rvec);
@@ -147,6 +160,10 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       // The principal point is what moves a hedge sideways; say when the poses leave it loose.
       std::vector<std::string> warnings;
       if (!sd.empty()) {
+        if (std::min(share.first, share.second) < 0.6) {
+          warnings.emplace_back("the corners cover under 60 % of the image: show the board near the corners and edges, "
+                                "where distortion is largest");
+        }
         const char* axis_hint[2] = {"tilt the board about the vertical axis and show it near the left and right edges",
                                     "tilt the board about the horizontal axis and show it near the top and bottom edges"};
         for (int c = 0; c < 2; ++c) {
@@ -193,6 +210,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
                               {"largest_dropped_term_in_std", z_dropped}};
         }
         j["warnings"] = warnings;
+        j["corner_coverage"] = {share.first, share.second};
         for (const auto& p : rig.pairs) {
           j["pairs"].push_back({{"left", p.left}, {"right", p.right}, {"used", p.used}, {"status", p.status},
                                 {"rms_left_px", p.rms_left_px}, {"rms_right_px", p.rms_right_px},
@@ -228,6 +246,9 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
                     z_dropped < 2 ? "so the data do not support it: consider the simpler --model"
                                   : "so the data support it");
       }
+      std::printf("  corners fell in %.0f %% (left) and %.0f %% (right) of an 8 x 8 grid over the image%s\n",
+                  100 * share.first, 100 * share.second,
+                  a->coverage.empty() ? " (--coverage FILE.png draws it)" : "");
       std::printf("pairs:\n");
       for (const auto& p : rig.pairs) {
         if (p.used || p.rms_stereo_px > 0) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "stereo/stereo_stages.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "stereo/camera_model.hpp"
@@ -18,11 +19,7 @@ namespace hedgefit::apps {
 namespace {
 
 
-void SaveImage(const std::filesystem::path& path, const cv::Mat& img) {
-  const auto tmp = path.parent_path() / ("." + path.filename().string() + ".tmp.png");
-  if (!cv::imwrite(tmp.string(), img)) throw Error(path.string() + ": cannot write the image");
-  std::filesystem::rename(tmp, path);
-}
+void SaveImage(const std::filesystem::path& path, const cv::Mat& img) { stereo::WriteImageAtomic(path.string(), img); }
 
 }  // namespace
 

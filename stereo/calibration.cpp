@@ -175,6 +175,81 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
   return out;
 }
 
+cv::Mat CoveragePicture(const std::vector<PairCorners>& pairs, const std::vector<PairReport>& reports,
+                        cv::Size image_size, std::pair<double, double>* share) {
+  const double scale = std::min(1.0, 800.0 / std::max(1, image_size.width));
+  const cv::Size small(std::max(1, int(std::lround(image_size.width * scale))),
+                       std::max(1, int(std::lround(image_size.height * scale))));
+  constexpr int kGrid = 8;
+  cv::Mat out(small.height + 24, 2 * small.width + 8, CV_8UC3, cv::Scalar(255, 255, 255));
+  for (int cam = 0; cam < 2; ++cam) {
+    cv::Mat count = cv::Mat::zeros(small, CV_32F);
+    std::vector<cv::Point2f> dots;
+    bool cell[kGrid][kGrid] = {};
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const bool used = i < reports.size() ? reports[i].used : pairs[i].status.empty();
+      const auto& px = cam == 0 ? pairs[i].left_px : pairs[i].right_px;
+      if (!used || px.empty()) continue;
+      std::vector<cv::Point2f> scaled;
+      for (const auto& p : px) {
+        scaled.push_back(p * float(scale));
+        const int gx = std::clamp(int(p.x / image_size.width * kGrid), 0, kGrid - 1);
+        const int gy = std::clamp(int(p.y / image_size.height * kGrid), 0, kGrid - 1);
+        cell[gy][gx] = true;
+      }
+      std::vector<cv::Point2f> hull_f;
+      cv::convexHull(scaled, hull_f);
+      std::vector<cv::Point> hull(hull_f.begin(), hull_f.end());
+      cv::Mat one = cv::Mat::zeros(small, CV_32F);
+      cv::fillConvexPoly(one, hull, cv::Scalar(1.0));
+      count += one;
+      dots.insert(dots.end(), scaled.begin(), scaled.end());
+    }
+    // Grey background, boards shaded blue by how many overlap.
+    cv::Mat view(small, CV_8UC3, cv::Scalar(235, 235, 235));
+    for (int y = 0; y < small.height; ++y) {
+      for (int x = 0; x < small.width; ++x) {
+        const float n = count.at<float>(y, x);
+        if (n > 0) {
+          const double t = std::min(1.0, 0.25 + 0.15 * n);
+          view.at<cv::Vec3b>(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(235 - 20 * t), cv::saturate_cast<uchar>(235 - 170 * t),
+                                               cv::saturate_cast<uchar>(235 - 200 * t));
+        }
+      }
+    }
+    int filled = 0;
+    for (int gy = 0; gy < kGrid; ++gy) {
+      for (int gx = 0; gx < kGrid; ++gx) {
+        const cv::Rect r(gx * small.width / kGrid, gy * small.height / kGrid, small.width / kGrid, small.height / kGrid);
+        if (cell[gy][gx]) {
+          ++filled;
+          continue;
+        }
+        cv::Mat roi = view(r);  // drawing in the cell's own view clips the hatching to it
+        for (int k = -r.height; k < r.width; k += 8) {
+          cv::line(roi, cv::Point(k, r.height), cv::Point(k + r.height, 0), cv::Scalar(80, 80, 220), 1, cv::LINE_AA);
+        }
+      }
+    }
+    for (const auto& d : dots) cv::circle(view, d, 1, cv::Scalar(20, 20, 20), cv::FILLED);
+    for (int g = 1; g < kGrid; ++g) {
+      cv::line(view, cv::Point(g * small.width / kGrid, 0), cv::Point(g * small.width / kGrid, small.height),
+               cv::Scalar(200, 200, 200));
+      cv::line(view, cv::Point(0, g * small.height / kGrid), cv::Point(small.width, g * small.height / kGrid),
+               cv::Scalar(200, 200, 200));
+    }
+    view.copyTo(out(cv::Rect(cam * (small.width + 8), 24, small.width, small.height)));
+    const double frac = filled / double(kGrid * kGrid);
+    char label[96];
+    std::snprintf(label, sizeof(label), "%s camera: corners in %d of %d cells", cam == 0 ? "left" : "right", filled,
+                  kGrid * kGrid);
+    cv::putText(out, label, cv::Point(cam * (small.width + 8) + 4, 17), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    if (share) (cam == 0 ? share->first : share->second) = frac;
+  }
+  return out;
+}
+
 StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size image_size,
                                const CalibrationOptions& options) {
   options.Check();

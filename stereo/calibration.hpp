@@ -63,6 +63,13 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
 StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size image_size,
                                const CalibrationOptions& options);
 
+/// Where the corners of the used pairs fell: each camera's image (left, then right, side by side,
+/// scaled to at most 800 px wide each) with every board's outline shaded, so overlaps are darker,
+/// and its corners dotted; the cells of an 8 x 8 grid that hold no corner are hatched red.
+/// `share` (optional) gets the fraction of the 64 cells holding a corner, left and right.
+cv::Mat CoveragePicture(const std::vector<PairCorners>& pairs, const std::vector<PairReport>& reports,
+                        cv::Size image_size, std::pair<double, double>* share = nullptr);
+
 /// The joint least-squares problem cv::stereoCalibrate solves (both cameras, the rig, every
 /// board pose; the options' model and fixed parameters), refined by Ceres from `rig`'s K, D, R,
 /// T, which it replaces; sets `rig->covariance` from the Jacobian scaled by the residual

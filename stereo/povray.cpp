@@ -1,4 +1,5 @@
 #include "stereo/povray.hpp"
+#include "stereo/stereo_stages.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -175,9 +176,7 @@ std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, co
                   const SphereScene& s) {
     const cv::Mat img = ApplyCameraModel(RenderPovray(rig, right, kind, b, s, dir), camera, right, view++ / 2);
     const std::string path = (fs::path(dir) / name).string();
-    const std::string tmp = (fs::path(dir) / ("." + name + ".tmp.png")).string();
-    if (!cv::imwrite(tmp, img)) throw Error(path + ": cannot write the image");
-    fs::rename(tmp, path);
+    WriteImageAtomic(path, img);
     written.push_back(path);
   };
   const std::vector<BoardScene> boards = PaperLabBoards();

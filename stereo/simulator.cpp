@@ -1,4 +1,5 @@
 #include "stereo/simulator.hpp"
+#include "stereo/stereo_stages.hpp"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
@@ -562,9 +563,7 @@ std::vector<std::string> WriteGarden(const std::string& dir, double scale, const
     const GardenScene sc = GardenPreset(name);
     for (bool right : {false, true}) {
       const std::string path = (fs::path(dir) / ("garden_" + name + (right ? "_right.png" : "_left.png"))).string();
-      const fs::path tmp = fs::path(dir) / (".garden_" + name + ".tmp.png");
-      if (!cv::imwrite(tmp.string(), RenderGarden(rig, right, sc, options))) throw Error(path + ": cannot write the image");
-      fs::rename(tmp, path);
+      WriteImageAtomic(path, RenderGarden(rig, right, sc, options));
       written.push_back(path);
     }
     std::vector<cloud::SphereTruth> truths;
@@ -679,9 +678,7 @@ std::vector<std::string> WritePaperLab(const std::string& dir, double scale, con
   std::vector<std::string> written;
   auto save = [&](const std::string& name, const cv::Mat& img) {
     const std::string path = (fs::path(dir) / name).string();
-    const fs::path tmp = fs::path(dir) / ("." + name + ".tmp.png");
-    if (!cv::imwrite(tmp.string(), img)) throw Error(path + ": cannot write the image");
-    fs::rename(tmp, path);
+    WriteImageAtomic(path, img);
     written.push_back(path);
   };
   cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");

@@ -5,8 +5,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <filesystem>
 #include <fstream>
 
+#include "cloud/cloud_io.hpp"
 #include "cloud/option_table.hpp"
 #include "cloud/parallel.hpp"
 #include "cloud/point_cloud.hpp"
@@ -67,6 +69,19 @@ cv::Mat ReadCaptureImage(const std::string& path, int flags) {
   if (m.depth() != CV_8U) throw Error(path + ": not an 8-bit image; give an 8-bit PNG or JPEG file");
   if (flags == cv::IMREAD_COLOR && m.channels() == 1) cv::cvtColor(m, m, cv::COLOR_GRAY2BGR);
   return m;
+}
+
+void WriteImageAtomic(const std::string& path, const cv::Mat& image) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  std::vector<uchar> bytes;
+  bool ok = false;
+  try {
+    ok = !image.empty() && !ext.empty() && cv::imencode(ext, image, bytes);
+  } catch (const cv::Exception&) {
+    ok = false;
+  }
+  if (!ok) throw Error(path + ": cannot encode the image as '" + ext + "'; give a .png or .jpg file name");
+  cloud::WriteTextFileAtomic(path, std::string(bytes.begin(), bytes.end()));
 }
 
 void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx) {
