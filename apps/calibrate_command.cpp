@@ -51,9 +51,12 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit calibrate --left '../shared/data/calib_chessboard/left*.jpg' \\\n"
       "      --right '../shared/data/calib_chessboard/right*.jpg' --board 9x6 --square 1 -o build/opencv_rig.yaml\n"
       "  hedgefit calibrate --list pairs.txt --board 12x11 --square 30 --model rational -o rig.yaml --json\n"
+      "  hedgefit calibrate --left 'l*.png' --right 'r*.png' --charuco 12x9 --square 40 --marker 30 -o rig.yaml\n"
       "Pairs are matched by sorted order; a list file has one 'LEFT RIGHT' pair per line.\n");
   struct Args {
-    std::string left, right, list, board = "9x6", model = "k1k2p1p2k3", output = "rig.yaml", coverage;
+    std::string left, right, list, board = "9x6", model = "k1k2p1p2k3", output = "rig.yaml", coverage, charuco,
+        dictionary = "5x5_100";
+    double marker = 0;
     double square = 1.0, alpha = stereo::CalibrationOptions{}.alpha, reject = 3.0;
     bool fix_pp = false, fix_aspect = false, json = false, keep_intrinsics = false;
   };
@@ -61,7 +64,12 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--left", a->left, "glob of left images (quote it)");
   cmd->add_option("--right", a->right, "glob of right images");
   cmd->add_option("--list", a->list, "file of 'LEFT RIGHT' lines instead of --left/--right");
-  cmd->add_option("--board", a->board, "inner corners COLSxROWS")->capture_default_str();
+  auto* board_opt = cmd->add_option("--board", a->board, "chessboard: inner corners COLSxROWS")->capture_default_str();
+  cmd->add_option("--charuco", a->charuco,
+                  "a ChArUco board instead: squares COLSxROWS (as cv::aruco::CharucoBoard::create); partly seen boards count")
+      ->excludes(board_opt);
+  cmd->add_option("--marker", a->marker, "ChArUco: marker side, in --square's unit (0 = 0.75 square)")->capture_default_str();
+  cmd->add_option("--dictionary", a->dictionary, "ChArUco: ArUco dictionary, 4x4_50 .. 7x7_1000")->capture_default_str();
   cmd->add_option("--square", a->square, "square size (mm, or the unit the rig should use)")->capture_default_str();
   cmd->add_option("--model", a->model, "distortion: k1k2p1p2, k1k2p1p2k3 or rational")
       ->check(CLI::IsMember({"k1k2p1p2", "k1k2p1p2k3", "rational"}))
@@ -80,7 +88,15 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
     *run = [=]() {
       // Options first: a bad --board fails before any file is touched.
       stereo::CalibrationOptions o;
-      o.board.inner_corners = ParseBoard(a->board);
+      if (!a->charuco.empty()) {
+        const auto [w, h] = ParseCount2(a->charuco, "--charuco", 3, "squares as COLSxROWS", "12x9");
+        o.board.inner_corners = cv::Size(w - 1, h - 1);
+        o.board.type = stereo::BoardType::kCharuco;
+        o.board.marker_mm = a->marker;
+        o.board.dictionary = a->dictionary;
+      } else {
+        o.board.inner_corners = ParseBoard(a->board);
+      }
       o.board.square_mm = a->square;
       o.model = a->model == "k1k2p1p2"     ? stereo::DistortionModel::kK1K2P1P2
                 : a->model == "rational" ? stereo::DistortionModel::kRational

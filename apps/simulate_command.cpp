@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
+#include "stereo/calibration.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
@@ -30,11 +31,12 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit simulate --preset paper-lab -o build/lab          # 16 board pairs + spheres at Z = 2000..2600 mm\n"
       "  hedgefit simulate --sphere 70,50,2300,300 -o build/sphere  # one capture, centre x,y,z and radius (mm)\n"
       "  hedgefit simulate --board 0.3,0.2,0,-150,-150,1200 -o build/board   # rotation vector (rad), translation (mm)\n"
+      "  hedgefit simulate --board 0.2,-0.3,0,-200,-150,900 --squares 8x6 --square 60 --charuco 4x4_50 --marker 45 -o build/charuco\n"
       "  hedgefit simulate --preset garden -o build/garden         # leafy balls on a lawn: row, single, outdoor\n"
       "The rig is the paper's (1920x1200, f 933.3 px, baseline 140 mm); --scale shrinks it.\n");
   struct Args {
-    std::string preset, sphere, board, out = "simulated", squares = "13x12";
-    double square = 30.0;
+    std::string preset, sphere, board, out = "simulated", squares = "13x12", dictionary;
+    double square = 30.0, marker = 0;
     double scale = 1.0, blur = 0.5, noise = 0.0;
     int supersample = 3, jpeg = 0;
     std::uint64_t seed = 1;
@@ -47,6 +49,9 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--board", a->board, "render a board (see --squares, --square): RX,RY,RZ (rad),TX,TY,TZ (mm)");
   cmd->add_option("--squares", a->squares, "board squares COLSxROWS (inner corners are one fewer each way)")
       ->capture_default_str();
+  cmd->add_option("--charuco", a->dictionary,
+                  "make the board a ChArUco board of this ArUco dictionary (4x4_50 .. 7x7_1000), for `calibrate --charuco`");
+  cmd->add_option("--marker", a->marker, "ChArUco marker side, mm (0 = 0.75 square)")->capture_default_str();
   cmd->add_option("--square", a->square, "board square size, mm")->check(CLI::Range(1.0, 1000.0))->capture_default_str();
   cmd->add_option("-o,--output", a->out, "output directory")->capture_default_str();
   cmd->add_option("--scale", a->scale, "image scale (0.25 renders 480x300)")->check(CLI::Range(0.05, 4.0))->capture_default_str();
@@ -89,6 +94,22 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         const auto [cols, rows] = ParseCount2(a->squares, "--squares", 3, "squares as COLSxROWS", "13x12");
         b.squares = cv::Size(cols, rows);
         b.square_mm = a->square;
+        if (!a->dictionary.empty()) {
+          stereo::BoardSpec spec;
+          spec.type = stereo::BoardType::kCharuco;
+          spec.inner_corners = cv::Size(cols - 1, rows - 1);
+          spec.square_mm = a->square;
+          spec.marker_mm = a->marker;
+          spec.dictionary = a->dictionary;
+          stereo::CalibrationOptions probe;
+          probe.board = spec;
+          try {
+            probe.Check();
+          } catch (const Error& e) {
+            throw Error(std::string("--") + e.what());
+          }
+          b.texture = stereo::CharucoImage(spec, 64);
+        }
       }
       std::error_code ec;
       fs::create_directories(a->out, ec);

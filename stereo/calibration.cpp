@@ -1,6 +1,7 @@
 #include "stereo/calibration.hpp"
 #include "stereo/stereo_stages.hpp"
 
+#include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -9,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <mutex>
 #include <ostream>
 
@@ -22,6 +24,12 @@ void CalibrationOptions::Check() const {
     throw Error("board: needs at least 2 x 2 inner corners, e.g. 9x6");
   }
   if (!(board.square_mm > 0)) throw Error("square: must be > 0");
+  if (board.type == BoardType::kCharuco) {
+    if (board.marker_mm < 0 || board.marker_mm >= board.square_mm) {
+      throw Error("marker: must be smaller than the square (0 = 0.75 square)");
+    }
+    CharucoDictionary(board.dictionary);
+  }
   if (!(alpha == -1 || (alpha >= 0 && alpha <= 1))) throw Error("alpha: must be -1 (default) or in [0, 1]");
   if (reject_factor < 0) throw Error("reject_factor: must be >= 0 (0 keeps every pair)");
   if (min_pairs < 1) throw Error("min_pairs: must be >= 1");
@@ -41,16 +49,19 @@ namespace {
 
 // The refinement window must stay inside one square around each corner, or it converges on a
 // neighbour's edges: half the smallest corner spacing, at most 11 px.
-void RefineCorners(const cv::Mat& grey, const cv::Size& pattern, std::vector<cv::Point2f>* corners) {
+// `clear_share`: the share of the spacing around a corner that holds nothing but the corner's
+// two edges (1 for a chessboard; for ChArUco the gap to the markers, 1 - marker / square).
+void RefineCorners(const cv::Mat& grey, std::vector<cv::Point2f>* corners, double clear_share = 1.0) {
+  // The smallest distance between neighbouring corners (a whole chessboard, or the ChArUco
+  // corners seen).
   double spacing = 1e9;
-  for (int r = 0; r < pattern.height; ++r) {
-    for (int c = 0; c + 1 < pattern.width; ++c) {
-      const auto& a = (*corners)[std::size_t(r * pattern.width + c)];
-      const auto& b = (*corners)[std::size_t(r * pattern.width + c + 1)];
-      spacing = std::min(spacing, double(std::hypot(a.x - b.x, a.y - b.y)));
+  for (std::size_t i = 0; i < corners->size(); ++i) {
+    for (std::size_t j = i + 1; j < corners->size(); ++j) {
+      const cv::Point2f d = (*corners)[i] - (*corners)[j];
+      spacing = std::min(spacing, double(std::hypot(d.x, d.y)));
     }
   }
-  const int win = std::clamp(static_cast<int>(spacing * 0.5) - 1, 2, 11);
+  const int win = std::clamp(static_cast<int>(spacing * 0.5 * clear_share) - 1, 2, 11);
   // cornerSubPix solves for the point all image gradients in the window are orthogonal
   // to; on a sharp (aliased) edge those gradients are a few noisy pixels. A light blur
   // (a tenth of the square, at most 2 px) spreads them over the window without moving the
@@ -60,7 +71,7 @@ void RefineCorners(const cv::Mat& grey, const cv::Size& pattern, std::vector<cv:
   cv::Rect box = cv::boundingRect(*corners);
   const int pad = static_cast<int>(spacing) + 16;
   box = cv::Rect(box.x - pad, box.y - pad, box.width + 2 * pad, box.height + 2 * pad) & cv::Rect(0, 0, grey.cols, grey.rows);
-  const double sigma = std::min(2.0, spacing / 10.0);
+  const double sigma = std::min(2.0, spacing * clear_share / 10.0);
   cv::Mat smooth;
   cv::GaussianBlur(grey(box), smooth, cv::Size(0, 0), sigma);
   for (auto& p : *corners) p -= cv::Point2f(float(box.x), float(box.y));
@@ -87,11 +98,93 @@ bool FindCorners(const cv::Mat& grey, const cv::Size& pattern, std::vector<cv::P
   // Pixel centres: the reduced image's pixel i covers the full image's [i sx, (i + 1) sx).
   const double sx = double(grey.cols) / small.cols, sy = double(grey.rows) / small.rows;
   for (auto& p : *corners) p = cv::Point2f(float((p.x + 0.5) * sx - 0.5), float((p.y + 0.5) * sy - 0.5));
-  RefineCorners(grey, pattern, corners);
+  RefineCorners(grey, corners);
   return true;
 }
 
+cv::Ptr<cv::aruco::CharucoBoard> MakeCharuco(const BoardSpec& board) {
+  const float square = float(board.square_mm);
+  const float marker = float(board.marker_mm > 0 ? board.marker_mm : 0.75 * board.square_mm);
+  return cv::aruco::CharucoBoard::create(board.inner_corners.width + 1, board.inner_corners.height + 1, square, marker,
+                                         cv::aruco::getPredefinedDictionary(CharucoDictionary(board.dictionary)));
+}
+
+// ChArUco corners of one image: markers first, then the chessboard corners between them
+// (OpenCV refines those to sub-pixel itself). Returns corners and their ids.
+void FindCharuco(const cv::Mat& grey, const cv::Ptr<cv::aruco::CharucoBoard>& board, std::vector<cv::Point2f>* corners,
+                 std::vector<int>* ids) {
+  std::vector<std::vector<cv::Point2f>> marker_corners;
+  std::vector<int> marker_ids;
+  auto params = cv::aruco::DetectorParameters::create();
+  params->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;  // the chessboard corners are what count
+  cv::aruco::detectMarkers(grey, board->dictionary, marker_corners, marker_ids, params);
+  corners->clear();
+  ids->clear();
+  if (marker_ids.size() < 2) return;
+  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, grey, board, *corners, *ids);
+  // OpenCV's corners here carry the marker contours' half-pixel offset (0.5 px on simulated
+  // boards, which cost 3-15 % of focal length): refined again as a chessboard's are, with the
+  // window kept inside the gap between a corner and its markers.
+  if (corners->size() >= 2) RefineCorners(grey, corners, 1.0 - board->getMarkerLength() / board->getSquareLength());
+}
+
+// A ChArUco pair: the corners both images saw, in the same order. Fewer than 8 is too few to
+// constrain a board's pose in both cameras.
+void FindCharucoPair(const cv::Mat& l, const cv::Mat& r, const BoardSpec& spec, PairCorners* pc) {
+  const auto board = MakeCharuco(spec);
+  std::vector<cv::Point2f> lc, rc;
+  std::vector<int> li, ri;
+  FindCharuco(l, board, &lc, &li);
+  FindCharuco(r, board, &rc, &ri);
+  std::map<int, cv::Point2f> right_by_id;
+  for (std::size_t k = 0; k < ri.size(); ++k) right_by_id[ri[k]] = rc[k];
+  std::vector<std::pair<int, std::size_t>> common;
+  for (std::size_t k = 0; k < li.size(); ++k) {
+    if (right_by_id.count(li[k])) common.emplace_back(li[k], k);
+  }
+  std::sort(common.begin(), common.end());
+  constexpr std::size_t kMinCorners = 8;
+  if (common.size() < kMinCorners) {
+    pc->status = "ChArUco board: " + std::to_string(common.size()) + " corners seen in both images (left " +
+                 std::to_string(li.size()) + ", right " + std::to_string(ri.size()) + "); need " +
+                 std::to_string(kMinCorners);
+    return;
+  }
+  for (const auto& [id, k] : common) {
+    pc->ids.push_back(id);
+    pc->left_px.push_back(lc[k]);
+    pc->right_px.push_back(right_by_id[id]);
+  }
+}
+
 }  // namespace
+
+int CharucoDictionary(const std::string& name) {
+  static const std::map<std::string, int> names = {
+      {"4x4_50", cv::aruco::DICT_4X4_50},     {"4x4_100", cv::aruco::DICT_4X4_100},
+      {"4x4_250", cv::aruco::DICT_4X4_250},   {"4x4_1000", cv::aruco::DICT_4X4_1000},
+      {"5x5_50", cv::aruco::DICT_5X5_50},     {"5x5_100", cv::aruco::DICT_5X5_100},
+      {"5x5_250", cv::aruco::DICT_5X5_250},   {"5x5_1000", cv::aruco::DICT_5X5_1000},
+      {"6x6_50", cv::aruco::DICT_6X6_50},     {"6x6_100", cv::aruco::DICT_6X6_100},
+      {"6x6_250", cv::aruco::DICT_6X6_250},   {"6x6_1000", cv::aruco::DICT_6X6_1000},
+      {"7x7_50", cv::aruco::DICT_7X7_50},     {"7x7_100", cv::aruco::DICT_7X7_100},
+      {"7x7_250", cv::aruco::DICT_7X7_250},   {"7x7_1000", cv::aruco::DICT_7X7_1000}};
+  const auto it = names.find(name);
+  if (it == names.end()) {
+    std::string list;
+    for (const auto& [n, id] : names) list += (list.empty() ? "" : ", ") + n;
+    throw Error("dictionary: '" + name + "' is not an ArUco dictionary; use one of " + list);
+  }
+  return it->second;
+}
+
+cv::Mat CharucoImage(const BoardSpec& board, int px_per_square) {
+  cv::Mat img;
+  MakeCharuco(board)->draw(cv::Size((board.inner_corners.width + 1) * px_per_square,
+                                    (board.inner_corners.height + 1) * px_per_square),
+                           img, 0, 1);
+  return img;
+}
 
 std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, std::string>>& pairs,
                                       const BoardSpec& board, cv::Size* image_size, std::ostream* progress,
@@ -126,6 +219,9 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
                   std::to_string(r.cols) + "x" + std::to_string(r.rows);
     } else {
       sizes[index] = l.size();
+      if (board.type == BoardType::kCharuco) {
+        FindCharucoPair(l, r, board, &pc);
+      } else {
       const bool found_l = FindCorners(l, board.inner_corners, &pc.left_px);
       const bool found_r = found_l && FindCorners(r, board.inner_corners, &pc.right_px);
       if (found_l && found_r) {
@@ -146,6 +242,7 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
                     (found_l ? "right" : "left") + " image";
         pc.left_px.clear();
         pc.right_px.clear();
+      }
       }
     }
     if (progress) {
@@ -274,6 +371,7 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
   const std::vector<cv::Point3f> board = BoardCorners(options.board);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
   std::vector<std::vector<cv::Point2f>> left, right;  // the corners of the pairs in use
+  std::vector<std::vector<cv::Point3f>> used_object;   // and their board coordinates
   cv::Mat std_left, std_right;                          // per-camera intrinsics' standard deviations
 
   for (int round = 0;; ++round) {
@@ -283,7 +381,13 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
     right.clear();
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       if (!rig.pairs[i].used) continue;
-      object.push_back(board);
+      if (pairs[i].ids.empty()) {
+        object.push_back(board);
+      } else {  // the ChArUco corners this pair saw
+        std::vector<cv::Point3f> seen;
+        for (int id : pairs[i].ids) seen.push_back(board[std::size_t(id)]);
+        object.push_back(seen);
+      }
       left.push_back(pairs[i].left_px);
       right.push_back(pairs[i].right_px);
       index.push_back(i);
@@ -303,9 +407,12 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
         throw Error(head + ": " + std::to_string(unreadable) + " pair(s) cannot be read (" + first_unreadable +
                     "); check that the files are PNG or JPEG images");
       }
-      throw Error(head + "; check --board (inner corners, e.g. 9x6) and the images");
+      throw Error(head + (options.board.type == BoardType::kCharuco
+                              ? "; check --charuco (squares, e.g. 12x9), --marker, --dictionary and the images"
+                              : "; check --board (inner corners, e.g. 9x6) and the images"));
     }
     // Zhang's method per camera (fx = fy fixed at 1 ratio only when asked).
+    used_object = object;
     cv::Mat K1 = cv::Mat::eye(3, 3, CV_64F), K2 = cv::Mat::eye(3, 3, CV_64F), D1, D2;
     std::vector<cv::Mat> rv, tv;
     cv::Mat std_extrinsic, per_view_single;
@@ -353,7 +460,7 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
     if (!rejected) break;
   }
   // The same problem again in Ceres, from OpenCV's answer, for the parameters' covariance.
-  RefineStereoBundle(left, right, board, options, &rig);
+  RefineStereoBundle(left, right, used_object, options, &rig);
   if (!options.refine_intrinsics) {
     // The intrinsics were held at the per-camera calibrations: their variances come from those.
     for (int c = 0; c < 2; ++c) {

@@ -18,10 +18,26 @@ enum class DistortionModel {
   kRational,    ///< k1..k6 p1 p2 (wide-angle lenses)
 };
 
-struct BoardSpec {
-  cv::Size inner_corners{9, 6};  ///< inner corners per row x per column
-  double square_mm = 1.0;        ///< square edge (mm, or any unit the rig should use)
+enum class BoardType {
+  kChessboard,  ///< a plain chessboard: found whole or not at all
+  kCharuco,     ///< a ChArUco board (OpenCV aruco): every corner is identified, so part of a board counts
 };
+
+struct BoardSpec {
+  cv::Size inner_corners{9, 6};  ///< inner corners per row x per column (ChArUco: squares - 1 each way)
+  double square_mm = 1.0;        ///< square edge (mm, or any unit the rig should use)
+  BoardType type = BoardType::kChessboard;
+  double marker_mm = 0;          ///< ChArUco: marker side (0 = 0.75 square)
+  std::string dictionary = "5x5_100";  ///< ChArUco: the ArUco dictionary, "4x4_50" .. "7x7_1000"
+};
+
+/// ChArUco boards: the dictionary's OpenCV id for a name such as "5x5_100"; throws
+/// hedgefit::Error listing the names.
+int CharucoDictionary(const std::string& name);
+
+/// The image of a ChArUco board's squares (as cv::aruco::CharucoBoard::draw makes it), grey,
+/// `px_per_square` pixels a square: for printing, and for the simulator's boards.
+cv::Mat CharucoImage(const BoardSpec& board, int px_per_square);
 
 struct CalibrationOptions {
   BoardSpec board;
@@ -47,6 +63,9 @@ struct CalibrationOptions {
 struct PairCorners {
   std::string left, right;                 ///< names for reports
   std::vector<cv::Point2f> left_px, right_px;  ///< empty when the board was not found
+  /// ChArUco: the ids (row-major index into BoardCorners) of the corners seen in both images,
+  /// one per entry of left_px and right_px; empty for a chessboard, which is found whole.
+  std::vector<int> ids;
   std::string status;                      ///< empty, or why the pair cannot be used
 };
 
@@ -75,8 +94,9 @@ cv::Mat CoveragePicture(const std::vector<PairCorners>& pairs, const std::vector
 /// T, which it replaces; sets `rig->covariance` from the Jacobian scaled by the residual
 /// variance. Returns the residual standard deviation per image coordinate, px.
 double RefineStereoBundle(const std::vector<std::vector<cv::Point2f>>& left_px,
-                          const std::vector<std::vector<cv::Point2f>>& right_px, const std::vector<cv::Point3f>& board,
-                          const CalibrationOptions& options, StereoRig* rig);
+                          const std::vector<std::vector<cv::Point2f>>& right_px,
+                          const std::vector<std::vector<cv::Point3f>>& object, const CalibrationOptions& options,
+                          StereoRig* rig);
 
 /// The board's inner corners in its own frame (z = 0), row-major as OpenCV orders them.
 std::vector<cv::Point3f> BoardCorners(const BoardSpec& board);

@@ -79,8 +79,9 @@ struct RightCorner {
 }  // namespace
 
 double RefineStereoBundle(const std::vector<std::vector<cv::Point2f>>& left_px,
-                          const std::vector<std::vector<cv::Point2f>>& right_px, const std::vector<cv::Point3f>& board,
-                          const CalibrationOptions& options, StereoRig* rig) {
+                          const std::vector<std::vector<cv::Point2f>>& right_px,
+                          const std::vector<std::vector<cv::Point3f>>& object, const CalibrationOptions& options,
+                          StereoRig* rig) {
   cv::Vec<double, kRigParameters> theta = RigParameters(*rig);
   double* intr[2] = {&theta[0], &theta[12]};
   double* dist[2] = {&theta[4], &theta[16]};
@@ -94,7 +95,7 @@ double RefineStereoBundle(const std::vector<std::vector<cv::Point2f>>& left_px,
   std::vector<std::array<double, 6>> poses(views);
   for (std::size_t v = 0; v < views; ++v) {
     cv::Mat rvec, tvec;
-    cv::solvePnP(board, left_px[v], rig->K1, rig->D1, rvec, tvec, false, cv::SOLVEPNP_ITERATIVE);
+    cv::solvePnP(object[v], left_px[v], rig->K1, rig->D1, rvec, tvec, false, cv::SOLVEPNP_ITERATIVE);
     for (int i = 0; i < 3; ++i) {
       poses[v][std::size_t(i)] = rvec.at<double>(i);
       poses[v][std::size_t(3 + i)] = tvec.at<double>(i);
@@ -103,12 +104,12 @@ double RefineStereoBundle(const std::vector<std::vector<cv::Point2f>>& left_px,
 
   ceres::Problem problem;
   for (std::size_t v = 0; v < views; ++v) {
-    for (std::size_t k = 0; k < board.size(); ++k) {
+    for (std::size_t k = 0; k < object[v].size(); ++k) {
       problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<LeftCorner, 2, 4, 8, 3, 3>(new LeftCorner(board[k], left_px[v][k], aspect[0])),
+          new ceres::AutoDiffCostFunction<LeftCorner, 2, 4, 8, 3, 3>(new LeftCorner(object[v][k], left_px[v][k], aspect[0])),
           nullptr, intr[0], dist[0], poses[v].data(), poses[v].data() + 3);
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RightCorner, 2, 4, 8, 3, 3, 3, 3>(
-                                   new RightCorner(board[k], right_px[v][k], aspect[1])),
+                                   new RightCorner(object[v][k], right_px[v][k], aspect[1])),
                                nullptr, intr[1], dist[1], poses[v].data(), poses[v].data() + 3, rig_r, rig_t);
     }
   }

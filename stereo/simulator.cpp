@@ -239,6 +239,19 @@ cv::Mat RenderBoard(const SimRig& rig, bool right, const BoardScene& b, const Re
           const bool inside = q[0] >= -s && q[0] < (b.squares.width - 1) * s && q[1] >= -s &&
                               q[1] < (b.squares.height - 1) * s;
           if (!inside) return cv::Vec3d(235, 235, 235);
+          if (!b.texture.empty()) {
+            // The texture spans the squares: x in [-s, (w - 1) s) -> [0, cols).
+            const double u = (q[0] + s) / (b.squares.width * s) * b.texture.cols - 0.5;
+            const double v = (q[1] + s) / (b.squares.height * s) * b.texture.rows - 0.5;
+            const int u0 = std::clamp(int(std::floor(u)), 0, b.texture.cols - 2);
+            const int v0 = std::clamp(int(std::floor(v)), 0, b.texture.rows - 2);
+            const double fu = std::clamp(u - u0, 0.0, 1.0), fv = std::clamp(v - v0, 0.0, 1.0);
+            auto at = [&](int y, int x) { return double(b.texture.at<uchar>(y, x)); };
+            const double tex = (1 - fv) * ((1 - fu) * at(v0, u0) + fu * at(v0, u0 + 1)) +
+                             fv * ((1 - fu) * at(v0 + 1, u0) + fu * at(v0 + 1, u0 + 1));
+            const double g = 20 + (235 - 20) * tex / 255.0;
+            return cv::Vec3d(g, g, g);
+          }
           // Square (ix, iy), ix = floor(q0 / s) + 1, is dark when ix + iy is even, i.e.
           // when the square waves of q0 + s and q1 + s have the same sign.
           // d(hit)/d(ray) for the plane n.(o + t d - c) = 0: t (delta - d (n.delta) / (n.d)).

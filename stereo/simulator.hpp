@@ -38,6 +38,9 @@ struct BoardScene {
   double margin_mm = 30.0;
   cv::Matx33d rotation = cv::Matx33d::eye();  ///< world_from_board
   cv::Vec3d translation{0, 0, 1500};          ///< world_from_board (mm)
+  /// Empty: black and white squares. Otherwise a grey image of the squares' area (e.g. a
+  /// ChArUco board from CharucoImage), stretched over it and sampled bilinearly.
+  cv::Mat texture;
 };
 
 /// A foliage-textured sphere over a textured ground plane before a textured wall.

@@ -108,6 +108,70 @@ TEST_F(SimulatedCalibration, RectifiedCornersShareRows) {
   EXPECT_LT(sum / double(n), 0.1);
 }
 
+// A ChArUco board (8 x 6 squares of 60 mm, 45 mm 4x4 markers) in 16 poses, four of them half out of
+// the view towards the image corners, where a chessboard is not found at all. Every pair must be
+// used, the half-seen ones with only their visible corners, and the rig recovered as well as the
+// chessboard's (same tolerances as RecoversTheSimulatedRig: ~0.1 px corner noise).
+TEST(CharucoCalibration, PartlySeenBoardsCountAndRecoverTheRig) {
+  const SimRig truth = PaperRig(0.5);
+  BoardSpec spec;
+  spec.type = BoardType::kCharuco;
+  spec.inner_corners = cv::Size(7, 5);
+  spec.square_mm = 60;
+  spec.marker_mm = 45;
+  spec.dictionary = "4x4_50";
+  const auto dir = hedgefit::testing::ScratchDir();
+  RenderOptions ro;
+  ro.supersample = 4;
+  ro.blur_sigma_px = 0.6;
+  std::vector<std::pair<std::string, std::string>> files;
+  for (int i = 0; i < 16; ++i) {
+    BoardScene b;
+    b.squares = cv::Size(8, 6);
+    b.square_mm = 60;
+    b.margin_mm = 30;
+    b.texture = CharucoImage(spec, 60);
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Vec3d(((i % 4) - 1.5) * 0.2, (((i / 4) % 4) - 1.5) * 0.25, ((i % 3) - 1) * 0.15), R);
+    b.rotation = R;
+    const double z = 750 + 80 * ((i * 7) % 5);
+    // Poses 12..15 put the board's centre at an image corner: about half of it is out of view.
+    const double reach = i >= 12 ? 0.62 : 0.18;
+    const cv::Vec3d centre((i % 2 ? 1 : -1) * reach * z + 70, ((i / 2) % 2 ? 1 : -1) * reach * 0.62 * z, z);
+    b.translation = centre - R * cv::Vec3d(180, 120, 0);
+    const std::string l = (dir / ("cl" + std::to_string(i) + ".png")).string();
+    const std::string r = (dir / ("cr" + std::to_string(i) + ".png")).string();
+    cv::imwrite(l, RenderBoard(truth, false, b, ro));
+    cv::imwrite(r, RenderBoard(truth, true, b, ro));
+    files.emplace_back(l, r);
+  }
+  cv::Size size;
+  const auto corners = DetectBoards(files, spec, &size);
+  int found = 0, partial = 0;
+  for (std::size_t i = 0; i < corners.size(); ++i) {
+    EXPECT_TRUE(corners[i].status.empty()) << i << ": " << corners[i].status;
+    found += corners[i].status.empty();
+    partial += corners[i].status.empty() && corners[i].ids.size() < 35;
+  }
+  EXPECT_EQ(found, 16);
+  EXPECT_GE(partial, 4);
+  CalibrationOptions o;
+  o.board = spec;
+  const StereoRig rig = CalibrateFromCorners(corners, size, o);
+  EXPECT_LT(rig.rms_stereo_px, 0.2);
+  for (const auto& [K, cam] : {std::pair<cv::Mat, SimCamera>{rig.K1, truth.left}, {rig.K2, truth.right}}) {
+    EXPECT_NEAR(K.at<double>(0, 0) / cam.K(0, 0), 1.0, 0.003);
+    EXPECT_NEAR(K.at<double>(0, 2), cam.K(0, 2), 1.5);
+    EXPECT_NEAR(K.at<double>(1, 2), cam.K(1, 2), 1.5);
+  }
+  EXPECT_NEAR(rig.baseline_mm / cv::norm(truth.T), 1.0, 0.003);
+  std::printf("ChArUco: %d of 16 pairs partly seen; stereo RMS %.3f px; fx %+.3f %%, cx %+.2f px, cy %+.2f px (left); "
+              "baseline %+.3f mm\n",
+              partial, rig.rms_stereo_px, 100 * (rig.K1.at<double>(0, 0) / truth.left.K(0, 0) - 1),
+              rig.K1.at<double>(0, 2) - truth.left.K(0, 2), rig.K1.at<double>(1, 2) - truth.left.K(1, 2),
+              rig.baseline_mm - cv::norm(truth.T));
+}
+
 // OpenCV's own chessboard pairs: stereoCalibrate with default flags reaches 0.44 px;
 // hedgefit must reach at least that, and a baseline of 3.34 +- 0.05 squares.
 TEST(RealCalibration, OpenCvChessboardPairs) {
