@@ -9,6 +9,7 @@
 
 #include "apps/commands.hpp"
 #include "stereo/calibration.hpp"
+#include "stereo/povray.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
@@ -40,11 +41,16 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
     double scale = 1.0, blur = 0.5, noise = 0.0;
     int supersample = 3, jpeg = 0;
     std::uint64_t seed = 1;
-    std::string camera = "ideal";
+    std::string camera = "ideal", renderer = "hedgefit";
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("--preset", a->preset, "paper-lab (the paper's lab: boards and spheres) or garden (leafy hedge balls on a lawn)")
-      ->check(CLI::IsMember({"paper-lab", "garden"}));
+  cmd->add_option("--preset", a->preset,
+                  "paper-lab (the paper's lab: boards and spheres), garden (leafy hedge balls on a lawn) or wide-boards "
+                  "(12 more board pairs near the image's edges, board_17..board_28, for calibration)")
+      ->check(CLI::IsMember({"paper-lab", "garden", "wide-boards"}));
+  cmd->add_option("--renderer", a->renderer, "wide-boards: hedgefit (its own ray caster) or povray")
+      ->check(CLI::IsMember({"hedgefit", "povray"}))
+      ->capture_default_str();
   cmd->add_option("--sphere", a->sphere, "render a sphere: X,Y,Z,R in mm (left camera frame)");
   cmd->add_option("--board", a->board, "render a board (see --squares, --square): RX,RY,RZ (rad),TX,TY,TZ (mm)");
   cmd->add_option("--squares", a->squares, "board squares COLSxROWS (inner corners are one fewer each way)")
@@ -138,6 +144,29 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
                     names.size());
         for (std::size_t i = 0; i < names.size(); ++i) std::printf("%s%s", i ? ", " : "", ("garden_" + names[i]).c_str());
         std::printf(")\n");
+        return kExitOk;
+      }
+      if (a->preset == "wide-boards") {
+        // Into the lab's directory beside board_01..16, or a directory of their own.
+        const stereo::SimRig rig = a->renderer == "povray" ? stereo::PovrayRig(a->scale) : stereo::PaperRig(a->scale);
+        std::vector<std::string> files;
+        const auto boards = stereo::WideBoards();
+        for (std::size_t i = 0; i < boards.size(); ++i) {
+          char name[32];
+          std::snprintf(name, sizeof(name), "board_%02zu", i + 17);
+          for (bool right : {false, true}) {
+            const cv::Mat img = a->renderer == "povray" ? stereo::RenderPovray(rig, right, "board", boards[i], {}, a->out)
+                                                        : stereo::RenderBoard(rig, right, boards[i], ro);
+            const std::string path = (fs::path(a->out) / (std::string(name) + (right ? "_right.png" : "_left.png"))).string();
+            SaveImage(path, img);
+            files.push_back(path);
+          }
+          stereo::WriteBoardTruth((fs::path(a->out) / (std::string(name) + ".truth.json")).string(), boards[i]);
+        }
+        record(files);
+        cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
+        std::printf("wrote %zu board pairs (board_17..board_28) to %s in %.1f s\n", boards.size(), a->out.c_str(),
+                    seconds());
         return kExitOk;
       }
       if (!a->preset.empty()) {

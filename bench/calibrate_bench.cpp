@@ -1,4 +1,5 @@
-// Calibration speed and accuracy on a rendered lab (16 board pairs at 1920 x 1200, with the
+// Calibration speed and accuracy on a rendered lab (16 board pairs at 1920 x 1200, and the 12 of
+// `simulate --preset wide-boards` when present, with the
 // renderer's truth: rig_truth.json and each board's pose), in one run, with the same thread
 // count for all:
 //  - stock OpenCV as its tutorial does it: findChessboardCorners (adaptive threshold,
@@ -12,7 +13,7 @@
 // Reported: pairs found, detection and calibration wall time, the corners' RMS error against
 // the truth projected through the true rig (pairs all three found), and the calibrated
 // parameters' errors: principal points (px), focal lengths (%), baseline (mm).
-// Usage: bench_calibrate DIR [--threads N]   (DIR from `hedgefit bench lab --keep DIR` or
+// Usage: bench_calibrate DIR [--threads N] [--last N]   (boards board_01 .. board_N; default all)   (DIR from `hedgefit bench lab --keep DIR` or
 //        `hedgefit simulate --preset lab -o DIR`, or the POV-Ray lab)
 
 #include <nlohmann/json.hpp>
@@ -102,9 +103,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   const fs::path dir = argv[1];
-  int threads = 2;
+  int threads = 2, last = 99;
   for (int i = 2; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "--threads") threads = std::atoi(argv[i + 1]);
+    if (std::string(argv[i]) == "--last") last = std::atoi(argv[i + 1]);
   }
   cv::setNumThreads(threads);
   try {
@@ -127,9 +129,11 @@ int main(int argc, char** argv) {
     }
     std::vector<std::pair<std::string, std::string>> files;
     BoardSpec spec;
-    for (int i = 1; i <= 16; ++i) {
+    // Every board pair with a truth file: the lab's 16, and the wide-boards preset's 17..28 if present.
+    for (int i = 1; i <= last; ++i) {
       char base[32];
       std::snprintf(base, sizeof(base), "board_%02d", i);
+      if (!fs::exists(dir / (std::string(base) + ".truth.json"))) continue;
       files.emplace_back((dir / (std::string(base) + "_left.png")).string(),
                          (dir / (std::string(base) + "_right.png")).string());
       const auto bt = ReadJson(dir / (std::string(base) + ".truth.json"));

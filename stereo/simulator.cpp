@@ -672,6 +672,29 @@ std::vector<BoardScene> PaperLabBoards() {
   return out;
 }
 
+std::vector<BoardScene> WideBoards() {
+  // Where each board's centre goes, as x / z and y / z (the view spans about +-1.03 and +-0.64);
+  // less far to the left, which the right camera, 140 mm to the right, sees 0.15 further left.
+  const double reach[12][2] = {{-0.55, -0.38}, {0.70, -0.38}, {-0.55, 0.38}, {0.70, 0.38}, {-0.57, 0.0}, {0.72, 0.0},
+                               {0.0, -0.40},   {0.0, 0.40},   {-0.45, -0.2}, {0.45, 0.2},  {-0.45, 0.25}, {0.45, -0.25}};
+  std::vector<BoardScene> out;
+  for (int k = 0; k < 12; ++k) {
+    BoardScene b;
+    const double tilt_y = (k % 2 ? 30 : -30) * kPi / 180;
+    const double tilt_x = ((k / 2) % 2 ? 20 : -20) * kPi / 180;
+    const double roll = (k % 3 - 1) * 10 * kPi / 180;
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Matx31d(tilt_x, tilt_y, roll), R);
+    b.rotation = R;
+    const double z = 850 + 50 * (k % 5);
+    const cv::Vec3d centre_world(reach[k][0] * z, reach[k][1] * z, z);
+    const cv::Vec3d centre_board((b.squares.width - 2) * b.square_mm / 2, (b.squares.height - 2) * b.square_mm / 2, 0);
+    b.translation = centre_world - R * centre_board;
+    out.push_back(b);
+  }
+  return out;
+}
+
 std::vector<SphereScene> PaperLabSpheres() {
   std::vector<SphereScene> out;
   for (int z = 2000; z <= 2600; z += 100) {

@@ -128,6 +128,12 @@ void WriteBoardTruth(const std::string& path, const BoardScene& board);
 /// over the view) and a r = 300 mm sphere at Z = 2000, 2100, ... 2600 mm. Every renderer of
 /// the lab (WritePaperLab, WritePovrayLab) draws these.
 std::vector<BoardScene> PaperLabBoards();
+
+/// 12 more board poses (the same board) for calibration, where the lab's leave gaps: near the
+/// image's edges and corners, 0.85-1.05 m away, tilted 30 degrees about the vertical axis and
+/// 20 about the horizontal one, so the principal point and the distortion are pinned down.
+/// `simulate --preset wide-boards` writes them as board_17 .. board_28.
+std::vector<BoardScene> WideBoards();
 std::vector<SphereScene> PaperLabSpheres();
 
 /// Writes the paper's laboratory test into `dir`: 16 board pairs (board_NN_left/right.png)
