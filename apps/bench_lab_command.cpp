@@ -35,6 +35,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       ->check(CLI::Range(-1.0, 1.0))
       ->capture_default_str();
   cmd->add_flag("--reuse", a->lab.reuse, "reuse captures already in --dir");
+  cmd->add_flag("--wide-boards", a->lab.wide_boards,
+                "also calibrate from 12 boards near the image's edges (simulate --preset wide-boards; rendered if missing)");
   cmd->add_flag("--true-rig", a->lab.true_rig,
                 "use the simulator's exact rig instead of calibrating from the boards (separates calibration "
                 "error from matching error)");

@@ -148,25 +148,8 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       }
       if (a->preset == "wide-boards") {
         // Into the lab's directory beside board_01..16, or a directory of their own.
-        const stereo::SimRig rig = a->renderer == "povray" ? stereo::PovrayRig(a->scale) : stereo::PaperRig(a->scale);
-        std::vector<std::string> files;
-        const auto boards = stereo::WideBoards();
-        for (std::size_t i = 0; i < boards.size(); ++i) {
-          char name[32];
-          std::snprintf(name, sizeof(name), "board_%02zu", i + 17);
-          for (bool right : {false, true}) {
-            const cv::Mat img = a->renderer == "povray" ? stereo::RenderPovray(rig, right, "board", boards[i], {}, a->out)
-                                                        : stereo::RenderBoard(rig, right, boards[i], ro);
-            const std::string path = (fs::path(a->out) / (std::string(name) + (right ? "_right.png" : "_left.png"))).string();
-            SaveImage(path, img);
-            files.push_back(path);
-          }
-          stereo::WriteBoardTruth((fs::path(a->out) / (std::string(name) + ".truth.json")).string(), boards[i]);
-        }
-        record(files);
-        cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
-        std::printf("wrote %zu board pairs (board_17..board_28) to %s in %.1f s\n", boards.size(), a->out.c_str(),
-                    seconds());
+        const auto files = stereo::WriteWideBoards(a->out, a->renderer, a->scale, ro, camera, a->seed);
+        std::printf("wrote 12 board pairs (board_17..board_28) to %s in %.1f s\n", a->out.c_str(), seconds());
         return kExitOk;
       }
       if (!a->preset.empty()) {

@@ -51,8 +51,14 @@ LabResult RunLab(const LabOptions& a) {
       }
     }
   }
+  if (a.wide_boards && !a.true_rig && !fs::exists(fs::path(a.dir) / "board_28_right.png")) {
+    stereo::RenderOptions ro;
+    ro.supersample = 3;
+    ro.blur_sigma_px = 0.5;
+    stereo::WriteWideBoards(a.dir, a.renderer, a.scale, ro, camera);
+  }
   std::vector<std::pair<std::string, std::string>> boards;
-  for (int i = 1; i <= 16; ++i) {
+  for (int i = 1; i <= (a.wide_boards ? 28 : 16); ++i) {
     char l[32], r[32];
     std::snprintf(l, sizeof(l), "board_%02d_left.png", i);
     std::snprintf(r, sizeof(r), "board_%02d_right.png", i);

@@ -18,6 +18,9 @@ struct LabOptions {
   double alpha;                         ///< rectification scaling; set from CalibrationOptions
   bool reuse = false;                   ///< reuse captures already in `dir`
   bool true_rig = false;                ///< the simulator's exact rig instead of calibrating
+  /// Also calibrate from the 12 boards of WideBoards() (board_17..28; rendered when missing),
+  /// which reach the image's edges where the paper's lab boards leave the principal point loose.
+  bool wide_boards = false;
   /// "hedgefit" (its own simulator) or "povray" (an independent ray tracer, stereo/povray.hpp).
   std::string renderer = "hedgefit";
   /// "ideal" (as rendered) or "real": every image through stereo::CameraModel's defaults

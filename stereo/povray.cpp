@@ -198,4 +198,32 @@ std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, co
   return written;
 }
 
+std::vector<std::string> WriteWideBoards(const std::string& dir, const std::string& renderer, double scale,
+                                         const RenderOptions& options, const CameraModel& camera, std::uint64_t seed) {
+  namespace fs = std::filesystem;
+  if (renderer != "hedgefit" && renderer != "povray") throw Error("renderer: use hedgefit or povray");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
+  const SimRig rig = renderer == "povray" ? PovrayRig(scale) : PaperRig(scale);
+  std::vector<std::string> written;
+  const std::vector<BoardScene> boards = WideBoards();
+  std::uint64_t view = seed * 1000 + 500;  // other draws than the lab's boards
+  for (std::size_t i = 0; i < boards.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "board_%02zu", i + 17);
+    for (bool right : {false, true}) {
+      const cv::Mat img = renderer == "povray" ? RenderPovray(rig, right, "board", boards[i], {}, dir)
+                                               : RenderBoard(rig, right, boards[i], options);
+      const std::string path = (fs::path(dir) / (std::string(name) + (right ? "_right.png" : "_left.png"))).string();
+      WriteImageAtomic(path, ApplyCameraModel(img, camera, right, view / 2));
+      ++view;
+      written.push_back(path);
+    }
+    WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), boards[i]);
+  }
+  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
+  return written;
+}
+
 }  // namespace hedgefit::stereo

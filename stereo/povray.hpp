@@ -39,4 +39,11 @@ cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& scene_kin
 std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
                                         std::uint64_t seed = 1);
 
+/// WideBoards() as board_17 .. board_28 (images and truths) in `dir`, beside the lab's 16, by
+/// `renderer` ("hedgefit" with `options`, or "povray"), recorded through `camera` (noise drawn
+/// from `seed`); rig_truth.json is (re)written for that renderer's rig. Returns the files written.
+std::vector<std::string> WriteWideBoards(const std::string& dir, const std::string& renderer, double scale,
+                                         const RenderOptions& options, const CameraModel& camera,
+                                         std::uint64_t seed = 1);
+
 }  // namespace hedgefit::stereo
