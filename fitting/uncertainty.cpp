@@ -18,6 +18,35 @@ double Median(std::vector<double> v) {
   return *mid;
 }
 
+// Up to `max_points` of `points`, evenly taken.
+std::vector<Eigen::Vector3d> EvenSubset(const std::vector<Eigen::Vector3d>& points, std::size_t max_points) {
+  std::vector<Eigen::Vector3d> subset;
+  const std::size_t step = std::max<std::size_t>(1, points.size() / std::max<std::size_t>(1, max_points));
+  for (std::size_t i = 0; i < points.size(); i += step) subset.push_back(points[i]);
+  return subset;
+}
+
+// Sum of squared deviations of (cx, cy, cz, r) estimates from their mean.
+Eigen::Vector4d SquaredDeviations(const std::vector<Eigen::Vector4d>& estimates) {
+  Eigen::Vector4d mean = Eigen::Vector4d::Zero();
+  for (const auto& e : estimates) mean += e;
+  mean /= double(estimates.size());
+  Eigen::Vector4d ss = Eigen::Vector4d::Zero();
+  for (const auto& e : estimates) ss += (e - mean).cwiseAbs2();
+  return ss;
+}
+
+// Geometric least squares from `start`, single-threaded, without covariance: the refit the
+// jackknife and the perturbations repeat.
+std::optional<Eigen::Vector4d> Refit(const std::vector<Eigen::Vector3d>& points, const Sphere& start) {
+  GeometricFitOptions go;
+  go.compute_covariance = false;
+  go.num_threads = 1;
+  const SphereFitResult f = FitSphereGeometric(points, go, &start);
+  if (!f.sphere.center_mm.allFinite()) return std::nullopt;
+  return Eigen::Vector4d(f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm);
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere) {
@@ -67,9 +96,7 @@ std::optional<Eigen::Vector4d> ScatterStdError(const std::vector<Eigen::Vector3d
 std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
                                                       std::size_t max_points) {
   if (support.size() < 64) return std::nullopt;
-  std::vector<Eigen::Vector3d> subset;
-  const std::size_t step = std::max<std::size_t>(1, support.size() / std::max<std::size_t>(1, max_points));
-  for (std::size_t i = 0; i < support.size(); i += step) subset.push_back(support[i]);
+  const std::vector<Eigen::Vector3d> subset = EvenSubset(support, max_points);
   // Patches on the sphere: the polar angle from the axis towards the camera (at the origin;
   // the z axis when the centre is the origin) split at its median, times 8 azimuth sectors.
   Eigen::Vector3d axis = -sphere.center_mm;
@@ -86,9 +113,6 @@ std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::V
   }
   const double median_polar = Median(polar);
   constexpr int kGroups = 16;
-  GeometricFitOptions go;
-  go.compute_covariance = false;
-  go.num_threads = 1;
   std::vector<Eigen::Vector4d> estimates;
   std::vector<Eigen::Vector3d> rest;
   for (int g = 0; g < kGroups; ++g) {
@@ -98,30 +122,18 @@ std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::V
       if (group != g) rest.push_back(subset[i]);
     }
     if (rest.size() == subset.size()) continue;  // an empty patch (a cap seen from one side)
-    const SphereFitResult f = FitSphereGeometric(rest, go, &sphere);
-    if (!f.sphere.center_mm.allFinite()) continue;
-    estimates.emplace_back(f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm);
+    if (const auto e = Refit(rest, sphere)) estimates.push_back(*e);
   }
   if (estimates.size() < 4) return std::nullopt;
   const double n = double(estimates.size());
-  Eigen::Vector4d mean = Eigen::Vector4d::Zero();
-  for (const auto& e : estimates) mean += e;
-  mean /= n;
-  Eigen::Vector4d var = Eigen::Vector4d::Zero();
-  for (const auto& e : estimates) var += (e - mean).cwiseAbs2();
-  return Eigen::Vector4d((var * (n - 1) / n).cwiseSqrt());
+  return Eigen::Vector4d((SquaredDeviations(estimates) * (n - 1) / n).cwiseSqrt());
 }
 
 std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
                                                     const cloud::PointPerturbation& perturbation,
                                                     std::size_t max_points) {
   if (perturbation.samples < 2 || !perturbation.apply || support.size() < 5) return std::nullopt;
-  std::vector<Eigen::Vector3d> subset;
-  const std::size_t step = std::max<std::size_t>(1, support.size() / std::max<std::size_t>(1, max_points));
-  for (std::size_t i = 0; i < support.size(); i += step) subset.push_back(support[i]);
-  GeometricFitOptions go;
-  go.compute_covariance = false;
-  go.num_threads = 1;
+  const std::vector<Eigen::Vector3d> subset = EvenSubset(support, max_points);
   std::vector<Eigen::Vector4d> draws;
   std::vector<Eigen::Vector3d> moved, finite;
   for (int s = 0; s < perturbation.samples; ++s) {
@@ -131,17 +143,10 @@ std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vec
       if (p.allFinite()) finite.push_back(p);
     }
     if (finite.size() < 5) continue;
-    const SphereFitResult f = FitSphereGeometric(finite, go, &sphere);
-    if (!f.sphere.center_mm.allFinite()) continue;
-    draws.emplace_back(f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(), f.sphere.radius_mm);
+    if (const auto e = Refit(finite, sphere)) draws.push_back(*e);
   }
   if (draws.size() < 2) return std::nullopt;
-  Eigen::Vector4d mean = Eigen::Vector4d::Zero();
-  for (const auto& d : draws) mean += d;
-  mean /= double(draws.size());
-  Eigen::Vector4d var = Eigen::Vector4d::Zero();
-  for (const auto& d : draws) var += (d - mean).cwiseAbs2();
-  return Eigen::Vector4d((var / double(draws.size() - 1)).cwiseSqrt());
+  return Eigen::Vector4d((SquaredDeviations(draws) / double(draws.size() - 1)).cwiseSqrt());
 }
 
 void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::PointPerturbation* rig,

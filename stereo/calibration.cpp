@@ -211,64 +211,66 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
   const auto t0 = std::chrono::steady_clock::now();
   // Pairs are independent: one per worker, each reporting when it is done.
   cloud::ParallelFor(pairs.size(), threads, 1, [&](std::size_t begin, std::size_t end) {
-   for (std::size_t index = begin; index < end; ++index) {
-    const auto& [left, right] = pairs[index];
-    PairCorners pc;
-    pc.left = left;
-    pc.right = right;
-    // Read through the capture loader: only camera formats reach OpenCV's decoders.
-    auto read = [](const std::string& file) {
-      try {
-        return ReadCaptureImage(file, cv::IMREAD_GRAYSCALE);
-      } catch (const Error&) {
-        return cv::Mat();
-      }
-    };
-    const cv::Mat l = read(left), r = read(right);
-    if (l.empty()) {
-      pc.status = "cannot read left image " + left;
-    } else if (r.empty()) {
-      pc.status = "cannot read right image " + right;
-    } else if (l.size() != r.size()) {
-      pc.status = "left is " + std::to_string(l.cols) + "x" + std::to_string(l.rows) + " but right is " +
-                  std::to_string(r.cols) + "x" + std::to_string(r.rows);
-    } else {
-      sizes[index] = l.size();
-      if (board.type == BoardType::kCharuco) {
-        FindCharucoPair(l, r, board, &pc);
-      } else {
-      const bool found_l = FindCorners(l, board.inner_corners, &pc.left_px);
-      const bool found_r = found_l && FindCorners(r, board.inner_corners, &pc.right_px);
-      if (found_l && found_r) {
-        // The detector may start from either end of the board, independently per image; a
-        // stereo pair needs the same corner at the same index. The cameras look roughly the
-        // same way, so the matching order is the one whose corners share rows best.
-        double same = 0, reversed = 0;
-        const std::size_t n = pc.left_px.size();
-        for (std::size_t i = 0; i < n; ++i) {
-          same += std::abs(pc.left_px[i].y - pc.right_px[i].y);
-          reversed += std::abs(pc.left_px[i].y - pc.right_px[n - 1 - i].y);
+    for (std::size_t index = begin; index < end; ++index) {
+      const auto& [left, right] = pairs[index];
+      PairCorners pc;
+      pc.left = left;
+      pc.right = right;
+      // Read through the capture loader: only camera formats reach OpenCV's decoders.
+      auto read = [](const std::string& file) {
+        try {
+          return ReadCaptureImage(file, cv::IMREAD_GRAYSCALE);
+        } catch (const Error&) {
+          return cv::Mat();
         }
-        if (reversed < same) std::reverse(pc.right_px.begin(), pc.right_px.end());
+      };
+      const cv::Mat l = read(left), r = read(right);
+      if (l.empty()) {
+        pc.status = "cannot read left image " + left;
+      } else if (r.empty()) {
+        pc.status = "cannot read right image " + right;
+      } else if (l.size() != r.size()) {
+        pc.status = "left is " + std::to_string(l.cols) + "x" + std::to_string(l.rows) +
+                    " but right is " + std::to_string(r.cols) + "x" + std::to_string(r.rows);
+      } else {
+        sizes[index] = l.size();
+        if (board.type == BoardType::kCharuco) {
+          FindCharucoPair(l, r, board, &pc);
+        } else {
+          const bool found_l = FindCorners(l, board.inner_corners, &pc.left_px);
+          const bool found_r = found_l && FindCorners(r, board.inner_corners, &pc.right_px);
+          if (found_l && found_r) {
+            // The detector may start from either end of the board, independently per image; a
+            // stereo pair needs the same corner at the same index. The cameras look roughly the
+            // same way, so the matching order is the one whose corners share rows best.
+            double same = 0, reversed = 0;
+            const std::size_t n = pc.left_px.size();
+            for (std::size_t i = 0; i < n; ++i) {
+              same += std::abs(pc.left_px[i].y - pc.right_px[i].y);
+              reversed += std::abs(pc.left_px[i].y - pc.right_px[n - 1 - i].y);
+            }
+            if (reversed < same) std::reverse(pc.right_px.begin(), pc.right_px.end());
+          }
+          if (!found_l || !found_r) {
+            pc.status = std::string("board (") + std::to_string(board.inner_corners.width) + "x" +
+                        std::to_string(board.inner_corners.height) +
+                        " inner corners) not found in " + (found_l ? "right" : "left") + " image";
+            pc.left_px.clear();
+            pc.right_px.clear();
+          }
+        }
       }
-      if (!found_l || !found_r) {
-        pc.status = std::string("board (") + std::to_string(board.inner_corners.width) + "x" +
-                    std::to_string(board.inner_corners.height) + " inner corners) not found in " +
-                    (found_l ? "right" : "left") + " image";
-        pc.left_px.clear();
-        pc.right_px.clear();
+      if (progress) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        ++done;
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        *progress << "[" << done << "/" << pairs.size() << ", " << std::fixed
+                  << std::setprecision(1) << s << " s] " << pc.left << " " << pc.right << ": "
+                  << (pc.status.empty() ? "board found" : pc.status) << std::endl;
       }
-      }
+      out[index] = std::move(pc);
     }
-    if (progress) {
-      const std::lock_guard<std::mutex> lock(mutex);
-      ++done;
-      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      *progress << "[" << done << "/" << pairs.size() << ", " << std::fixed << std::setprecision(1) << s << " s] "
-                << pc.left << " " << pc.right << ": " << (pc.status.empty() ? "board found" : pc.status) << std::endl;
-    }
-    out[index] = std::move(pc);
-   }
   });
   // Every pair must have the first readable pair's size.
   *image_size = cv::Size();

@@ -35,45 +35,57 @@ void Project(const T* intr, const T* dist, double aspect, const T* p, T* uv) {
   uv[1] = fy * yd + intr[3];
 }
 
-// A board corner seen by the left camera: pose maps board -> left camera.
-struct LeftCorner {
-  LeftCorner(const cv::Point3f& b, const cv::Point2f& o, double a) : board{b.x, b.y, b.z}, obs{o.x, o.y}, aspect(a) {}
+// One board corner and where a camera saw it; the residual is the projection's miss, px.
+struct Corner {
+  Corner(const cv::Point3f& b, const cv::Point2f& o, double a) : board{b.x, b.y, b.z}, obs{o.x, o.y}, aspect(a) {}
+  // x_out = AngleAxis(r) x_in + t.
   template <typename T>
-  bool operator()(const T* intr, const T* dist, const T* pose_r, const T* pose_t, T* res) const {
+  static void Move(const T* r, const T* t, const T* in, T* out) {
+    ceres::AngleAxisRotatePoint(r, in, out);
+    for (int i = 0; i < 3; ++i) out[i] += t[i];
+  }
+  // The board corner in the left camera (pose maps board -> left camera).
+  template <typename T>
+  void InLeft(const T* pose_r, const T* pose_t, T* p) const {
     const T b[3] = {T(board[0]), T(board[1]), T(board[2])};
-    T p[3], uv[2];
-    ceres::AngleAxisRotatePoint(pose_r, b, p);
-    for (int i = 0; i < 3; ++i) p[i] += pose_t[i];
+    Move(pose_r, pose_t, b, p);
+  }
+  template <typename T>
+  void Residual(const T* intr, const T* dist, const T* p, T* res) const {
+    T uv[2];
     Project(intr, dist, aspect, p, uv);
     res[0] = uv[0] - T(obs[0]);
     res[1] = uv[1] - T(obs[1]);
-    return true;
   }
   std::array<double, 3> board;
   std::array<double, 2> obs;
   double aspect;
 };
 
-// The same corner seen by the right camera: x_right = R (pose x_board) + T.
-struct RightCorner {
-  RightCorner(const cv::Point3f& b, const cv::Point2f& o, double a) : board{b.x, b.y, b.z}, obs{o.x, o.y}, aspect(a) {}
+// Seen by the left camera.
+struct LeftCorner : Corner {
+  using Corner::Corner;
+  template <typename T>
+  bool operator()(const T* intr, const T* dist, const T* pose_r, const T* pose_t, T* res) const {
+    T p[3];
+    InLeft(pose_r, pose_t, p);
+    Residual(intr, dist, p, res);
+    return true;
+  }
+};
+
+// Seen by the right camera: x_right = R (pose x_board) + T.
+struct RightCorner : Corner {
+  using Corner::Corner;
   template <typename T>
   bool operator()(const T* intr, const T* dist, const T* pose_r, const T* pose_t, const T* rig_r, const T* rig_t,
                   T* res) const {
-    const T b[3] = {T(board[0]), T(board[1]), T(board[2])};
-    T p[3], q[3], uv[2];
-    ceres::AngleAxisRotatePoint(pose_r, b, p);
-    for (int i = 0; i < 3; ++i) p[i] += pose_t[i];
-    ceres::AngleAxisRotatePoint(rig_r, p, q);
-    for (int i = 0; i < 3; ++i) q[i] += rig_t[i];
-    Project(intr, dist, aspect, q, uv);
-    res[0] = uv[0] - T(obs[0]);
-    res[1] = uv[1] - T(obs[1]);
+    T p[3], q[3];
+    InLeft(pose_r, pose_t, p);
+    Move(rig_r, rig_t, p, q);
+    Residual(intr, dist, q, res);
     return true;
   }
-  std::array<double, 3> board;
-  std::array<double, 2> obs;
-  double aspect;
 };
 
 }  // namespace
