@@ -64,7 +64,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   g->footer(
       "Examples:\n"
       "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"
-      "  hedgefit bench garden --reuse --json garden.json\n");
+      "  hedgefit bench garden --reuse --json garden.json\n"
+      "  hedgefit bench garden --renderer povray --camera real --dir build/garden-povray   # leaf discs, ~5 minutes\n");
   struct GardenArgs {
     bench::GardenOptions garden;
     std::string json;
@@ -73,6 +74,14 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   g->add_option("--dir", ga->garden.dir, "where the simulated captures go")->capture_default_str();
   g->add_option("--scale", ga->garden.scale, "image scale of the simulated rig")->check(CLI::Range(0.25, 2.0))->capture_default_str();
   g->add_flag("--reuse", ga->garden.reuse, "reuse captures already in --dir");
+  g->add_option("--renderer", ga->garden.renderer,
+                "hedgefit (its own ray caster, a noise-shaded leaf shell) or povray (POV-Ray, hedges of leaf discs)")
+      ->check(CLI::IsMember({"hedgefit", "povray"}))
+      ->capture_default_str();
+  g->add_option("--camera", ga->garden.camera,
+                "povray: ideal, or real (per-camera noise, gains, white balance, vignetting, Bayer)")
+      ->check(CLI::IsMember({"ideal", "real"}))
+      ->capture_default_str();
   g->add_option("--json", ga->json, "also write the tables as JSON here");
   g->callback([=]() {
     *run = [=]() {

@@ -48,7 +48,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
                   "paper-lab (the paper's lab: boards and spheres), garden (leafy hedge balls on a lawn) or wide-boards "
                   "(12 more board pairs near the image's edges, board_17..board_28, for calibration)")
       ->check(CLI::IsMember({"paper-lab", "garden", "wide-boards"}));
-  cmd->add_option("--renderer", a->renderer, "wide-boards: hedgefit (its own ray caster) or povray")
+  cmd->add_option("--renderer", a->renderer, "wide-boards and garden: hedgefit (its own ray caster) or povray")
       ->check(CLI::IsMember({"hedgefit", "povray"}))
       ->capture_default_str();
   cmd->add_option("--sphere", a->sphere, "render a sphere: X,Y,Z,R in mm (left camera frame)");
@@ -138,8 +138,13 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
       if (a->preset == "garden") {
         const auto names = stereo::GardenPresetNames();
-        const auto files = stereo::WriteGarden(a->out, a->scale, ro, names);
-        record(files);
+        std::vector<std::string> files;
+        if (a->renderer == "povray") {
+          files = stereo::WritePovrayGarden(a->out, a->scale, camera, names, a->seed);
+        } else {
+          files = stereo::WriteGarden(a->out, a->scale, ro, names);
+          record(files);
+        }
         std::printf("wrote %zu files to %s in %.1f s (%zu garden captures: ", files.size(), a->out.c_str(), seconds(),
                     names.size());
         for (std::size_t i = 0; i < names.size(); ++i) std::printf("%s%s", i ? ", " : "", ("garden_" + names[i]).c_str());

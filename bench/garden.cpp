@@ -10,6 +10,7 @@
 #include "cloud/filters.hpp"
 #include "cloud/truth_file.hpp"
 #include "fitting/methods.hpp"
+#include "stereo/povray.hpp"
 #include "stereo/simulator.hpp"
 
 namespace hedgefit::bench {
@@ -28,16 +29,25 @@ GardenResult RunGarden(const GardenOptions& a) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<std::string> presets = stereo::GardenPresetNames();
+  if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
+  if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
+  const bool pov = a.renderer == "povray";
   if (!(a.reuse && fs::exists(fs::path(a.dir) / ("garden_" + presets.back() + "_right.png")))) {
-    stereo::RenderOptions ro;
-    ro.supersample = 3;
-    ro.blur_sigma_px = 0.5;
-    ro.noise_sigma = 1.0;  // independent in each camera
-    stereo::WriteGarden(a.dir, a.scale, ro, presets);
+    if (pov) {
+      stereo::WritePovrayGarden(a.dir, a.scale,
+                                a.camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal(), presets);
+    } else {
+      stereo::RenderOptions ro;
+      ro.supersample = 3;
+      ro.blur_sigma_px = 0.5;
+      ro.noise_sigma = 1.0;  // independent in each camera
+      stereo::WriteGarden(a.dir, a.scale, ro, presets);
+    }
   }
-  // No boards in a garden: the simulator's exact rig, so the figures are segmentation, matching
+  // No boards in a garden: the renderer's exact rig, so the figures are segmentation, matching
   // and fitting (the lab bench measures calibration).
-  const stereo::StereoRig rig = stereo::RigFromSimulation(stereo::PaperRig(a.scale));
+  const stereo::StereoRig rig =
+      stereo::RigFromSimulation(pov ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale));
   GardenResult out;
   fitting::SummaryBuilder summary;
   stereo::ConvertOptions garden = a.convert;

@@ -1,6 +1,7 @@
 #pragma once
 /// The garden test (`hedgefit bench garden`): leafy hedge balls on a lawn, before a hedge row,
 /// with a pot and trees under a hard sun, rendered by the simulator at the paper's resolution.
+/// Or the same gardens by POV-Ray, with hedges of real leaf discs (`renderer` povray).
 /// Each scene is converted with garden segmentation (every hedge by depth) and, for contrast,
 /// with the paper's colour mask; every hedge is fitted with every method and scored against
 /// its outer envelope (the truth radius: where the leaves end).
@@ -17,6 +18,8 @@ struct GardenOptions {
   std::string dir = "build/garden-bench";  ///< where the simulated captures go
   double scale = 1.0;                      ///< image scale of the simulated rig (1 = 1920x1200)
   bool reuse = false;                      ///< reuse captures already in `dir`
+  std::string renderer = "hedgefit";       ///< hedgefit (its own ray caster) or povray (leaf discs)
+  std::string camera = "ideal";            ///< povray: ideal or real (stereo::CameraModel)
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
   GardenOptions();
 };

@@ -8,15 +8,21 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <random>
 #include <sstream>
+#include <unordered_map>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
+#include "cloud/truth_file.hpp"
 #include "stereo/rig.hpp"
 
 namespace hedgefit::stereo {
 
 namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 // OpenCV's camera frame (x right, y down, z forward; right-handed) to POV-Ray's (x right,
 // y up, z forward; left-handed): flip y. A reflection keeps POV-Ray's right = up x direction.
@@ -137,16 +143,17 @@ std::string PovraySphereScene(const SimRig& rig, bool right, const SphereScene& 
 
 bool HavePovray() { return std::system("command -v povray > /dev/null 2>&1") == 0; }
 
-cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& kind, const BoardScene& board,
-                     const SphereScene& sphere, const std::string& work_dir) {
+namespace {
+
+// Renders `scene(canvas)` with POV-Ray in `work_dir` and crops the camera's image from the canvas.
+cv::Mat RenderPovrayText(const SimRig& rig, bool right, const std::function<std::string(cv::Size)>& scene,
+                         const std::string& work_dir) {
   namespace fs = std::filesystem;
   if (!HavePovray()) throw Error("povray: not found; install Debian's povray package (scripts/setup.sh does)");
   const SimCamera& cam = right ? rig.right : rig.left;
   const Canvas canvas = CanvasOf(cam);
-  const std::string scene =
-      kind == "board" ? PovrayBoardScene(rig, right, board, canvas.size) : PovraySphereScene(rig, right, sphere, canvas.size);
   const std::string stem = (fs::path(work_dir) / (std::string(".pov_") + (right ? "right" : "left"))).string();
-  cloud::WriteTextFileAtomic(stem + ".pov", scene);
+  cloud::WriteTextFileAtomic(stem + ".pov", scene(canvas.size));
   // Adaptive anti-aliasing (method 2, threshold 0.05, depth 3), both cores, no display.
   std::ostringstream cmd;
   cmd << "cd '" << work_dir << "' && povray +I'" << fs::path(stem).filename().string() << ".pov' +O'"
@@ -158,6 +165,18 @@ cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& kind, con
   // The camera's image within the canvas: its principal point lands where K puts it.
   const int ox = std::abs(canvas.dx) - canvas.dx, oy = std::abs(canvas.dy) - canvas.dy;
   return full(cv::Rect(ox, oy, cam.size.width, cam.size.height)).clone();
+}
+
+}  // namespace
+
+cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& kind, const BoardScene& board,
+                     const SphereScene& sphere, const std::string& work_dir) {
+  return RenderPovrayText(
+      rig, right,
+      [&](cv::Size canvas) {
+        return kind == "board" ? PovrayBoardScene(rig, right, board, canvas) : PovraySphereScene(rig, right, sphere, canvas);
+      },
+      work_dir);
 }
 
 std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
@@ -223,6 +242,210 @@ std::vector<std::string> WriteWideBoards(const std::string& dir, const std::stri
     WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), boards[i]);
   }
   cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
+  return written;
+}
+
+namespace {
+
+// A leaf of a POV-Ray hedge: a disc (level frame), its radius and one of kLeafTextures textures.
+struct PovLeaf {
+  cv::Vec3d c, n;
+  double a = 8;
+  int texture = 0;
+};
+constexpr int kLeafTextures = 9;  // 3 depth bands x 3 hues
+
+// The garden hedge of POV-Ray: real leaves, where hedgefit's own renderer has a noise-shaded
+// shell. Discs of radius 6-10 mm tilted up to 55 degrees from the surface, a third of them
+// clipped to touch the envelope (a clipped boxwood), the rest spread through the shell's depth,
+// about 3.5 layers deep so gaps show the dark inside. Leaves facing away from the camera are
+// left out (the inside body still casts the ball's shadow).
+std::vector<PovLeaf> GardenLeaves(const GardenHedge& g, const cv::Vec3d& centre, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss;
+  std::uniform_real_distribution<double> uni;
+  const double R = g.radius_mm, L = g.leaf_depth_mm, layers = 3.5, a_mean = 8;
+  const cv::Vec3d to_cam = -centre / cv::norm(centre);
+  const auto n = static_cast<std::size_t>(layers * 4 * R * R / (a_mean * a_mean));
+  std::vector<PovLeaf> leaves;
+  leaves.reserve(n * 2 / 3);
+  for (std::size_t k = 0; k < n; ++k) {
+    const cv::Vec3d u = cv::normalize(cv::Vec3d(gauss(rng), gauss(rng), gauss(rng)));
+    const double a = 6 + 4 * uni(rng), tilt = 55 * kPi / 180 * std::sqrt(uni(rng));
+    const double clipped = uni(rng), deep = uni(rng), hue = uni(rng);
+    const cv::Vec3d w = cv::normalize(cv::Vec3d(gauss(rng), gauss(rng), gauss(rng)).cross(u));
+    if (u.dot(to_cam) < -0.3) continue;
+    const double d = clipped < 1.0 / 3 ? 0.0 : std::pow(deep, 1.3);
+    PovLeaf leaf;
+    leaf.a = a;
+    leaf.n = std::cos(tilt) * u + std::sin(tilt) * w;
+    leaf.c = centre + (R - a * std::sin(tilt) - L * d) * u;  // its rim reaches R - L d
+    leaf.texture = std::min(2, static_cast<int>(d * 3)) * 3 + std::min(2, static_cast<int>(hue * 3));
+    leaves.push_back(leaf);
+  }
+  return leaves;
+}
+
+// The body inside the leaves: dark twigs, seen through the gaps.
+double InnerRadius(const GardenHedge& g) { return g.radius_mm - g.leaf_depth_mm - 8; }
+
+// The mean leaf-surface radius of a POV-Ray hedge: radial rays from outside, over the part of the
+// ball the leaves cover, the first leaf (or the inner body) each meets.
+double PovLeafSurfaceRadius(const GardenHedge& g, const cv::Vec3d& centre, const std::vector<PovLeaf>& leaves) {
+  const double cell = 16;
+  auto key = [&](const cv::Vec3d& p) {
+    const auto q = [&](double v) { return static_cast<std::int64_t>(std::floor(v / cell)) & 0x1fffff; };
+    return (q(p[0]) << 42) | (q(p[1]) << 21) | q(p[2]);
+  };
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid;
+  for (std::size_t i = 0; i < leaves.size(); ++i) grid[key(leaves[i].c)].push_back(i);
+  const cv::Vec3d to_cam = -centre / cv::norm(centre);
+  const int n = 6000;
+  double sum = 0;
+  int used = 0;
+  for (int k = 0; k < n; ++k) {
+    const double z = 1 - (2.0 * k + 1) / n, r = std::sqrt(1 - z * z), phi = k * kPi * (3 - std::sqrt(5.0));
+    const cv::Vec3d u(r * std::cos(phi), z, r * std::sin(phi));
+    if (u.dot(to_cam) < 0) continue;  // well inside the covered part
+    double best = InnerRadius(g);
+    for (double t = g.radius_mm; t >= InnerRadius(g); t -= cell / 2) {
+      const cv::Vec3d p = centre + t * u;
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto it = grid.find(key(p + cell * cv::Vec3d(dx, dy, dz)));
+            if (it == grid.end()) continue;
+            for (std::size_t i : it->second) {
+              const PovLeaf& l = leaves[i];
+              const double den = l.n.dot(u);
+              if (std::abs(den) < 1e-9) continue;
+              const double rr = l.n.dot(l.c - centre) / den;
+              if (rr > best && cv::norm(centre + rr * u - l.c) <= l.a) best = rr;
+            }
+          }
+    }
+    sum += best;
+    ++used;
+  }
+  return sum / std::max(1, used);
+}
+
+}  // namespace
+
+std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas) {
+  const cv::Matx33d level_from_camera = GardenLevelFromCamera(sc);
+  const double H = sc.camera_height_mm;  // the lawn: y = H in the level frame
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(2);
+  o << "#version 3.7;\nglobal_settings { assumed_gamma 1.0 max_trace_level 6 }\n" << Camera(rig, right, canvas);
+  o << "sky_sphere { pigment { gradient y color_map { [0.0 rgb <0.80, 0.85, 0.92>] [0.25 rgb <0.50, 0.66, 0.90>]\n"
+       "  [1.0 rgb <0.30, 0.45, 0.82>] } } }\n";
+  // Leaf textures: three depth bands (the deeper, the darker) x three greens; boxwood is glossy.
+  const double band[3] = {1.0, 0.72, 0.5};
+  const cv::Vec3d hue[3] = {{0.06, 0.19, 0.035}, {0.09, 0.25, 0.045}, {0.16, 0.33, 0.07}};
+  for (int b = 0; b < 3; ++b)
+    for (int h = 0; h < 3; ++h) {
+      const cv::Vec3d c = hue[h] * band[b];
+      o << "#declare L" << b * 3 + h << " = texture { pigment { rgb <" << c[2] << ", " << c[1] << ", " << c[0]
+        << "> } normal { wrinkles 0.25 scale 4 } finish { ambient 0.10 diffuse 0.75 specular 0.25 roughness 0.015 } }\n";
+    }
+  o.precision(6);
+  // Everything below is written in the level frame and turned into the camera's by one matrix.
+  o << "union {\n";
+  // A low sun from the right and behind (hard shadows), and the sky's fill light.
+  o << "  light_source { " << Pov(cv::normalize(cv::Vec3d(0.65, -0.6, -0.45)) * 1e7)
+    << " color rgb 1.3 parallel point_at <0, 0, 0> }\n";
+  o << "  light_source { " << Pov(cv::Vec3d(-3000, -8000, 1000)) << " color rgb 0.22 shadowless }\n";
+  // Mown lawn: blades as a fine bumpy pattern (14 mm), mowing stripes 1 m wide; the stripes'
+  // scale of 2000 applies to the inner patterns too, hence their 0.007 and 0.005.
+  o << "  plane { y, " << -H << "\n"
+    << "    texture { gradient x texture_map {\n"
+    << "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.04, 0.13, 0.02>]\n"
+    << "        [0.5 rgb <0.10, 0.27, 0.05>] [1 rgb <0.22, 0.40, 0.09>] } scale 0.007 }\n"
+    << "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ]\n"
+    << "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.05, 0.16, 0.03>]\n"
+    << "        [0.5 rgb <0.13, 0.31, 0.06>] [1 rgb <0.26, 0.46, 0.11>] } scale 0.007 }\n"
+    << "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ] } scale 2000 } }\n";
+  if (sc.background) {
+    // A clipped hedge row at 5.3 m, a wooden fence behind it, two round trees.
+    o << "  box { <-9000, " << -H << ", 5300>, <9000, " << -H + 1400 << ", 6100>\n"
+      << "    texture { pigment { granite turbulence 0.4 color_map { [0 rgb <0.03, 0.10, 0.02>] [0.6 rgb <0.08, 0.24, 0.05>]\n"
+      << "      [1 rgb <0.20, 0.36, 0.08>] } scale 40 } normal { bumps 0.9 scale 9 } finish { ambient 0.1 diffuse 0.75 } } }\n";
+    o << "  box { <-12000, " << -H << ", 6800>, <12000, " << -H + 1800 << ", 6860>\n"
+      << "    texture { pigment { gradient x color_map { [0 rgb <0.30, 0.20, 0.11>] [0.93 rgb <0.42, 0.30, 0.18>]\n"
+      << "      [0.95 rgb <0.08, 0.06, 0.04>] [1 rgb <0.08, 0.06, 0.04>] } scale 140 } normal { wood 0.3 scale 30 }\n"
+      << "      finish { ambient 0.12 diffuse 0.7 } } }\n";
+    const double trees[2][4] = {{-3100, 9400, 1700, 3400}, {2700, 8800, 1500, 3000}};  // x, z, crown r, crown height
+    for (const auto& t : trees) {
+      o << "  sphere { <" << t[0] << ", " << t[3] - H << ", " << t[1] << ">, " << t[2] << "\n"
+        << "    texture { pigment { granite turbulence 0.5 color_map { [0 rgb <0.02, 0.08, 0.02>] [1 rgb <0.15, 0.32, 0.07>] }\n"
+        << "      scale 90 } normal { bumps 1.0 scale 25 } finish { ambient 0.1 diffuse 0.7 } } }\n";
+      o << "  cylinder { <" << t[0] << ", " << -H << ", " << t[1] << ">, <" << t[0] << ", " << t[3] - H << ", " << t[1]
+        << ">, 170 texture { pigment { rgb <0.18, 0.13, 0.09> } normal { bumps 0.6 scale 20 } } }\n";
+    }
+  }
+  if (sc.pot) {
+    o << "  cylinder { <" << sc.pot_x_mm << ", " << -H << ", " << sc.pot_z_mm << ">, <" << sc.pot_x_mm << ", " << -H + 380
+      << ", " << sc.pot_z_mm << ">, 180\n"
+      << "    texture { pigment { bozo color_map { [0 rgb <0.45, 0.17, 0.07>] [1 rgb <0.60, 0.26, 0.12>] } scale 20 }\n"
+      << "      finish { ambient 0.1 diffuse 0.75 } } }\n";
+  }
+  for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
+    const GardenHedge& g = sc.hedges[i];
+    const cv::Vec3d c = level_from_camera * GardenHedgeCenter(sc, i);
+    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g)
+      << " texture { pigment { granite color_map { [0 rgb <0.02, 0.03, 0.01>] [1 rgb <0.06, 0.09, 0.03>] } scale 15 }"
+         " finish { ambient 0.05 diffuse 0.6 } } }\n";
+    o.precision(2);
+    for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + i)) {
+      o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a << " texture { L" << l.texture << " } }\n";
+    }
+    o.precision(6);
+  }
+  o << "  " << Matrix(level_from_camera.t(), cv::Vec3d(0, 0, 0)) << "\n}\n";
+  return o.str();
+}
+
+std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale, const CameraModel& camera,
+                                           const std::vector<std::string>& presets, std::uint64_t seed) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
+  const SimRig rig = PovrayRig(scale);
+  std::vector<std::string> written;
+  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
+  WriteRig((fs::path(dir) / "rig.yaml").string(), RigFromSimulation(rig));
+  written.push_back((fs::path(dir) / "rig_truth.json").string());
+  written.push_back((fs::path(dir) / "rig.yaml").string());
+  std::uint64_t view = seed * 1000 + 800;
+  for (const std::string& name : presets) {
+    const GardenScene sc = GardenPreset(name);
+    for (bool right : {false, true}) {
+      const cv::Mat img = RenderPovrayText(
+          rig, right, [&](cv::Size canvas) { return PovrayGardenScene(rig, right, sc, canvas); }, dir);
+      const std::string path = (fs::path(dir) / ("garden_" + name + (right ? "_right.png" : "_left.png"))).string();
+      WriteImageAtomic(path, ApplyCameraModel(img, camera, right, view / 2));
+      ++view;
+      written.push_back(path);
+    }
+    const cv::Matx33d level_from_camera = GardenLevelFromCamera(sc);
+    std::vector<cloud::SphereTruth> truths;
+    for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
+      cloud::SphereTruth t;
+      const cv::Vec3d c = GardenHedgeCenter(sc, i);
+      t.center_mm = Eigen::Vector3d(c[0], c[1], c[2]);
+      t.radius_mm = sc.hedges[i].radius_mm;
+      const cv::Vec3d cl = level_from_camera * c;
+      t.surface_radius_mm =
+          PovLeafSurfaceRadius(sc.hedges[i], cl, GardenLeaves(sc.hedges[i], cl, sc.texture_seed * 7919 + i));
+      truths.push_back(t);
+    }
+    const std::string truth = (fs::path(dir) / ("garden_" + name + ".truth.json")).string();
+    cloud::WriteSphereTruths(truth, truths);
+    written.push_back(truth);
+  }
   return written;
 }
 

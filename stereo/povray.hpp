@@ -26,6 +26,12 @@ SimRig PovrayRig(double scale = 1.0);
 std::string PovrayBoardScene(const SimRig& rig, bool right, const BoardScene& board, cv::Size canvas);
 std::string PovraySphereScene(const SimRig& rig, bool right, const SphereScene& scene, cv::Size canvas);
 
+/// A garden (GardenScene: the same hedges, pot and camera pose as hedgefit's renderer) in
+/// POV-Ray's own terms: each hedge ball is tens of thousands of leaf discs in a shell around a
+/// dark body (a third clipped to the envelope, gaps one sees into), a lawn with mowing stripes,
+/// a hedge row, a fence and trees, under a low parallel sun from the right (hard shadows).
+std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& scene, cv::Size canvas);
+
 /// Whether `povray` is on PATH.
 bool HavePovray();
 
@@ -38,6 +44,12 @@ cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& scene_kin
 /// exact rig) rendered by POV-Ray and recorded through `camera` (noise drawn from `seed`).
 std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
                                         std::uint64_t seed = 1);
+
+/// WriteGarden's files (garden_NAME_left/right.png, garden_NAME.truth.json with each hedge's
+/// envelope and mean leaf-surface radius, rig_truth.json, rig.yaml: the exact rig) rendered by
+/// POV-Ray on PovrayRig and recorded through `camera`.
+std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale, const CameraModel& camera,
+                                           const std::vector<std::string>& presets, std::uint64_t seed = 1);
 
 /// WideBoards() as board_17 .. board_28 (images and truths) in `dir`, beside the lab's 16, by
 /// `renderer` ("hedgefit" with `options`, or "povray"), recorded through `camera` (noise drawn

@@ -465,6 +465,8 @@ cv::Vec3d GardenHedgeCenter(const GardenScene& sc, std::size_t i) {
   return GardenFrame(sc.pitch_deg).level_from_camera.t() * LevelCenter(sc, sc.hedges[i]);
 }
 
+cv::Matx33d GardenLevelFromCamera(const GardenScene& sc) { return GardenFrame(sc.pitch_deg).level_from_camera; }
+
 double GardenHedgeSurfaceRadius(const GardenScene& sc, std::size_t i) {
   if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
   const GardenHedge& g = sc.hedges[i];

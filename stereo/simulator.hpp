@@ -92,6 +92,10 @@ struct GardenScene {
 /// Hedge `i`'s centre in the left camera frame (mm).
 cv::Vec3d GardenHedgeCenter(const GardenScene& scene, std::size_t i);
 
+/// The rotation from the left camera frame to the garden's level frame (x right, y down along
+/// gravity, z forward along the ground; the origin stays at the left camera): p_level = M p_cam.
+cv::Matx33d GardenLevelFromCamera(const GardenScene& scene);
+
 /// Hedge `i`'s mean leaf-surface radius: the envelope minus the mean radial leaf depth over the
 /// sphere (sampled; mm).
 double GardenHedgeSurfaceRadius(const GardenScene& scene, std::size_t i);
