@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "cloud/parallel.hpp"
 #include "cloud/point_cloud.hpp"
 #include "fitting/evaluation.hpp"
 #include "fitting/methods.hpp"
@@ -54,43 +55,59 @@ void RegisterFittingStages(cloud::Registry& r) {
               // A capture with several hedges (a hedge_id field): one fit per hedge.
               const std::vector<HedgeGroup> groups = HedgeGroups(c);
               if (groups.empty()) throw Error("stage '" + m.stage + "': no point of the cloud belongs to a hedge (hedge_id >= 1)");
-              std::vector<std::size_t> kept;
-              bool any_converged = false;
-              for (const HedgeGroup& g : groups) {
-                std::vector<Eigen::Vector3d> pts;
-                pts.reserve(g.indices.size());
-                for (std::size_t i : g.indices) pts.push_back(c.points_mm[i].cast<double>());
-                std::vector<std::size_t> inliers;
-                FitInputs in;
-                in.points_mm = &pts;
-                in.seed = ctx.seed;
-                in.inliers = m.has_inliers ? &inliers : nullptr;
-                // 'previous': the latest converged fit of this hedge.
-                if (const auto* fits = ctx.Find<std::vector<SphereFitResult>>("fits")) {
-                  for (auto it = fits->rbegin(); it != fits->rend(); ++it) {
-                    if (it->hedge_id == g.id && it->converged) {
-                      in.previous = &it->sphere;
-                      break;
+              // Every hedge is fitted on its own (in parallel: a row of hedges costs about what its
+              // largest does on two cores), then recorded in id order, so notes, fits and the
+              // first error reported do not depend on timing.
+              const auto* earlier = ctx.Find<std::vector<SphereFitResult>>("fits");
+              const auto* point_perturbation = ctx.Find<cloud::PointPerturbation>("point_perturbation");
+              const auto* disparity_perturbation = ctx.Find<cloud::PointPerturbation>("disparity_perturbation");
+              std::vector<SphereFitResult> results(groups.size());
+              std::vector<std::vector<std::size_t>> inliers(groups.size());
+              std::vector<std::string> errors(groups.size());
+              const std::uint64_t seed = ctx.seed;
+              ParallelFor(groups.size(), 0, 1, [&](std::size_t b, std::size_t e) {
+                for (std::size_t k = b; k < e; ++k) {
+                  const HedgeGroup& g = groups[k];
+                  std::vector<Eigen::Vector3d> pts;
+                  pts.reserve(g.indices.size());
+                  for (std::size_t i : g.indices) pts.push_back(c.points_mm[i].cast<double>());
+                  FitInputs in;
+                  in.points_mm = &pts;
+                  in.seed = seed;
+                  in.inliers = m.has_inliers ? &inliers[k] : nullptr;
+                  // 'previous': the latest converged fit of this hedge.
+                  if (earlier) {
+                    for (auto it = earlier->rbegin(); it != earlier->rend(); ++it) {
+                      if (it->hedge_id == g.id && it->converged) {
+                        in.previous = &it->sphere;
+                        break;
+                      }
                     }
                   }
+                  try {
+                    results[k] = fit(in);
+                  } catch (const Error& ex) {
+                    errors[k] = "stage '" + m.stage + "'" + (g.id ? ", hedge " + std::to_string(g.id) : "") + ", " + ex.what();
+                    continue;
+                  }
+                  results[k].hedge_id = g.id;
+                  // How far it can be trusted: the points' scatter, and the rig's calibration and
+                  // the matcher's common offset when the capture stages left their perturbations.
+                  AddUncertainty(pts, point_perturbation, &results[k], disparity_perturbation);
                 }
-                SphereFitResult res;
-                try {
-                  res = fit(in);
-                } catch (const Error& e) {
-                  throw Error("stage '" + m.stage + "'" + (g.id ? ", hedge " + std::to_string(g.id) : "") + ", " + e.what());
-                }
-                res.hedge_id = g.id;
-                // How far it can be trusted: the points' scatter, and the rig's calibration and
-                // the matcher's common offset when the capture stages left their perturbations.
-                AddUncertainty(pts, ctx.Find<cloud::PointPerturbation>("point_perturbation"), &res,
-                               ctx.Find<cloud::PointPerturbation>("disparity_perturbation"));
-                if (m.has_inliers) ctx.Note("seed", static_cast<std::int64_t>(in.seed));
+              });
+              for (const std::string& why : errors) {
+                if (!why.empty()) throw Error(why);
+              }
+              std::vector<std::size_t> kept;
+              bool any_converged = false;
+              for (std::size_t k = 0; k < groups.size(); ++k) {
+                if (m.has_inliers) ctx.Note("seed", static_cast<std::int64_t>(seed));
                 if (groups.size() > 1) ctx.Note("hedges", static_cast<std::int64_t>(groups.size()));
-                Record(ctx, res, groups.size() > 1);
-                if (keep && res.converged) {
+                Record(ctx, results[k], groups.size() > 1);
+                if (keep && results[k].converged) {
                   any_converged = true;
-                  for (std::size_t i : inliers) kept.push_back(g.indices[i]);
+                  for (std::size_t i : inliers[k]) kept.push_back(groups[k].indices[i]);
                 }
               }
               if (keep && any_converged) {
