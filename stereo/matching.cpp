@@ -48,7 +48,9 @@ const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
                "a refined value whose standard deviation is larger is not used", "px")
           .Min(1e-6)
           .Add("refine_drop_uncertain", &O::refine_drop_uncertain,
-               "drop pixels the refinement cannot settle (else keep SGBM's value, biased far on a dome)");
+               "drop pixels the refinement cannot settle (else keep SGBM's value, biased far on a dome)")
+          .Add("half_res_when_thinned", &O::half_res_when_thinned,
+               "when the points are thinned (max_points), SGBM runs at half resolution and the refinement at full");
   return table;
 }
 
@@ -239,7 +241,20 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
                    : o.mode == SgbmMode::kSgbm5   ? cv::StereoSGBM::MODE_SGBM
                    : o.mode == SgbmMode::kSgbm3Way ? cv::StereoSGBM::MODE_SGBM_3WAY
                                                    : cv::StereoSGBM::MODE_HH4;
-  cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(o.min_disparity, num, o.block_size, p1, p2,
+  // Half resolution for a thinned hedge: the disparity range halves with the images (rounded
+  // outwards), the check's tolerance too.
+  const bool half = stride >= 2 && o.half_res_when_thinned && left.cols >= 64 && left.rows >= 32;
+  cv::Mat l = left, r = right;
+  int min_d = o.min_disparity, num_d = num;
+  double lrc = o.lrc_tolerance_px;
+  if (half) {
+    cv::resize(left, l, cv::Size(left.cols / 2, left.rows / 2), 0, 0, cv::INTER_AREA);
+    cv::resize(right, r, l.size(), 0, 0, cv::INTER_AREA);
+    min_d = static_cast<int>(std::floor(o.min_disparity / 2.0));
+    num_d = ((static_cast<int>(std::ceil((o.min_disparity + num) / 2.0)) - min_d + 15) / 16) * 16;
+    if (lrc >= 0) lrc = std::max(0.5, lrc / 2);
+  }
+  cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(min_d, num_d, o.block_size, p1, p2,
                                                         o.disp12_max_diff, 0, o.uniqueness_ratio, 0, 0, mode);
   // The left and the right matcher (for the left-right check) run side by side: OpenCV's HH
   // modes are single-threaded, so on two cores this halves the matching time.
@@ -247,40 +262,39 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
   cloud::ParallelFor(o.lrc_tolerance_px >= 0 ? 2 : 1, 0, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       if (i == 0) {
-        sgbm->compute(left, right, d16_left);
+        sgbm->compute(l, r, d16_left);
       } else {
         cv::Ptr<cv::StereoMatcher> right_matcher = cv::ximgproc::createRightMatcher(sgbm);
-        right_matcher->compute(right, left, d16_right);  // negative disparities, as OpenCV's right matcher gives
+        right_matcher->compute(r, l, d16_right);  // negative disparities, as OpenCV's right matcher gives
       }
     }
   });
   DisparityMap out;
-  const float invalid_left = float(o.min_disparity - 1) * 16.0f;
-  out.disparity.create(left.size(), CV_32F);
-  out.rejected = cv::Mat::zeros(left.size(), CV_8U);
+  const float invalid_left = float(min_d - 1) * 16.0f;
+  out.disparity.create(l.size(), CV_32F);
+  out.rejected = cv::Mat::zeros(l.size(), CV_8U);
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (int y = 0; y < left.rows; ++y) {
+  for (int y = 0; y < l.rows; ++y) {
     const short* s = d16_left.ptr<short>(y);
     float* d = out.disparity.ptr<float>(y);
-    for (int x = 0; x < left.cols; ++x) d[x] = s[x] <= invalid_left ? nan : s[x] / 16.0f;
+    for (int x = 0; x < l.cols; ++x) d[x] = s[x] <= invalid_left ? nan : s[x] / 16.0f;
   }
-  if (o.lrc_tolerance_px >= 0) {
-    for (int y = 0; y < left.rows; ++y) {
+  if (lrc >= 0) {
+    for (int y = 0; y < l.rows; ++y) {
       float* d = out.disparity.ptr<float>(y);
-      const short* r = d16_right.ptr<short>(y);
+      const short* rr = d16_right.ptr<short>(y);
       std::uint8_t* rej = out.rejected.ptr<std::uint8_t>(y);
-      for (int x = 0; x < left.cols; ++x) {
+      for (int x = 0; x < l.cols; ++x) {
         if (std::isnan(d[x])) {
           rej[x] = 255;
           continue;
         }
         const int xr = static_cast<int>(std::lround(x - d[x]));
-        bool ok = xr >= 0 && xr < left.cols;
+        bool ok = xr >= 0 && xr < l.cols;
         if (ok) {
-          const short rv = r[xr];
+          const short rv = rr[xr];
           const float dr = -rv / 16.0f;
-          ok = rv != std::numeric_limits<short>::min() && rv <= 0 && std::abs(dr - d[x]) <= o.lrc_tolerance_px &&
-               -rv > (o.min_disparity - 1) * 16;
+          ok = rv != std::numeric_limits<short>::min() && rv <= 0 && std::abs(dr - d[x]) <= lrc && -rv > (min_d - 1) * 16;
         }
         if (!ok) {
           d[x] = nan;
@@ -288,6 +302,14 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
         }
       }
     }
+  }
+  if (half) {
+    // Back to full resolution: each pixel takes its half-resolution pixel's disparity, doubled.
+    cv::Mat d_full, rej_full;
+    cv::resize(out.disparity * 2.0f, d_full, left.size(), 0, 0, cv::INTER_NEAREST);
+    cv::resize(out.rejected, rej_full, left.size(), 0, 0, cv::INTER_NEAREST);
+    out.disparity = d_full;
+    out.rejected = rej_full;
   }
   // Refine what SGBM and the check accepted, before holes are filled from it.
   cv::Mat off_grid;

@@ -36,6 +36,12 @@ struct SgbmOptions {
   /// becomes a hole, filled in the dense map but left out of the cloud) instead of keeping
   /// SGBM's value, which on a convex surface is biased far (see RefineSubpixel).
   bool refine_drop_uncertain = true;
+  /// When the points are thinned (stride >= 2: a hedge larger than max_points pixels), SGBM and
+  /// the left-right check run on the pair at half resolution (a quarter of the pixels, half the
+  /// disparities: an eighth of the cost) and the refinement, at full resolution on the pixels
+  /// kept, starts from twice that disparity. Thinning already gives up the full-resolution
+  /// density; the refinement gives the sub-pixel precision back.
+  bool half_res_when_thinned = false;
   void Check() const;  ///< throws hedgefit::Error naming the option
   /// The options a user sets (not the disparity range, which comes from the working range).
   static const cloud::OptionTable<SgbmOptions>& Table();
