@@ -34,6 +34,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit simulate --board 0.3,0.2,0,-150,-150,1200 -o build/board   # rotation vector (rad), translation (mm)\n"
       "  hedgefit simulate --board 0.2,-0.3,0,-200,-150,900 --squares 8x6 --square 60 --charuco 4x4_50 --marker 45 -o build/charuco\n"
       "  hedgefit simulate --preset garden -o build/garden         # leafy balls on a lawn: row, single, outdoor\n"
+      "  hedgefit simulate --preset garden --renderer povray --camera real -o build/garden-povray   # leaf discs, POV-Ray\n"
       "The rig is the paper's (1920x1200, f 933.3 px, baseline 140 mm); --scale shrinks it.\n");
   struct Args {
     std::string preset, sphere, board, out = "simulated", squares = "13x12", dictionary;
@@ -48,7 +49,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
                   "paper-lab (the paper's lab: boards and spheres), garden (leafy hedge balls on a lawn) or wide-boards "
                   "(12 more board pairs near the image's edges, board_17..board_28, for calibration)")
       ->check(CLI::IsMember({"paper-lab", "garden", "wide-boards"}));
-  cmd->add_option("--renderer", a->renderer, "wide-boards and garden: hedgefit (its own ray caster) or povray")
+  cmd->add_option("--renderer", a->renderer, "the presets' renderer: hedgefit (its own ray caster) or povray (POV-Ray, an independent one)")
       ->check(CLI::IsMember({"hedgefit", "povray"}))
       ->capture_default_str();
   cmd->add_option("--sphere", a->sphere, "render a sphere: X,Y,Z,R in mm (left camera frame)");
@@ -77,6 +78,9 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
     *run = [=]() {
       const int modes = !a->preset.empty() + !a->sphere.empty() + !a->board.empty();
       if (modes != 1) throw Error("give exactly one of --preset, --sphere or --board");
+      if (a->renderer == "povray" && a->preset.empty()) {
+        throw Error("--renderer povray: renders the presets (paper-lab, garden, wide-boards); drop it for --sphere or --board");
+      }
       stereo::RenderOptions ro;
       ro.supersample = a->supersample;
       ro.blur_sigma_px = a->blur;
@@ -155,6 +159,12 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         // Into the lab's directory beside board_01..16, or a directory of their own.
         const auto files = stereo::WriteWideBoards(a->out, a->renderer, a->scale, ro, camera, a->seed);
         std::printf("wrote 12 board pairs (board_17..board_28) to %s in %.1f s\n", a->out.c_str(), seconds());
+        return kExitOk;
+      }
+      if (!a->preset.empty() && a->renderer == "povray") {
+        const auto files = stereo::WritePovrayLab(a->out, a->scale, camera, a->seed);
+        std::printf("wrote %zu files to %s in %.1f s (23 pairs by POV-Ray, %.2f s per pair)\n", files.size(),
+                    a->out.c_str(), seconds(), seconds() / 23.0);
         return kExitOk;
       }
       if (!a->preset.empty()) {

@@ -98,6 +98,13 @@ TEST(SimulateCli, WritesAPairWithTruthAndRejectsBadScenes) {
   EXPECT_EQ(r.code, 1);
   r = RunHedgefit("simulate -o sim", dir);
   EXPECT_EQ(r.err, "hedgefit: give exactly one of --preset, --sphere or --board\n");
+  // POV-Ray renders the presets only: asked for one sphere, it says so and writes nothing.
+  r = RunHedgefit("simulate --sphere 70,50,2300,300 --renderer povray -o pov", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err,
+            "hedgefit: --renderer povray: renders the presets (paper-lab, garden, wide-boards); drop it for --sphere or "
+            "--board\n");
+  EXPECT_FALSE(fs::exists(dir / "pov"));
 }
 
 }  // namespace
