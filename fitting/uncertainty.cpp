@@ -50,19 +50,27 @@ std::optional<Eigen::Vector4d> Refit(const std::vector<Eigen::Vector3d>& points,
 }  // namespace
 
 std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere) {
+  // Only points near the surface can support it: a robust fit (RANSAC) of a ball on a lawn may
+  // rest on a tenth of the cloud, and a median over the whole cloud would then be the lawn's.
+  // The window, 50 mm or a tenth of the radius, holds any leaf layer and stereo noise.
+  const double window = std::max(50.0, 0.1 * sphere.radius_mm);
   std::vector<double> res;
   res.reserve(points_mm.size());
   for (const auto& p : points_mm) {
-    if (p.allFinite()) res.push_back((p - sphere.center_mm).norm() - sphere.radius_mm);
+    if (!p.allFinite()) continue;
+    const double e = (p - sphere.center_mm).norm() - sphere.radius_mm;
+    if (std::abs(e) <= window) res.push_back(e);
   }
-  if (res.empty()) return {};
+  if (res.size() < 5) return {};
   const double med = Median(res);
   std::vector<double> dev(res.size());
   for (std::size_t i = 0; i < res.size(); ++i) dev[i] = std::abs(res[i] - med);
   const double band = 3.0 * 1.4826 * Median(dev);
   std::vector<Eigen::Vector3d> out;
   for (const auto& p : points_mm) {
-    if (p.allFinite() && std::abs((p - sphere.center_mm).norm() - sphere.radius_mm - med) <= band) out.push_back(p);
+    if (!p.allFinite()) continue;
+    const double e = (p - sphere.center_mm).norm() - sphere.radius_mm;
+    if (std::abs(e) <= window && std::abs(e - med) <= band) out.push_back(p);
   }
   return out;
 }

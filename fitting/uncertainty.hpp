@@ -13,8 +13,9 @@
 
 namespace hedgefit::fitting {
 
-/// The points a converged fit rests on: those within 3 robust standard deviations (1.4826 MAD)
-/// of the median residual |p - c| - r. For robust methods these are about its inliers.
+/// The points a converged fit rests on: of those within max(50 mm, r / 10) of the surface, the
+/// ones within 3 robust standard deviations (1.4826 MAD) of their median residual |p - c| - r.
+/// For robust methods these are about its inliers, however much of the cloud is something else.
 std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere);
 
 /// Standard errors of (cx, cy, cz, r) from the scatter of `support` about `sphere`: the inverse

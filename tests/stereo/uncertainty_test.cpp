@@ -264,6 +264,34 @@ TEST(BlockJackknife, CountsErrorsNeighboursShare) {
   EXPECT_LT(inside_scatter, 0.6 * cases);
 }
 
+// A ball on a lawn: RANSAC's sphere rests on a tenth of the cloud. The points that support it
+// are the ball's, not a band around the lawn's median residual, so its standard errors are the
+// ball's (a few tenths of a mm for 2000 points with 2 mm of noise), not metres.
+TEST(SupportingPoints, AMajorityOfOtherPointsDoesNotCount) {
+  const Eigen::Vector3d centre(100, 300, 2500);
+  const double radius = 500;
+  cv::RNG rng(7);
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 2000; ++i) {
+    Eigen::Vector3d d(rng.gaussian(1), rng.gaussian(1), -std::abs(rng.gaussian(1)));
+    d.normalize();
+    pts.push_back(centre + (radius + rng.gaussian(2.0)) * d);
+  }
+  const std::size_t ball = pts.size();
+  for (int i = 0; i < 18000; ++i) {  // the lawn: a plane 800 mm below the centre, 4 m x 4 m
+    pts.emplace_back(rng.uniform(-2000.0, 2000.0), centre.y() + 800 + rng.gaussian(2.0), rng.uniform(1500.0, 5500.0));
+  }
+  const fitting::Sphere truth{centre, radius};
+  const std::vector<Eigen::Vector3d> support = fitting::SupportingPoints(pts, truth);
+  // The ball's points within 3 sigma (99.7 %), and no lawn point but those that happen to lie
+  // within the window of the surface (the lawn passes 300 mm below the ball's foot: none).
+  EXPECT_GE(support.size(), std::size_t(0.99 * double(ball)));
+  EXPECT_LE(support.size(), ball);
+  const auto jack = fitting::BlockJackknifeStdError(support, truth);
+  ASSERT_TRUE(jack.has_value());
+  for (int k = 0; k < 4; ++k) EXPECT_LT((*jack)[k], 2.0) << k;
+}
+
 // With the rig it came from, re-triangulation gives the points back.
 TEST(Retriangulate, NominalRigReturnsThePoints) {
   const StereoRig rig = RigFromSimulation(PaperRig(0.5));
