@@ -11,6 +11,7 @@
 
 #include "apps/commands.hpp"
 #include "apps/capture_flags.hpp"
+#include "apps/measure_lines.hpp"
 #include "apps/stage_flags.hpp"
 #include "cloud/parallel.hpp"
 #include "cloud/pipeline.hpp"
@@ -199,6 +200,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
           std::snprintf(buf, sizeof(buf), "%-24s %8zu points %7.0f ms  matched %.1f%% of the frame  -> %s", c.name.c_str(),
                         cloud.size() - cloud::CountNonFinite(cloud), report.total_ms, 100 * matched, out.c_str());
           line = buf;
+          if (const std::string hint = GardenHint(ctx); !hint.empty()) {
+            std::lock_guard<std::mutex> lock(io);
+            std::fprintf(stderr, "hedgefit: warning: %s: %s\n", c.name.c_str(), hint.c_str());
+          }
           if (const auto* hedges = ctx.Find<std::vector<stereo::HedgeRegion>>("hedges")) {
             const auto groups = cloud::HedgeGroups(cloud);
             for (const auto& h : *hedges) {

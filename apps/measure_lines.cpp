@@ -1,6 +1,7 @@
 #include "apps/measure_lines.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 #include "fitting/evaluation.hpp"
 #include "fitting/sphere_fit.hpp"
@@ -45,6 +46,20 @@ MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& re
     out.lines.push_back(std::move(j));
   }
   return out;
+}
+
+std::string GardenHint(cloud::Context& ctx) {
+  if (ctx.Find<std::vector<stereo::HedgeRegion>>("hedges")) return "";
+  const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
+  if (!mask || mask->empty()) return "";
+  const double share = double(cv::countNonZero(*mask)) / double(mask->total());
+  if (share <= 0.5) return "";
+  char buf[256];
+  std::snprintf(buf, sizeof(buf),
+                "the colour mask covers %.0f%% of the frame (a lawn, a hedge row or trees are green too); in a garden, "
+                "--garden finds every hedge by depth",
+                100 * share);
+  return buf;
 }
 
 }  // namespace hedgefit::apps

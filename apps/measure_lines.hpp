@@ -23,4 +23,10 @@ nlohmann::ordered_json Rounded(const nlohmann::ordered_json& value);
 
 MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& report);
 
+/// The paper's colour mask covers most of a garden (lawn, hedge rows and trees are green too)
+/// and a fit may then find one ball of a row, or the lawn. When a run's colour mask covers more
+/// than half the frame, a one-line hint to use --garden ("" otherwise, and with --garden).
+/// Half the frame: the paper's largest hedge (r 960 mm) from 1 m away covers about a quarter.
+std::string GardenHint(cloud::Context& ctx);
+
 }  // namespace hedgefit::apps

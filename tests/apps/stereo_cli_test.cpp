@@ -240,6 +240,13 @@ TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
     EXPECT_LT(std::sqrt(d2), 15.0) << "hedge " << i + 1;
     EXPECT_GT(f["capture_ms"].get<double>(), 0.0);
   }
+  EXPECT_EQ(r.err, "");  // with --garden, no hint to use it
+  // Without --garden the paper's colour mask takes in the lawn and the hedge row (about two
+  // thirds of this frame): the fit may find one ball, so stderr says to use --garden.
+  r = RunHedgefit("measure" + capture, dir);
+  EXPECT_NE(r.err.find("hedgefit: warning: garden/garden_row_left.png: the colour mask covers "), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--garden finds every hedge by depth"), std::string::npos) << r.err;
   // The pipeline it runs, as JSON; a bad method or an overlay into a missing directory is one
   // line naming the flag, before any work, and writes nothing.
   r = RunHedgefit("measure --print-pipeline --method kasa" + capture, dir);
