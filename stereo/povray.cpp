@@ -182,14 +182,8 @@ cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& kind, con
 std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
                                         std::uint64_t seed) {
   namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
   const SimRig rig = PovrayRig(scale);
-  std::vector<std::string> written;
-  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
-  WriteRig((fs::path(dir) / "rig.yaml").string(), RigFromSimulation(rig));
-  written.push_back((fs::path(dir) / "rig_truth.json").string());
+  std::vector<std::string> written = StartSimulationDir(dir, rig);
   std::uint64_t view = seed * 1000;
   auto save = [&](const std::string& name, bool right, const std::string& kind, const BoardScene& b,
                   const SphereScene& s) {
@@ -409,44 +403,19 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
 
 std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale, const CameraModel& camera,
                                            const std::vector<std::string>& presets, std::uint64_t seed) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
   const SimRig rig = PovrayRig(scale);
-  std::vector<std::string> written;
-  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
-  WriteRig((fs::path(dir) / "rig.yaml").string(), RigFromSimulation(rig));
-  written.push_back((fs::path(dir) / "rig_truth.json").string());
-  written.push_back((fs::path(dir) / "rig.yaml").string());
   std::uint64_t view = seed * 1000 + 800;
-  for (const std::string& name : presets) {
-    const GardenScene sc = GardenPreset(name);
-    for (bool right : {false, true}) {
-      const cv::Mat img = RenderPovrayText(
-          rig, right, [&](cv::Size canvas) { return PovrayGardenScene(rig, right, sc, canvas); }, dir);
-      const std::string path = (fs::path(dir) / ("garden_" + name + (right ? "_right.png" : "_left.png"))).string();
-      WriteImageAtomic(path, ApplyCameraModel(img, camera, right, view / 2));
-      ++view;
-      written.push_back(path);
-    }
-    const cv::Matx33d level_from_camera = GardenLevelFromCamera(sc);
-    std::vector<cloud::SphereTruth> truths;
-    for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
-      cloud::SphereTruth t;
-      const cv::Vec3d c = GardenHedgeCenter(sc, i);
-      t.center_mm = Eigen::Vector3d(c[0], c[1], c[2]);
-      t.radius_mm = sc.hedges[i].radius_mm;
-      const cv::Vec3d cl = level_from_camera * c;
-      t.surface_radius_mm =
-          PovLeafSurfaceRadius(sc.hedges[i], cl, GardenLeaves(sc.hedges[i], cl, sc.texture_seed * 7919 + i));
-      truths.push_back(t);
-    }
-    const std::string truth = (fs::path(dir) / ("garden_" + name + ".truth.json")).string();
-    cloud::WriteSphereTruths(truth, truths);
-    written.push_back(truth);
-  }
-  return written;
+  return WriteGardenWith(
+      dir, rig, presets,
+      [&](const GardenScene& sc, bool right) {
+        const cv::Mat img = RenderPovrayText(
+            rig, right, [&](cv::Size canvas) { return PovrayGardenScene(rig, right, sc, canvas); }, dir);
+        return ApplyCameraModel(img, camera, right, view++ / 2);
+      },
+      [](const GardenScene& sc, std::size_t i) {
+        const cv::Vec3d c = GardenLevelFromCamera(sc) * GardenHedgeCenter(sc, i);
+        return PovLeafSurfaceRadius(sc.hedges[i], c, GardenLeaves(sc.hedges[i], c, sc.texture_seed * 7919 + i));
+      });
 }
 
 }  // namespace hedgefit::stereo

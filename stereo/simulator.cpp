@@ -561,24 +561,29 @@ GardenScene GardenPreset(const std::string& name) {
   return sc;
 }
 
-std::vector<std::string> WriteGarden(const std::string& dir, double scale, const RenderOptions& options,
-                                     const std::vector<std::string>& presets) {
+std::vector<std::string> StartSimulationDir(const std::string& dir, const SimRig& rig) {
   namespace fs = std::filesystem;
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
-  const SimRig rig = PaperRig(scale);
-  std::vector<std::string> written;
-  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
-  written.push_back((fs::path(dir) / "rig_truth.json").string());
+  const std::string truth = (fs::path(dir) / "rig_truth.json").string(), yaml = (fs::path(dir) / "rig.yaml").string();
+  cloud::WriteTextFileAtomic(truth, RigJson(rig) + "\n");
+  WriteRig(yaml, RigFromSimulation(rig));
+  return {truth, yaml};
+}
+
+std::vector<std::string> WriteGardenWith(const std::string& dir, const SimRig& rig,
+                                         const std::vector<std::string>& presets,
+                                         const std::function<cv::Mat(const GardenScene&, bool right)>& render,
+                                         const std::function<double(const GardenScene&, std::size_t)>& surface) {
+  namespace fs = std::filesystem;
   // No boards in a garden: the exact rig, so a garden run measures segmentation and matching.
-  WriteRig((fs::path(dir) / "rig.yaml").string(), RigFromSimulation(rig));
-  written.push_back((fs::path(dir) / "rig.yaml").string());
+  std::vector<std::string> written = StartSimulationDir(dir, rig);
   for (const std::string& name : presets) {
     const GardenScene sc = GardenPreset(name);
     for (bool right : {false, true}) {
       const std::string path = (fs::path(dir) / ("garden_" + name + (right ? "_right.png" : "_left.png"))).string();
-      WriteImageAtomic(path, RenderGarden(rig, right, sc, options));
+      WriteImageAtomic(path, render(sc, right));
       written.push_back(path);
     }
     std::vector<cloud::SphereTruth> truths;
@@ -587,7 +592,7 @@ std::vector<std::string> WriteGarden(const std::string& dir, double scale, const
       const cv::Vec3d c = GardenHedgeCenter(sc, i);
       t.center_mm = Eigen::Vector3d(c[0], c[1], c[2]);
       t.radius_mm = sc.hedges[i].radius_mm;
-      t.surface_radius_mm = GardenHedgeSurfaceRadius(sc, i);
+      t.surface_radius_mm = surface(sc, i);
       truths.push_back(t);
     }
     const std::string truth = (fs::path(dir) / ("garden_" + name + ".truth.json")).string();
@@ -595,6 +600,14 @@ std::vector<std::string> WriteGarden(const std::string& dir, double scale, const
     written.push_back(truth);
   }
   return written;
+}
+
+std::vector<std::string> WriteGarden(const std::string& dir, double scale, const RenderOptions& options,
+                                     const std::vector<std::string>& presets) {
+  const SimRig rig = PaperRig(scale);
+  return WriteGardenWith(
+      dir, rig, presets, [&](const GardenScene& sc, bool right) { return RenderGarden(rig, right, sc, options); },
+      GardenHedgeSurfaceRadius);
 }
 
 StereoRig RigFromSimulation(const SimRig& sim) {

@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -111,6 +112,18 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& scene, co
 /// front is ~1.9 m away). Throws hedgefit::Error for another name.
 GardenScene GardenPreset(const std::string& name);
 std::vector<std::string> GardenPresetNames();
+
+/// Creates `dir` (throwing hedgefit::Error when it cannot) and writes rig_truth.json and
+/// rig.yaml, the exact rig, for `rig`. Returns their paths.
+std::vector<std::string> StartSimulationDir(const std::string& dir, const SimRig& rig);
+
+/// Garden captures by any renderer into `dir`: StartSimulationDir, then for each preset
+/// garden_NAME_left/right.png from `render(scene, right)` and garden_NAME.truth.json, each hedge's
+/// envelope and mean leaf-surface radius `surface(scene, i)`. Returns the files written.
+std::vector<std::string> WriteGardenWith(const std::string& dir, const SimRig& rig,
+                                         const std::vector<std::string>& presets,
+                                         const std::function<cv::Mat(const GardenScene&, bool right)>& render,
+                                         const std::function<double(const GardenScene&, std::size_t)>& surface);
 
 /// Writes garden captures into `dir`: for each preset, NAME_left.png / NAME_right.png and
 /// NAME.truth.json listing every hedge, plus rig_truth.json and rig.yaml (the exact rig: a garden
