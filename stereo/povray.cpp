@@ -241,13 +241,13 @@ std::vector<std::string> WriteWideBoards(const std::string& dir, const std::stri
 
 namespace {
 
-// A leaf of a POV-Ray hedge: a disc (level frame), its radius and one of kLeafTextures textures.
+// A leaf of a POV-Ray hedge: a disc (level frame), its radius and one of the scene's 9 leaf
+// textures L0..L8 (3 depth bands x 3 hues).
 struct PovLeaf {
   cv::Vec3d c, n;
   double a = 8;
   int texture = 0;
 };
-constexpr int kLeafTextures = 9;  // 3 depth bands x 3 hues
 
 // The garden hedge of POV-Ray: real leaves, where hedgefit's own renderer has a noise-shaded
 // shell. Discs of radius 6-10 mm tilted up to 55 degrees from the surface, a third of them
