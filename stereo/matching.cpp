@@ -2,14 +2,18 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <Eigen/QR>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc/disparity_filter.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
+#include <vector>
 
 #include "cloud/error.hpp"
 #include "cloud/parallel.hpp"
@@ -50,7 +54,13 @@ const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
           .Add("refine_drop_uncertain", &O::refine_drop_uncertain,
                "drop pixels the refinement cannot settle (else keep SGBM's value, biased far on a dome)")
           .Add("half_res_when_thinned", &O::half_res_when_thinned,
-               "when the points are thinned (max_points), SGBM runs at half resolution and the refinement at full");
+               "when the points are thinned (max_points), SGBM runs at half resolution and the refinement at full")
+          .Add("correct_vertical", &O::correct_vertical,
+               "estimate the pair's residual vertical disparity (rectification error) and remove it before the "
+               "refinement")
+          .Add("correct_vertical_min", &O::correct_vertical_min_px,
+               "a residual vertical disparity smaller than this everywhere is left alone", "px")
+          .Min(0);
   return table;
 }
 
@@ -114,7 +124,166 @@ cv::Mat GreyFloat(const cv::Mat& img) {
   return f;
 }
 
+// The 2-D cubic B-spline of `coeffs` at (x, y): value and both derivatives; false outside.
+bool SampleBSpline2D(const cv::Mat& coeffs, double x, double y, double* v, double* vx, double* vy) {
+  const int ix = static_cast<int>(std::floor(x)), iy = static_cast<int>(std::floor(y));
+  if (ix < 1 || iy < 1 || ix + 2 >= coeffs.cols || iy + 2 >= coeffs.rows) return false;
+  double wx[4], dwx[4], wy[4], dwy[4];
+  BSplineWeights(x - ix, wx, dwx);
+  BSplineWeights(y - iy, wy, dwy);
+  double s = 0, sx = 0, sy = 0;
+  for (int j = 0; j < 4; ++j) {
+    const float* row = coeffs.ptr<float>(iy - 1 + j) + (ix - 1);
+    double r = 0, rx = 0;
+    for (int i = 0; i < 4; ++i) r += wx[i] * row[i], rx += dwx[i] * row[i];
+    s += wy[j] * r, sx += wy[j] * rx, sy += dwy[j] * r;
+  }
+  *v = s, *vx = sx, *vy = sy;
+  return true;
+}
+
+// Gauss-Newton for one window about (x, y): disparity, its slopes, a vertical shift, gain and
+// offset. True with the shift and its standard deviation when it settles.
+bool SolveVerticalWindow(const cv::Mat& L, const cv::Mat& C, const cv::Mat& mask, int x, int y, double d0, int r,
+                         double* dy_out, double* sigma_out) {
+  using Vec6 = Eigen::Matrix<double, 6, 1>;
+  using Mat6 = Eigen::Matrix<double, 6, 6>;
+  Vec6 q;
+  q << d0, 0, 0, 0, 0, 0;
+  const int side = 2 * r + 1;
+  for (int it = 0; it < 8; ++it) {
+    Mat6 H = Mat6::Zero();
+    Vec6 g = Vec6::Zero();
+    double ssr = 0;
+    int used = 0;
+    for (int j = -r; j <= r; ++j) {
+      if (y + j < 0 || y + j >= L.rows) continue;
+      const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y + j);
+      const float* lrow = L.ptr<float>(y + j);
+      for (int i = -r; i <= r; ++i) {
+        if (x + i < 0 || x + i >= L.cols || (m && m[x + i] == 0)) continue;
+        double v = 0, vx = 0, vy = 0;
+        if (!SampleBSpline2D(C, x + i - (q[0] + q[1] * i + q[2] * j), y + j + q[3], &v, &vx, &vy)) continue;
+        const double res = lrow[x + i] - (1 + q[4]) * v - q[5];
+        const double gx = (1 + q[4]) * vx;
+        Vec6 J;
+        J << gx, gx * i, gx * j, -(1 + q[4]) * vy, -v, -1.0;
+        H.selfadjointView<Eigen::Upper>().rankUpdate(J);
+        g -= J * res;
+        ssr += res * res;
+        ++used;
+      }
+    }
+    if (used < (side * side * 3) / 5) return false;
+    H = H.selfadjointView<Eigen::Upper>();
+    const Eigen::LDLT<Mat6> ldlt(H);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
+    const Vec6 step = ldlt.solve(g);
+    q += step;
+    if (!q.allFinite() || std::abs(q[0] - d0) > 1.0 || std::abs(q[3]) > 2.0) return false;
+    if (std::abs(step[0]) < 1e-3 && std::abs(step[3]) < 1e-3) {
+      *dy_out = q[3];
+      *sigma_out = std::sqrt(ssr / std::max(1, used - 6) * ldlt.solve(Vec6::Unit(3))[3]);
+      return true;
+    }
+  }
+  return false;
+}
+
+// EstimateVerticalDisparity on the left view's grey levels `L` and the right view's 2-D spline
+// coefficients `C`.
+VerticalDisparity EstimateVerticalDisparityFloat(const cv::Mat& L, const cv::Mat& C, const cv::Mat& disparity,
+                                                 const cv::Mat& mask) {
+  constexpr int kRadius = 4, kMinSamples = 30;
+  constexpr double kMaxSigmaPx = 0.1;
+  // About 1000 windows over the known pixels (the plane's standard error is then ~0.002 px), at
+  // most one per 8 x 8 block.
+  const int known = cv::countNonZero(disparity == disparity);
+  const int step = std::max(8, static_cast<int>(std::sqrt(known / 1000.0)));
+  struct Sample {
+    double x, y, dy;
+  };
+  std::vector<Sample> samples;
+  std::mutex lock;
+  const int grid_rows = (L.rows - 2 * kRadius + step - 1) / step;
+  cv::parallel_for_(cv::Range(0, std::max(0, grid_rows)), [&](const cv::Range& range) {
+    std::vector<Sample> local;
+    for (int k = range.start; k < range.end; ++k) {
+      const int y = kRadius + k * step;
+      const float* drow = disparity.ptr<float>(y);
+      const std::uint8_t* mrow = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y);
+      for (int x = kRadius; x + kRadius < L.cols; x += step) {
+        if (!std::isfinite(drow[x]) || (mrow && mrow[x] == 0)) continue;
+        double dy = 0, sigma = 0;
+        if (SolveVerticalWindow(L, C, mask, x, y, drow[x], kRadius, &dy, &sigma) && sigma <= kMaxSigmaPx) {
+          local.push_back({double(x), double(y), dy});
+        }
+      }
+    }
+    const std::lock_guard<std::mutex> guard(lock);
+    samples.insert(samples.end(), local.begin(), local.end());
+  });
+  VerticalDisparity out;
+  if (int(samples.size()) < kMinSamples) return out;
+  // A plane in (x, y), least squares on the samples within 3 MADs of the last fit (mismatches,
+  // occlusion edges and repeated texture give the outliers).
+  const cv::Size size = L.size();
+  std::vector<bool> inlier(samples.size(), true);
+  for (int round = 0; round < 4; ++round) {
+    Eigen::MatrixXd A(samples.size(), 3);
+    Eigen::VectorXd b(samples.size());
+    int n = 0;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      if (!inlier[i]) continue;
+      A.row(n) << 1, (samples[i].x - 0.5 * size.width) / size.width, (samples[i].y - 0.5 * size.height) / size.height;
+      b[n++] = samples[i].dy;
+    }
+    if (n < kMinSamples) return VerticalDisparity();
+    const Eigen::Vector3d c = A.topRows(n).colPivHouseholderQr().solve(b.head(n));
+    out.offset_px = c[0], out.slope_x_px = c[1], out.slope_y_px = c[2], out.samples = n;
+    std::vector<double> residual(samples.size());
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      residual[i] = std::abs(samples[i].dy - out.At(samples[i].x, samples[i].y, size));
+    }
+    std::vector<double> sorted = residual;
+    std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
+    const double mad = 1.4826 * sorted[sorted.size() / 2];
+    for (std::size_t i = 0; i < samples.size(); ++i) inlier[i] = residual[i] <= 3 * std::max(mad, 0.01);
+  }
+  return out;
+}
+
+// The right view's grey levels at (x, y + v.At(x, y)): the vertical disparity removed. `grey`
+// is the view, `coeffs` its 2-D spline; pixels whose spline support leaves the image (the
+// outer two rows and columns) keep their value.
+cv::Mat ShiftRows(const cv::Mat& grey, const cv::Mat& coeffs, const VerticalDisparity& v) {
+  cv::Mat out = grey.clone();
+  cv::parallel_for_(cv::Range(0, coeffs.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      float* o = out.ptr<float>(y);
+      for (int x = 0; x < coeffs.cols; ++x) {
+        double value = 0, vx = 0, vy = 0;
+        if (SampleBSpline2D(coeffs, x, y + v.At(x, y, coeffs.size()), &value, &vx, &vy)) o[x] = static_cast<float>(value);
+      }
+    }
+  });
+  return out;
+}
+
 }  // namespace
+
+double VerticalDisparity::MaxAbs(cv::Size size) const {
+  double m = 0;
+  for (const double x : {0.0, double(size.width)}) {
+    for (const double y : {0.0, double(size.height)}) m = std::max(m, std::abs(At(x, y, size)));
+  }
+  return m;
+}
+
+VerticalDisparity EstimateVerticalDisparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity,
+                                            const cv::Mat& mask) {
+  return EstimateVerticalDisparityFloat(GreyFloat(left), BSplineCoefficients2D(GreyFloat(right)), disparity, mask);
+}
 
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
                    int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out, cv::Mat* dropped,
@@ -331,7 +500,19 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
     }
   }
   if (o.refine_radius > 0) {
-    RefineSubpixel(left, right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
+    // The refinement matches along rows: the pair's residual vertical disparity goes first.
+    cv::Mat refine_right = right;
+    if (o.correct_vertical) {
+      const cv::Mat right_grey = GreyFloat(right), coeffs = BSplineCoefficients2D(right_grey);
+      cv::Mat known = out.disparity.clone();
+      known.setTo(std::numeric_limits<float>::quiet_NaN(), out.rejected);
+      out.vertical = EstimateVerticalDisparityFloat(GreyFloat(left), coeffs, known, mask);
+      // Below correct_vertical_min the rows agree to the refinement's own precision, and
+      // resampling the view would only perturb it.
+      out.vertical.applied = out.vertical.samples > 0 && out.vertical.MaxAbs(left.size()) >= o.correct_vertical_min_px;
+      if (out.vertical.applied) refine_right = ShiftRows(right_grey, coeffs, out.vertical);
+    }
+    RefineSubpixel(left, refine_right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
                    o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma,
                    o.refine_drop_uncertain ? &out.rejected : nullptr, o.refine_max_radius, o.refine_retry_sigma_px);
   }

@@ -42,9 +42,32 @@ struct SgbmOptions {
   /// kept, starts from twice that disparity. Thinning already gives up the full-resolution
   /// density; the refinement gives the sub-pixel precision back.
   bool half_res_when_thinned = false;
+  /// Before the refinement, estimate the pair's residual vertical disparity (see
+  /// EstimateVerticalDisparity) and refine against the right view resampled to remove it.
+  bool correct_vertical = true;
+  /// ... when it reaches this anywhere in the image: below, the rows agree to the refinement's
+  /// own precision (its standard deviations are 0.05-0.2 px) and resampling would only perturb it.
+  double correct_vertical_min_px = 0.05;
   void Check() const;  ///< throws hedgefit::Error naming the option
   /// The options a user sets (not the disparity range, which comes from the working range).
   static const cloud::OptionTable<SgbmOptions>& Table();
+};
+
+/// The residual vertical disparity of a rectified pair: the left pixel (x, y) appears in the
+/// right view at row y + At(x, y). Rectification from a calibration leaves some: a few tenths of
+/// a pixel on real rigs (Middlebury 2014 Motorcycle, "perfectly" rectified: about -0.3 px). A
+/// horizontal match across an edge at angle t to the rows then errs by At / tan(t), which the
+/// sub-pixel refinement's one-dimensional search cannot absorb.
+struct VerticalDisparity {
+  double offset_px = 0;   ///< at the image centre
+  double slope_x_px = 0;  ///< change from the image's left edge to its right edge
+  double slope_y_px = 0;  ///< change from the top edge to the bottom edge
+  int samples = 0;        ///< windows that settled; 0 = not estimated (too few)
+  bool applied = false;   ///< the right view was resampled to remove it
+  double At(double x, double y, cv::Size size) const {
+    return offset_px + slope_x_px * (x - 0.5 * size.width) / size.width + slope_y_px * (y - 0.5 * size.height) / size.height;
+  }
+  double MaxAbs(cv::Size size) const;  ///< the largest |At| over the image (at a corner)
 };
 
 struct DisparityMap {
@@ -52,6 +75,7 @@ struct DisparityMap {
   cv::Mat rejected;   ///< CV_8U, 255 where the LRC check (or SGBM) rejected the pixel
   cv::Mat sigma;      ///< CV_32F, px: the refinement's standard deviation; NaN where not refined
   int filled = 0;     ///< pixels filled from neighbours
+  VerticalDisparity vertical;  ///< estimated and removed before the refinement (correct_vertical)
 };
 
 /// Matches a rectified pair (8-bit grey or BGR). `left` and `right` have the same size.
@@ -81,6 +105,14 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
                    int radius, int iterations, cv::Mat* disparity, double max_sigma_px = 0.2,
                    cv::Mat* sigma = nullptr, cv::Mat* dropped = nullptr, int max_radius = 0,
                    double retry_sigma_px = 0.0);
+
+/// Estimates the pair's residual vertical disparity from `disparity` (CV_32F, NaN = unknown, left
+/// view): on a grid of 9 x 9 windows inside `mask` (all when empty), each window's disparity,
+/// its slopes, a vertical shift, gain and offset by Gauss-Newton against the right view's 2-D
+/// cubic B-spline; the shifts that settle to 0.1 px are fitted with a plane in (x, y), trimmed
+/// at 3 MADs. At least 30 windows must settle, else `samples` is 0.
+VerticalDisparity EstimateVerticalDisparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity,
+                                            const cv::Mat& mask = cv::Mat());
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.
