@@ -200,7 +200,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
           std::snprintf(buf, sizeof(buf), "%-24s %8zu points %7.0f ms  matched %.1f%% of the frame  -> %s", c.name.c_str(),
                         cloud.size() - cloud::CountNonFinite(cloud), report.total_ms, 100 * matched, out.c_str());
           line = buf;
-          if (const std::string hint = GardenHint(ctx); !hint.empty()) {
+          if (const std::string hint = CaptureHint(ctx); !hint.empty()) {
             std::lock_guard<std::mutex> lock(io);
             std::fprintf(stderr, "hedgefit: warning: %s: %s\n", c.name.c_str(), hint.c_str());
           }

@@ -81,7 +81,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
         throw ProcessingError(a->left + ": " + e.what());
       }
       const MeasureLines m = CollectMeasureLines(ctx, report);
-      if (const std::string hint = GardenHint(ctx); !hint.empty()) {
+      if (const std::string hint = CaptureHint(ctx); !hint.empty()) {
         std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), hint.c_str());
       }
       for (const auto& j : m.lines) std::printf("%s\n", a->pretty ? j.dump(2).c_str() : j.dump().c_str());

@@ -48,18 +48,28 @@ MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& re
   return out;
 }
 
-std::string GardenHint(cloud::Context& ctx) {
-  if (ctx.Find<std::vector<stereo::HedgeRegion>>("hedges")) return "";
-  const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
-  if (!mask || mask->empty()) return "";
-  const double share = double(cv::countNonZero(*mask)) / double(mask->total());
-  if (share <= 0.5) return "";
+std::string CaptureHint(cloud::Context& ctx) {
+  std::string hint;
   char buf[256];
-  std::snprintf(buf, sizeof(buf),
-                "the colour mask covers %.0f%% of the frame (a lawn, a hedge row or trees are green too); in a garden, "
-                "--garden finds every hedge by depth",
-                100 * share);
-  return buf;
+  const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
+  if (!ctx.Find<std::vector<stereo::HedgeRegion>>("hedges") && mask && !mask->empty()) {
+    const double share = double(cv::countNonZero(*mask)) / double(mask->total());
+    if (share > 0.5) {
+      std::snprintf(buf, sizeof(buf),
+                    "the colour mask covers %.0f%% of the frame (a lawn, a hedge row or trees are green too); in a "
+                    "garden, --garden finds every hedge by depth",
+                    100 * share);
+      hint = buf;
+    }
+  }
+  if (const double* rows = ctx.Find<double>("vertical_disparity_px"); rows && *rows > 0.5) {
+    std::snprintf(buf, sizeof(buf),
+                  "the rectified rows disagree by up to %.2f px: the rig file is not these cameras', or they moved "
+                  "since calibration; recalibrate (hedgefit calibrate)",
+                  *rows);
+    hint += (hint.empty() ? "" : "; ") + std::string(buf);
+  }
+  return hint;
 }
 
 }  // namespace hedgefit::apps

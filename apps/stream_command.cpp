@@ -306,7 +306,7 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
           const cloud::RunReport report = p.Run(ctx);
           for (const auto& s : report.stages) stage_ms[s.type] += s.wall_ms;
           const MeasureLines m = CollectMeasureLines(ctx, report);
-          const std::string hint = GardenHint(ctx);
+          const std::string hint = CaptureHint(ctx);
           for (const auto& line : m.lines) {
             json j = head;
             for (const auto& [k, v] : line.items()) j[k] = v;

@@ -66,6 +66,8 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   r.disparity_sigma = cv::Mat(size, CV_32F, cv::Scalar(nan));
   if (!d.sigma.empty()) d.sigma.copyTo(r.disparity_sigma(roi));
   r.filled_count = d.filled;
+  r.vertical = d.vertical;
+  r.vertical_max_px = d.vertical.samples > 0 ? d.vertical.MaxAbs(roi.size()) : 0.0;
   // SGBM searches a few pixels beyond the working range, and filling and refinement can move a
   // value further: no point outside [min_z, max_z] leaves the matcher.
   const double fb = rig.P1.at<double>(0, 0) * rig.baseline_mm;
@@ -115,6 +117,7 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
       all.num_disparities = hi - all.min_disparity;
     }
     all.stride = std::max(all.stride, m.stride);
+    if (m.vertical_max_px > all.vertical_max_px) all.vertical = m.vertical, all.vertical_max_px = m.vertical_max_px;
   }
   all.matched_area = matched_area;
   return all;

@@ -44,6 +44,10 @@ struct MatchResult {
   int filled_count = 0;
   int stride = 1;           ///< every stride-th pixel and row kept (MatchOptions::max_points)
   int min_disparity = 0, num_disparities = 0;  ///< the search range used
+  /// The residual vertical disparity the refinement removed (several hedges: the one reaching
+  /// furthest), and the largest |value| it reaches over the matched region, px (0 = none).
+  VerticalDisparity vertical;
+  double vertical_max_px = 0;
 };
 
 /// MatchHedge for each hedge of `hedge_labels` (CV_32S, id per pixel) over its own region and,

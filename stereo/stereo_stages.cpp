@@ -224,6 +224,10 @@ void RegisterStereoStages(cloud::Registry& r) {
           if (m.stride > 1) ctx.Note("stride", static_cast<std::int64_t>(m.stride));
           ctx.Note("filled", static_cast<std::int64_t>(m.filled_count));
           ctx.Note("disparity_range", std::vector<double>{double(m.min_disparity), double(m.min_disparity + m.num_disparities)});
+          if (m.vertical.samples > 0) {
+            ctx.Note("vertical_disparity_px", m.vertical_max_px);
+            ctx.Put("vertical_disparity_px", m.vertical_max_px);
+          }
           ctx.Put("disparity", m.disparity);
           ctx.Put("filled", m.filled);
           ctx.Put("disparity_sigma", m.disparity_sigma);

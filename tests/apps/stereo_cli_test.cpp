@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -263,6 +264,42 @@ TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "none.png"));
+}
+
+// A rig whose rows no longer agree (the right camera moved by a pixel's height since calibration):
+// measure removes the offset before its refinement, still fits the sphere, and says to recalibrate.
+TEST(MeasureCli, MisalignedRowsAreRemovedAndReported) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  auto r = RunHedgefit("simulate --sphere 70,50,2300,300 --scale 0.5 -o sim", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string rig = " --rig sim/rig.yaml --left sim/sphere_left.png";
+  auto radius = [](const std::string& out) {
+    return nlohmann::json::parse(out.substr(0, out.find('\n')))["radius_mm"].get<double>();
+  };
+  r = RunHedgefit("measure" + rig + " --right sim/sphere_right.png", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "");  // aligned rows: nothing to say
+  const double aligned = radius(r.out);
+  // Every right-image row one down: the left pixel (x, y) is seen at row y + 1.
+  const cv::Mat right = cv::imread((dir / "sim" / "sphere_right.png").string());
+  cv::Mat moved = right.clone();
+  right.rowRange(0, right.rows - 1).copyTo(moved.rowRange(1, right.rows));
+  ASSERT_TRUE(cv::imwrite((dir / "sim" / "moved_right.png").string(), moved));
+  r = RunHedgefit("measure" + rig + " --right sim/moved_right.png", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string said = "hedgefit: warning: sim/sphere_left.png: the rectified rows disagree by up to ";
+  ASSERT_EQ(r.err.rfind(said, 0), 0u) << r.err;
+  // The rectification turns the image's rows by a fraction of a degree: about 1 px everywhere.
+  EXPECT_NEAR(std::stod(r.err.substr(said.size())), 1.0, 0.1) << r.err;
+  EXPECT_NE(r.err.find("recalibrate"), std::string::npos) << r.err;
+  // With the offset removed the fit is as good as with aligned rows: within 1 mm, three times
+  // the radius's spread over the lab's seven positions at full size.
+  EXPECT_NEAR(radius(r.out), aligned, 1.0);
+  EXPECT_NEAR(radius(r.out), 300.0, 2.0);
+  // Refined along the rows as they are, the sphere comes out several mm small.
+  r = RunHedgefit("measure" + rig + " --right sim/moved_right.png --no-correct-vertical", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_GT(std::abs(radius(r.out) - aligned), 2.0);
 }
 
 TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
