@@ -194,7 +194,7 @@ TEST(Middlebury, RefinementLowersSubpixelErrorOnRealPairs) {
 // Issue 12's target on the real pairs whose truth is finer than a pixel: the refinement must not
 // raise bad-0.5 (holes filled, as the dense map is scored). Motorcycle's "perfectly" rectified
 // rows disagree by about 0.3 px; refined along the rows without removing that, its bad-0.5 rose
-// from 18.6 % to 20.3 %. Aloe's truth is stored in whole pixels, where bad-0.5 scores the
+// from 18.6 % to 20.0 %. Aloe's truth is stored in whole pixels, where bad-0.5 scores the
 // truth's rounding (README, bench_middlebury).
 TEST(Middlebury, RefinementDoesNotRaiseBadHalfPixel) {
   HEDGEFIT_REQUIRE_DATA("stereo_gt/middlebury2003_cones_pandora/left.tif");
