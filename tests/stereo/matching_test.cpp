@@ -397,5 +397,28 @@ TEST(Refinement, RemovesTheRowsResidualVerticalDisparity) {
   EXPECT_FALSE(aligned.vertical.applied);
 }
 
+// Where nothing can be measured (a flat grey pair, a pair smaller than one 9 x 9 window, a
+// disparity map with nothing known) the estimate says so and the view is left alone.
+TEST(Refinement, VerticalDisparityNeedsTexturedWindows) {
+  const cv::Mat flat(60, 120, CV_8U, cv::Scalar(128));
+  const DisparityMap m = ComputeDisparity(flat, flat, PlaneOptions(2));
+  EXPECT_EQ(m.vertical.samples, 0);
+  EXPECT_FALSE(m.vertical.applied);
+  const Texture t(3);
+  cv::Mat l, r;
+  Plane(t, 14.3, 0, 0, 1, 0, &l, &r);
+  for (const cv::Size size : {cv::Size(7, 5), cv::Size(1, 1), cv::Size(240, 3)}) {
+    const cv::Mat tl = l(cv::Rect(cv::Point(0, 0), size)), tr = r(cv::Rect(cv::Point(0, 0), size));
+    const cv::Mat d(size, CV_32F, cv::Scalar(14.3));
+    EXPECT_EQ(EstimateVerticalDisparity(tl, tr, d).samples, 0) << size;
+  }
+  const cv::Mat unknown(l.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_EQ(EstimateVerticalDisparity(l, r, unknown).samples, 0);
+  // On the whole textured pair with its true disparity, the aligned rows are found.
+  const VerticalDisparity v = EstimateVerticalDisparity(l, r, cv::Mat(l.size(), CV_32F, cv::Scalar(14.3)));
+  EXPECT_GT(v.samples, 30);
+  EXPECT_LT(v.MaxAbs(l.size()), 0.02);  // as in RemovesTheRowsResidualVerticalDisparity
+}
+
 }  // namespace
 }  // namespace hedgefit::stereo
