@@ -24,7 +24,7 @@ void Retriangulate(const StereoRig& nominal, const StereoRig& other, const std::
 
 /// The standard deviation of a disparity offset common to a whole hedge, px: the mean signed
 /// error (bias) of hedgefit's matcher on the real Middlebury pairs with ground truth (bench_middlebury:
-/// +0.049 px on Motorcycle, -0.046 px on Cones, as the capture path matches; Aloe's stored truth
+/// +0.053 px on Motorcycle, -0.046 px on Cones, as the capture path matches; Aloe's stored truth
 /// carries its own +0.2 px offset).
 /// Such an offset moves every point of a hedge along its ray together, so averaging over the
 /// points does not shrink it.
