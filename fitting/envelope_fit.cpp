@@ -3,10 +3,12 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
 #include "cloud/error.hpp"
+#include "cloud/parallel.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/geometric_fit.hpp"
 
@@ -37,8 +39,9 @@ struct ShellLikelihood {
   double log_outlier;        // log(share / width of the uniform outlier density)
   double log_inlier_share;   // log(1 - share)
 
+  // The negative log-likelihood of points [begin, end).
   template <class T>
-  bool operator()(const T* p, T* cost) const {
+  T Sum(const T* p, std::size_t begin, std::size_t end) const {
     using std::exp;
     using std::log;
     using std::max;
@@ -49,7 +52,8 @@ struct ShellLikelihood {
     const T cx = p[0], cy = p[1], cz = p[2], R = p[3], mu0 = T(kMinScaleMm) + exp(p[4]),
             sigma = T(kMinScaleMm) + exp(p[5]);
     T total(0);
-    for (const Eigen::Vector3d& q : *pts) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Vector3d& q = (*pts)[i];
       const T dx = T(q.x()) - cx, dy = T(q.y()) - cy, dz = T(q.z()) - cz;
       const T s = sqrt(dx * dx + dy * dy + dz * dz);
       // Depth is seen along the view ray: its radial share is cos(theta) at the point.
@@ -69,12 +73,45 @@ struct ShellLikelihood {
       const T m = a > b ? a : b;
       total -= m + log(exp(a - m) + exp(b - m));
     }
-    cost[0] = total / T(double(pts->size()));
+    return total;
+  }
+};
+
+// The mean negative log-likelihood and its gradient (automatic differentiation), summed over
+// fixed chunks of the points in parallel and added in chunk order, so the result does not
+// depend on the thread count.
+class ParallelShellCost : public ceres::FirstOrderFunction {
+ public:
+  explicit ParallelShellCost(const ShellLikelihood& model) : model_(model) {}
+  int NumParameters() const override { return 6; }
+  bool Evaluate(const double* p, double* cost, double* gradient) const override {
+    using Jet = ceres::Jet<double, 6>;
+    const std::size_t n = model_.pts->size();
+    constexpr std::size_t kChunks = 16;
+    const std::size_t chunk = (n + kChunks - 1) / kChunks;
+    std::array<Jet, kChunks> partial;
+    partial.fill(Jet(0.0));
+    cloud::ParallelFor(kChunks, 0, 1, [&](std::size_t b, std::size_t e) {
+      Jet q[6];
+      for (int k = 0; k < 6; ++k) q[k] = Jet(p[k], k);
+      for (std::size_t c = b; c < e; ++c) {
+        partial[c] = model_.Sum(q, std::min(n, c * chunk), std::min(n, (c + 1) * chunk));
+      }
+    });
+    Jet total(0.0);
+    for (const Jet& j : partial) total += j;
+    total /= double(std::max<std::size_t>(1, n));
+    cost[0] = total.a;
+    if (gradient) {
+      for (int k = 0; k < 6; ++k) gradient[k] = total.v[k];
+    }
     // A non-finite value or gradient is an invalid point for the line search, which then steps
     // back, rather than a Ceres CHECK failure.
-    using std::isfinite;
-    return isfinite(cost[0]);
+    return std::isfinite(cost[0]) && (!gradient || total.v.allFinite());
   }
+
+ private:
+  ShellLikelihood model_;
 };
 
 }  // namespace
@@ -148,7 +185,7 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   double p[6] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
                  start.sphere.center_mm.z() - mean.z(), start.sphere.radius_mm + spread, std::log(spread),
                  std::log(0.5 * spread)};
-  ceres::GradientProblem problem(new ceres::AutoDiffFirstOrderFunction<ShellLikelihood, 6>(new ShellLikelihood(model)));
+  ceres::GradientProblem problem(new ParallelShellCost(model));
   ceres::GradientProblemSolver::Options so;
   so.max_num_iterations = options.max_iterations;
   so.logging_type = ceres::SILENT;
