@@ -25,6 +25,7 @@ void AddPluginsCommand(CLI::App& app, CommandFn* run);
 void AddCompareCommand(CLI::App& app, CommandFn* run);
 void AddCalibrateCommand(CLI::App& app, CommandFn* run);
 void AddRigCommand(CLI::App& app, CommandFn* run);
+void AddCheckRigCommand(CLI::App& app, CommandFn* run);
 void AddSimulateCommand(CLI::App& app, CommandFn* run);
 void AddRenderCommand(CLI::App& app, CommandFn* run);
 void AddConvertCommand(CLI::App& app, CommandFn* run);

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   AddCompareCommand(app, &run);
   AddCalibrateCommand(app, &run);
   AddRigCommand(app, &run);
+  AddCheckRigCommand(app, &run);
   AddSimulateCommand(app, &run);
   AddRenderCommand(app, &run);
   AddConvertCommand(app, &run);

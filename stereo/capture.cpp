@@ -9,6 +9,7 @@
 
 #include "cloud/error.hpp"
 #include "cloud/pipeline.hpp"
+#include "stereo/rectification.hpp"
 #include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::stereo {
@@ -121,6 +122,25 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
   }
   all.matched_area = matched_area;
   return all;
+}
+
+VerticalDisparity MeasureRowAgreement(const StereoRig& rig, const cv::Mat& left_bgr, const cv::Mat& right_bgr,
+                                      double min_z_mm, double max_z_mm) {
+  cv::Mat left, right;
+  RectifyPair(rig, left_bgr, right_bgr, &left, &right);
+  SgbmOptions sg;
+  DisparityRangeForDepth(rig.P1.at<double>(0, 0) / 2, rig.baseline_mm, min_z_mm, max_z_mm, &sg.min_disparity,
+                         &sg.num_disparities);
+  sg.refine_radius = 0;
+  sg.fill_holes = false;
+  cv::Mat half_left, half_right;
+  cv::resize(left, half_left, cv::Size(left.cols / 2, left.rows / 2), 0, 0, cv::INTER_AREA);
+  cv::resize(right, half_right, half_left.size(), 0, 0, cv::INTER_AREA);
+  if (half_left.cols < 16 || half_left.rows < 16) return VerticalDisparity();
+  const DisparityMap half = ComputeDisparity(half_left, half_right, sg);
+  cv::Mat d;
+  cv::resize(half.disparity * 2.0f, d, left.size(), 0, 0, cv::INTER_NEAREST);
+  return EstimateVerticalDisparity(left, right, d);
 }
 
 cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px) {

@@ -57,6 +57,14 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
                         cv::Mat* right_rect, const cv::Mat& hedge_labels, const MatchOptions& options,
                         const std::vector<HedgeRegion>& hedges = {});
 
+/// Whether a rig still fits a pair (unrectified, as captured): the pair is rectified with the rig,
+/// matched over the whole frame at half resolution (SGBM and the left-right check, the working
+/// range's disparities), and the rows' residual vertical disparity is estimated at full resolution
+/// (EstimateVerticalDisparity). A rig from these cameras, still mounted as calibrated, leaves a few
+/// hundredths of a pixel; a rig from other cameras, or cameras that moved, leaves more.
+VerticalDisparity MeasureRowAgreement(const StereoRig& rig, const cv::Mat& left_bgr, const cv::Mat& right_bgr,
+                                      double min_z_mm, double max_z_mm);
+
 /// Matches the hedge: the mask's region (or the whole frame) of the rectified pair, over the
 /// working range's disparities. With `raw_left`/`raw_right` (the unrectified images) and
 /// options.precise_resampling, that region of `left_rect`/`right_rect` is first re-rendered

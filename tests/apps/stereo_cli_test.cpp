@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -268,7 +269,7 @@ TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
 
 // A rig whose rows no longer agree (the right camera moved by a pixel's height since calibration):
 // measure removes the offset before its refinement, still fits the sphere, and says to recalibrate.
-TEST(MeasureCli, MisalignedRowsAreRemovedAndReported) {
+TEST(MeasureCli, MisalignedRowsAreRemovedAndReportedAndCheckRigSaysSo) {
   const auto dir = hedgefit::testing::ScratchDir();
   auto r = RunHedgefit("simulate --sphere 70,50,2300,300 --scale 0.5 -o sim", dir);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -300,6 +301,32 @@ TEST(MeasureCli, MisalignedRowsAreRemovedAndReported) {
   r = RunHedgefit("measure" + rig + " --right sim/moved_right.png --no-correct-vertical", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_GT(std::abs(radius(r.out) - aligned), 2.0);
+  // check-rig over the whole frame: the exact rig leaves the rows within a tenth of a pixel (the
+  // windows settle to ~0.02 px; the sphere's curved flanks add a few hundredths); the moved
+  // image is 1 px out everywhere, exit 2.
+  r = RunHedgefit("check-rig --json" + rig + " --right sim/sphere_right.png", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto j = nlohmann::json::parse(r.out);
+  EXPECT_LT(j["max_abs_px"].get<double>(), 0.1) << r.out;
+  EXPECT_TRUE(j["fits"].get<bool>());
+  r = RunHedgefit("check-rig --json" + rig + " --right sim/moved_right.png", dir);
+  EXPECT_EQ(r.code, 2) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j["offset_px"].get<double>(), 1.0, 0.1) << r.out;
+  EXPECT_FALSE(j["fits"].get<bool>());
+  r = RunHedgefit("check-rig" + rig + " --right sim/moved_right.png", dir);
+  EXPECT_NE(r.out.find("recalibrate"), std::string::npos) << r.out;
+  // Bad input: one line naming what to fix, exit 1.
+  r = RunHedgefit("check-rig" + rig + " --right sim/missing.png", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("sim/missing.png"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  cv::Mat small;
+  cv::resize(moved, small, cv::Size(moved.cols / 2, moved.rows / 2));
+  ASSERT_TRUE(cv::imwrite((dir / "sim" / "small_right.png").string(), small));
+  r = RunHedgefit("check-rig" + rig + " --right sim/small_right.png", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("use the rig of these cameras"), std::string::npos) << r.err;
 }
 
 TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
