@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -236,6 +237,30 @@ PYBIND11_MODULE(hedgefit, m) {
       "the rig file from `hedgefit calibrate`. Runs what `hedgefit measure` runs; keyword arguments set capture "
       "options (min_z=1500, max_z=3500, erode=3, ...). Returns one dict per hedge (hedge, center_mm, radius_mm, "
       "std_error_mm, inliers, rms_mm, wall_ms, ...).");
+  m.def(
+      "check_rig",
+      [](const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& left,
+         const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& right, const std::string& rig_path,
+         double min_z, double max_z) {
+        if (!(min_z > 0 && max_z > min_z)) throw Error("check_rig: need 0 < min_z < max_z (mm)");
+        const stereo::StereoRig rig = stereo::ReadRig(rig_path);
+        const cv::Mat l = ImageFrom(left, "left"), r = ImageFrom(right, "right");
+        if (l.size() != rig.image_size || r.size() != rig.image_size) {
+          throw Error("check_rig: the images are not the size of " + rig_path + "'s cameras; use the rig of these cameras");
+        }
+        const stereo::VerticalDisparity v = stereo::MeasureRowAgreement(rig, l, r, min_z, max_z);
+        py::dict d;
+        d["offset_px"] = v.offset_px;
+        d["slope_x_px"] = v.slope_x_px;
+        d["slope_y_px"] = v.slope_y_px;
+        d["max_abs_px"] = v.samples > 0 ? v.MaxAbs(rig.image_size) : std::numeric_limits<double>::quiet_NaN();
+        d["windows"] = v.samples;
+        return d;
+      },
+      py::arg("left"), py::arg("right"), py::arg("rig"), py::arg("min_z") = 1000.0, py::arg("max_z") = 20000.0,
+      "How far apart a rig leaves a pair's rectified rows, as `hedgefit check-rig`: a dict with offset_px (at the "
+      "centre), slope_x_px and slope_y_px (across the width and down the height), max_abs_px and windows (0: too "
+      "little texture to tell; NaN max_abs_px).");
   m.def(
       "trim",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::vector<double>& center,

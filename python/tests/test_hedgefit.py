@@ -111,6 +111,14 @@ class Measure(unittest.TestCase):
             with self.assertRaises(hedgefit.Error) as e:
                 hedgefit.measure(left, right, os.path.join(tmp, "rig.yaml"), no_such_option=1)
             self.assertIn("no_such_option", str(e.exception))
+            # The simulator's exact rig leaves the rows within a tenth of a pixel (as
+            # MeasureCli.MisalignedRows... asserts); the right image one row down reads as 1 px.
+            rows = hedgefit.check_rig(left, right, os.path.join(tmp, "rig.yaml"))
+            self.assertGreater(rows["windows"], 100)
+            self.assertLess(rows["max_abs_px"], 0.1)
+            moved = np.ascontiguousarray(np.roll(right, 1, axis=0))  # every row one down
+            rows = hedgefit.check_rig(left, moved, os.path.join(tmp, "rig.yaml"))
+            self.assertAlmostEqual(rows["offset_px"], 1.0, delta=0.1)
 
 
 class Pipelines(unittest.TestCase):
