@@ -61,7 +61,8 @@ void AddCheckRigCommand(CLI::App& app, CommandFn* run) {
         throw ProcessingError(a->left + ": fewer than " + std::to_string(kMinWindows) +
                               " textured windows matched between " + std::to_string(int(a->min_z)) + " and " +
                               std::to_string(int(a->max_z)) +
-                              " mm to measure the rows; capture a textured scene there, or set --min-z/--max-z");
+                              " mm to measure the rows; capture a textured scene there, or set --min-z/--max-z (rows "
+                              "more than 2 px apart cannot be measured: such a rig is not these cameras')");
       }
       const double worst = v.MaxAbs(rig.image_size);
       const bool ok = worst <= a->tolerance;

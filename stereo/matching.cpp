@@ -224,6 +224,8 @@ VerticalDisparity EstimateVerticalDisparityFloat(const cv::Mat& L, const cv::Mat
     const std::lock_guard<std::mutex> guard(lock);
     samples.insert(samples.end(), local.begin(), local.end());
   });
+  // The threads finish in any order: sorted, the fit is the same on every run.
+  std::sort(samples.begin(), samples.end(), [](const Sample& a, const Sample& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
   VerticalDisparity out;
   if (int(samples.size()) < kMinSamples) return out;
   // A plane in (x, y), least squares on the samples within 3 MADs of the last fit (mismatches,
