@@ -39,13 +39,23 @@ void AddCheckRigCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--max-z", a->max_z, "farthest scene depth, mm")->capture_default_str();
   cmd->add_option("--tolerance", a->tolerance,
                   "largest vertical disparity accepted, px (SGBM's own matching suffers beyond about half a pixel)")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(0.001, 100.0))
       ->capture_default_str();
   cmd->add_flag("--json", a->json, "print one JSON object instead of text");
   cmd->callback([=]() {
     *run = [=]() {
       if (!(a->min_z > 0 && a->max_z > a->min_z)) throw Error("--min-z/--max-z: need 0 < min-z < max-z (mm)");
       const stereo::StereoRig rig = stereo::ReadRig(a->rig);
+      // The nearest depth sets the widest disparity searched: it must fit in the (half-size) image.
+      const double widest_px = rig.P1.at<double>(0, 0) * rig.baseline_mm / a->min_z / 2;
+      if (!(widest_px < rig.image_size.width / 4.0)) {
+        char buf[256];
+        std::snprintf(buf, sizeof(buf),
+                      "--min-z %g: a point that near is %.0f px apart in the half-size views, over a quarter of their "
+                      "width; raise --min-z to the scene's nearest depth",
+                      a->min_z, widest_px);
+        throw Error(buf);
+      }
       CheckCaptureImages(a->left, a->right);
       const cv::Mat left = stereo::ReadCaptureImage(a->left), right = stereo::ReadCaptureImage(a->right);
       if (left.size() != rig.image_size || right.size() != rig.image_size) {
@@ -58,11 +68,13 @@ void AddCheckRigCommand(CLI::App& app, CommandFn* run) {
       // A plane through fewer windows is not a measurement of the whole frame.
       constexpr int kMinWindows = 100;
       if (v.samples < kMinWindows) {
-        throw ProcessingError(a->left + ": fewer than " + std::to_string(kMinWindows) +
-                              " textured windows matched between " + std::to_string(int(a->min_z)) + " and " +
-                              std::to_string(int(a->max_z)) +
-                              " mm to measure the rows; capture a textured scene there, or set --min-z/--max-z (rows "
-                              "more than 2 px apart cannot be measured: such a rig is not these cameras')");
+        char buf[512];
+        std::snprintf(buf, sizeof(buf),
+                      "%s: fewer than %d textured windows matched between %g and %g mm to measure the rows; capture a "
+                      "textured scene there, or set --min-z/--max-z (rows more than 2 px apart cannot be measured: such "
+                      "a rig is not these cameras')",
+                      a->left.c_str(), kMinWindows, a->min_z, a->max_z);
+        throw ProcessingError(buf);
       }
       const double worst = v.MaxAbs(rig.image_size);
       const bool ok = worst <= a->tolerance;

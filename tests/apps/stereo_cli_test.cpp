@@ -327,6 +327,10 @@ TEST(MeasureCli, MisalignedRowsAreRemovedAndReportedAndCheckRigSaysSo) {
   r = RunHedgefit("check-rig" + rig + " --right sim/small_right.png", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("use the rig of these cameras"), std::string::npos) << r.err;
+  // A nearest depth of 1 mm would search disparities wider than the image.
+  r = RunHedgefit("check-rig --min-z 1" + rig + " --right sim/sphere_right.png", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err.rfind("hedgefit: --min-z 1: ", 0), 0u) << r.err;
 }
 
 TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
