@@ -58,13 +58,14 @@ void AddCheckRigCommand(CLI::App& app, CommandFn* run) {
       }
       CheckCaptureImages(a->left, a->right);
       const cv::Mat left = stereo::ReadCaptureImage(a->left), right = stereo::ReadCaptureImage(a->right);
-      if (left.size() != rig.image_size || right.size() != rig.image_size) {
-        throw Error(a->left + ", " + a->right + ": the images are " + std::to_string(left.cols) + "x" +
-                    std::to_string(left.rows) + " and " + std::to_string(right.cols) + "x" + std::to_string(right.rows) +
-                    ", the rig " + a->rig + " is for " + std::to_string(rig.image_size.width) + "x" +
-                    std::to_string(rig.image_size.height) + "; use the rig of these cameras");
+      stereo::VerticalDisparity v;
+      try {
+        v = stereo::MeasureRowAgreement(rig, left, right, a->min_z, a->max_z);
+      } catch (const ProcessingError&) {
+        throw;
+      } catch (const Error& e) {
+        throw Error(a->left + ", " + a->right + " with " + a->rig + ": " + e.what());
       }
-      const stereo::VerticalDisparity v = stereo::MeasureRowAgreement(rig, left, right, a->min_z, a->max_z);
       // A plane through fewer windows is not a measurement of the whole frame.
       constexpr int kMinWindows = 100;
       if (v.samples < kMinWindows) {

@@ -244,11 +244,8 @@ PYBIND11_MODULE(hedgefit, m) {
          double min_z, double max_z) {
         if (!(min_z > 0 && max_z > min_z)) throw Error("check_rig: need 0 < min_z < max_z (mm)");
         const stereo::StereoRig rig = stereo::ReadRig(rig_path);
-        const cv::Mat l = ImageFrom(left, "left"), r = ImageFrom(right, "right");
-        if (l.size() != rig.image_size || r.size() != rig.image_size) {
-          throw Error("check_rig: the images are not the size of " + rig_path + "'s cameras; use the rig of these cameras");
-        }
-        const stereo::VerticalDisparity v = stereo::MeasureRowAgreement(rig, l, r, min_z, max_z);
+        const stereo::VerticalDisparity v =
+            stereo::MeasureRowAgreement(rig, ImageFrom(left, "left"), ImageFrom(right, "right"), min_z, max_z);
         py::dict d;
         d["offset_px"] = v.offset_px;
         d["slope_x_px"] = v.slope_x_px;

@@ -126,6 +126,12 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
 
 VerticalDisparity MeasureRowAgreement(const StereoRig& rig, const cv::Mat& left_bgr, const cv::Mat& right_bgr,
                                       double min_z_mm, double max_z_mm) {
+  if (left_bgr.size() != rig.image_size || right_bgr.size() != rig.image_size) {
+    throw Error("the images are " + std::to_string(left_bgr.cols) + "x" + std::to_string(left_bgr.rows) + " and " +
+                std::to_string(right_bgr.cols) + "x" + std::to_string(right_bgr.rows) + ", the rig is for " +
+                std::to_string(rig.image_size.width) + "x" + std::to_string(rig.image_size.height) +
+                "; use the rig of these cameras");
+  }
   cv::Mat left, right;
   RectifyPair(rig, left_bgr, right_bgr, &left, &right);
   SgbmOptions sg;

@@ -61,7 +61,8 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
 /// matched over the whole frame at half resolution (SGBM and the left-right check, the working
 /// range's disparities), and the rows' residual vertical disparity is estimated at full resolution
 /// (EstimateVerticalDisparity). A rig from these cameras, still mounted as calibrated, leaves a few
-/// hundredths of a pixel; a rig from other cameras, or cameras that moved, leaves more.
+/// hundredths of a pixel; a rig from other cameras, or cameras that moved, leaves more. Throws
+/// hedgefit::Error when the images are not the rig's size.
 VerticalDisparity MeasureRowAgreement(const StereoRig& rig, const cv::Mat& left_bgr, const cv::Mat& right_bgr,
                                       double min_z_mm, double max_z_mm);
 

@@ -513,7 +513,7 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
       // Below correct_vertical_min the rows agree to the refinement's own precision, and
       // resampling the view would only perturb it.
       out.vertical.applied = out.vertical.samples > 0 && out.vertical.MaxAbs(left.size()) >= o.correct_vertical_min_px;
-      if (out.vertical.applied) refine_right = ShiftRows(right_grey, coeffs, out.vertical);
+      refine_right = out.vertical.applied ? ShiftRows(right_grey, coeffs, out.vertical) : right_grey;
     }
     RefineSubpixel(left, refine_right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
                    o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma,
