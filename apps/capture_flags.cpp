@@ -5,6 +5,7 @@
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 
+#include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "cloud/pipeline.hpp"
 #include "stereo/stereo_stages.hpp"
@@ -86,10 +87,22 @@ void CheckCaptureImages(const std::string& left, const std::string& right) {
 
 void CheckOutputDirectory(const std::string& flag, const std::string& path) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::path(path).parent_path();
   std::error_code ec;
+  if (!path.empty() && (path.back() == '/' || fs::is_directory(path, ec))) {
+    throw Error(flag + " " + path + ": is a directory; give a file name in it");
+  }
+  const fs::path dir = fs::path(path).parent_path();
   if (!dir.empty() && !fs::is_directory(dir, ec)) {
     throw Error(flag + " " + path + ": directory '" + dir.string() + "' does not exist; create it first");
+  }
+}
+
+void CheckCloudOutput(const std::string& flag, const std::string& path) {
+  CheckOutputDirectory(flag, path);
+  try {
+    cloud::FormatFromPath(path);
+  } catch (const Error&) {
+    throw Error(flag + " " + path + ": not a cloud file name; end it in " + cloud::CloudExtensionList());
   }
 }
 

@@ -42,6 +42,11 @@ void CheckCaptureImages(const std::string& left, const std::string& right);
 
 /// Checks that the directory `path` would be written into exists, before any work:
 /// "`flag` PATH: directory 'D' does not exist; create it first".
+/// A path that is a directory is refused the same way ("give a file name in it").
 void CheckOutputDirectory(const std::string& flag, const std::string& path);
+
+/// CheckOutputDirectory, and the name ends in a cloud format's extension (.pcd, .ply, .xyz...),
+/// so a bad name fails before the work and names the flag, not the writer's temporary file.
+void CheckCloudOutput(const std::string& flag, const std::string& path);
 
 }  // namespace hedgefit::apps

@@ -129,10 +129,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
                                 .c_str());
         return kExitOk;
       }
+      if (single) CheckCloudOutput("-o", a->output);
       stereo::ReadRig(a->rig);  // a bad rig fails once, before any capture
       std::vector<Capture> captures;
       if (single) {
-        CheckOutputDirectory("-o", a->output);
         CheckCaptureImages(a->left, a->right);  // a missing or unreadable image: exit 1, before any work
         std::string name = fs::path(a->output).stem().string();  // "row_#" -> "row"
         if (const auto hash = name.rfind('#'); hash != std::string::npos) {

@@ -78,7 +78,10 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       try {
         report = p.Run(ctx);
       } catch (const Error& e) {
-        throw ProcessingError(a->left + ": " + e.what());
+        // Name the capture, unless the message already names the file it is about.
+        const std::string what = e.what();
+        const bool named = what.rfind(a->left + ":", 0) == 0 || what.rfind(a->right + ":", 0) == 0;
+        throw ProcessingError(named ? what : a->left + ": " + what);
       }
       const MeasureLines m = CollectMeasureLines(ctx, report);
       if (const std::string hint = CaptureHint(ctx); !hint.empty()) {

@@ -98,7 +98,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
         std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
         return kExitOk;
       }
-      if (!a->output.empty()) CheckOutputDirectory("-o", a->output);
+      if (!a->output.empty()) CheckCloudOutput("-o", a->output);
       if (!a->render.empty()) CheckOutputDirectory("--render", a->render);
       cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "trim", cloud::Registry::Global());
       cloud::Context ctx;

@@ -73,8 +73,16 @@ void AddWriter(Registry& r, const std::string& name, const std::string& what, st
   r.Add(info, [name, run](const Options& o) {
     const std::string& file = o.GetString("filename");
     if (file.empty()) throw Error("stage '" + name + "', option 'filename': give the file to write");
-    const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     std::error_code ec;
+    if (file.back() == '/' || std::filesystem::is_directory(file, ec)) {
+      throw Error("stage '" + name + "', option 'filename': '" + file + "' is a directory; give a file name in it");
+    }
+    try {
+      FormatFromPath(file);  // the format follows the extension: one must be known
+    } catch (const Error& e) {
+      throw Error("stage '" + name + "', option 'filename': " + e.what());
+    }
+    const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     if (!dir.empty() && !std::filesystem::is_directory(dir, ec)) {
       throw Error("stage '" + name + "', option 'filename': directory '" + dir.string() +
                   "' does not exist; create it first");

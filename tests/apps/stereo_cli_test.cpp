@@ -351,6 +351,17 @@ TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
   r = RunHedgefit(one + "--input somewhere", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "hedgefit: --input and --left/--right: give one capture or a batch, not both\n");
+  // An output that is not a cloud file: refused before the rig or images are read, naming -o
+  // (not the writer's temporary file after the work, as it was).
+  r = RunHedgefit("convert --left l.png --right r.png --rig rig.yaml -o o.foo", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: -o o.foo: not a cloud file name; end it in .pcd, .ply or .xyz\n");
+  fs::create_directories(dir / "out");
+  for (const std::string out : {"out", "out/"}) {
+    r = RunHedgefit("convert --left l.png --right r.png --rig rig.yaml -o " + out, dir);
+    EXPECT_EQ(r.code, 1);
+    EXPECT_EQ(r.err, "hedgefit: -o " + out + ": is a directory; give a file name in it\n");
+  }
   // The equivalent pipeline, printed without reading anything.
   r = RunHedgefit(one + "--box 1,2,30,40 --erode 2 --print-pipeline", dir);
   ASSERT_EQ(r.code, 0) << r.err;

@@ -56,6 +56,10 @@ TEST(Pipeline, ValidationErrorsNameStageAndOption) {
             "stage 'filters.crop_box', option 'min'/'max': min z (10.000000) is above max z (1.000000); swap them");
   EXPECT_EQ(BuildError("[\"in.pcd\", \"no/such/dir/out.pcd\"]"),
             "stage 'writers.pcd', option 'filename': directory 'no/such/dir' does not exist; create it first");
+  EXPECT_EQ(BuildError("[\"in.pcd\", {\"type\": \"writers.pcd\", \"filename\": \"out.foo\"}]"),
+            "stage 'writers.pcd', option 'filename': out.foo: unknown cloud format '.foo'; use .pcd, .ply or .xyz");
+  EXPECT_EQ(BuildError("[\"in.pcd\", {\"type\": \"writers.pcd\", \"filename\": \"out/\"}]"),
+            "stage 'writers.pcd', option 'filename': 'out/' is a directory; give a file name in it");
   EXPECT_EQ(BuildError("[]"), "p.json: the pipeline has no stages");
   EXPECT_EQ(BuildError("{\"stages\": 1}"), "p.json: a pipeline is a JSON array of stages (or {\"pipeline\": [...]})");
   EXPECT_NE(BuildError("[\"in.pcd\", {\"type\": ").find("p.json: invalid JSON at byte"), std::string::npos);
