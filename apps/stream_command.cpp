@@ -5,7 +5,6 @@
 // current one is measured; a live source drops frames rather than falling behind, and says so.
 
 #include <nlohmann/json.hpp>
-#include <opencv2/videoio.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -22,6 +21,7 @@
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "apps/measure_lines.hpp"
+#include "apps/video.hpp"
 #include "cloud/pipeline.hpp"
 #include "cloud/registry.hpp"
 #include "fitting/methods.hpp"
@@ -58,16 +58,16 @@ class Source {
 
 bool IsDevice(const std::string& s) { return !s.empty() && std::all_of(s.begin(), s.end(), ::isdigit); }
 
-cv::VideoCapture Open(const std::string& what, const std::string& flag) {
-  cv::VideoCapture cap;
+std::unique_ptr<Video> Open(const std::string& what, const std::string& flag) {
+  std::unique_ptr<Video> cap;
   if (IsDevice(what)) {
-    cap.open(std::stoi(what));
+    cap = OpenVideo("", std::stoi(what));
   } else {
     std::error_code ec;
     if (!fs::is_regular_file(what, ec)) throw Error(flag + " " + what + ": no such video file or camera number");
-    cap.open(what);
+    cap = OpenVideo(what, -1);
   }
-  if (!cap.isOpened()) {
+  if (!cap) {
     throw Error(flag + " " + what + ": OpenCV cannot open it as a video or camera (give a video file OpenCV reads, or a "
                 "camera number such as 0)");
   }
@@ -79,14 +79,14 @@ class VideoPair : public Source {
   VideoPair(const std::string& l, const std::string& r)
       : left_(Open(l, "--left")), right_(Open(r, "--right")), live_(IsDevice(l)) {}
   bool Next(Frame* f) override {
-    if (!left_.grab() || !right_.grab()) return false;  // grab both first: the closest pair in time
+    if (!left_->Grab() || !right_->Grab()) return false;  // grab both first: the closest pair in time
     f->time_s = Now();
-    return left_.retrieve(f->left) && right_.retrieve(f->right) && !f->left.empty() && !f->right.empty();
+    return left_->Retrieve(&f->left) && right_->Retrieve(&f->right) && !f->left.empty() && !f->right.empty();
   }
   bool Live() const override { return live_; }
 
  private:
-  cv::VideoCapture left_, right_;
+  std::unique_ptr<Video> left_, right_;
   bool live_;
 };
 
@@ -95,7 +95,7 @@ class SideBySide : public Source {
   explicit SideBySide(const std::string& s) : cap_(Open(s, "--side-by-side")), live_(IsDevice(s)) {}
   bool Next(Frame* f) override {
     cv::Mat both;
-    if (!cap_.read(both) || both.empty()) return false;
+    if (!cap_->Read(&both) || both.empty()) return false;
     if (both.cols % 2) throw Error("--side-by-side: a frame " + std::to_string(both.cols) + " px wide cannot be split into two views");
     f->time_s = Now();
     f->left = both.colRange(0, both.cols / 2).clone();
@@ -105,7 +105,7 @@ class SideBySide : public Source {
   bool Live() const override { return live_; }
 
  private:
-  cv::VideoCapture cap_;
+  std::unique_ptr<Video> cap_;
   bool live_;
 };
 

@@ -14,3 +14,10 @@ out=$(HEDGEFIT_PLUGIN_PATH="$scratch/plugin" "$scratch/prefix/bin/hedgefit" plug
 echo "$out" | grep -q "^loaded   $scratch/plugin/libhedgefit_decimate.so (decimate 1.0): filters.decimate" || {
   echo "installed hedgefit did not load the plugin built with find_package(hedgefit):"; echo "$out" | tail -5; exit 1; }
 echo "install + find_package(hedgefit) + plugin load: ok"
+# stream's video module (apps/video.hpp) is found by the installed binary: a file that is no
+# video gets OpenCV's refusal, not "cannot be loaded".
+err=$("$scratch/prefix/bin/hedgefit" stream --left "$source_dir/README.md" --right "$source_dir/README.md" \
+  --rig "$source_dir/fuzz/corpus/rig_yaml/simulated.yaml" 2>&1 || true)
+echo "$err" | grep -q "OpenCV cannot open it as a video" || {
+  echo "installed hedgefit stream did not load its video module:"; echo "$err"; exit 1; }
+echo "installed stream loads its video module: ok"

@@ -1,0 +1,49 @@
+#include "apps/video.hpp"
+
+#include <dlfcn.h>
+
+#include <filesystem>
+#include <mutex>
+
+#include "cloud/error.hpp"
+
+namespace hedgefit::apps {
+
+namespace {
+
+using OpenFn = Video* (*)(const char*, int);
+
+// Loaded once, never unloaded (a Video's code lives in it). Looked up on the executable's
+// run path (its own directory in the build tree, ../lib when installed), then beside the
+// executable itself.
+OpenFn LoadModule() {
+  static std::once_flag once;
+  static OpenFn open = nullptr;
+  static std::string why;
+  std::call_once(once, [] {
+    const char* name = "libhedgefit_video.so";
+    void* handle = dlopen(name, RTLD_NOW | RTLD_LOCAL);
+    if (handle == nullptr) {
+      why = dlerror();
+      std::error_code ec;
+      const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+      if (!ec) handle = dlopen((exe.parent_path() / name).c_str(), RTLD_NOW | RTLD_LOCAL);
+    }
+    if (handle == nullptr) return;
+    open = reinterpret_cast<OpenFn>(dlsym(handle, HEDGEFIT_VIDEO_ENTRY_SYMBOL));
+    if (open == nullptr) why = std::string(name) + " has no " + HEDGEFIT_VIDEO_ENTRY_SYMBOL;
+  });
+  if (open == nullptr) {
+    throw Error("video and cameras need hedgefit's video module, which cannot be loaded (" + why +
+                "); reinstall hedgefit, or give captures with --watch");
+  }
+  return open;
+}
+
+}  // namespace
+
+std::unique_ptr<Video> OpenVideo(const std::string& path, int device) {
+  return std::unique_ptr<Video>(LoadModule()(path.c_str(), device));
+}
+
+}  // namespace hedgefit::apps
