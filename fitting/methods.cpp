@@ -152,6 +152,17 @@ std::vector<FitMethod> MakeTable() {
                      } else {
                        FitInputs sub = in;
                        sub.inliers = nullptr;
+                       // The start sees the points the likelihood will (every n-th, at most
+                       // max_points): it only has to land in the likelihood's basin, and RANSAC
+                       // and the geometric fit cost in proportion to the points.
+                       std::vector<Eigen::Vector3d> thinned;
+                       const std::size_t n = in.points_mm->size(), cap = std::size_t(p.max_points);
+                       if (cap > 0 && n > cap) {
+                         const std::size_t step = (n + cap - 1) / cap;
+                         thinned.reserve(n / step + 1);
+                         for (std::size_t i = 0; i < n; i += step) thinned.push_back((*in.points_mm)[i]);
+                         sub.points_mm = &thinned;
+                       }
                        start = FindFitMethod(initial, "initial").bind(cloud::Options(
                            [&] {
                              std::map<std::string, cloud::OptionValue> v;
