@@ -16,6 +16,7 @@ struct PointPerturbation {
   int samples = 0;     ///< how many draws `apply` can make (0..samples-1)
   /// Writes `in` as it would have been measured under draw `sample` into `out` (same size;
   /// NaN where a point cannot be measured under that draw).
+  /// Called from several threads at once (the fits refit the draws in parallel): must not mutate.
   std::function<void(int sample, const std::vector<Eigen::Vector3d>& in, std::vector<Eigen::Vector3d>* out)> apply;
 };
 

@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include "cloud/parallel.hpp"
 #include "fitting/geometric_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -121,16 +122,23 @@ std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::V
   }
   const double median_polar = Median(polar);
   constexpr int kGroups = 16;
-  std::vector<Eigen::Vector4d> estimates;
-  std::vector<Eigen::Vector3d> rest;
-  for (int g = 0; g < kGroups; ++g) {
-    rest.clear();
-    for (std::size_t i = 0; i < subset.size(); ++i) {
-      const int group = sector[i] + (polar[i] >= median_polar ? 8 : 0);
-      if (group != g) rest.push_back(subset[i]);
+  // The refits run in parallel and are gathered in group order: the same result on any core count.
+  std::vector<std::optional<Eigen::Vector4d>> by_group(kGroups);
+  cloud::ParallelFor(kGroups, 0, 1, [&](std::size_t b, std::size_t e) {
+    std::vector<Eigen::Vector3d> rest;
+    for (std::size_t g = b; g < e; ++g) {
+      rest.clear();
+      for (std::size_t i = 0; i < subset.size(); ++i) {
+        const int group = sector[i] + (polar[i] >= median_polar ? 8 : 0);
+        if (group != int(g)) rest.push_back(subset[i]);
+      }
+      if (rest.size() == subset.size()) continue;  // an empty patch (a cap seen from one side)
+      by_group[g] = Refit(rest, sphere);
     }
-    if (rest.size() == subset.size()) continue;  // an empty patch (a cap seen from one side)
-    if (const auto e = Refit(rest, sphere)) estimates.push_back(*e);
+  });
+  std::vector<Eigen::Vector4d> estimates;
+  for (const auto& e : by_group) {
+    if (e) estimates.push_back(*e);
   }
   if (estimates.size() < 4) return std::nullopt;
   const double n = double(estimates.size());
@@ -142,16 +150,22 @@ std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vec
                                                     std::size_t max_points) {
   if (perturbation.samples < 2 || !perturbation.apply || support.size() < 5) return std::nullopt;
   const std::vector<Eigen::Vector3d> subset = EvenSubset(support, max_points);
-  std::vector<Eigen::Vector4d> draws;
-  std::vector<Eigen::Vector3d> moved, finite;
-  for (int s = 0; s < perturbation.samples; ++s) {
-    perturbation.apply(s, subset, &moved);
-    finite.clear();
-    for (const auto& p : moved) {
-      if (p.allFinite()) finite.push_back(p);
+  // In parallel, gathered in draw order (as the jackknife).
+  std::vector<std::optional<Eigen::Vector4d>> by_draw(std::size_t(perturbation.samples));
+  cloud::ParallelFor(by_draw.size(), 0, 1, [&](std::size_t b, std::size_t e) {
+    std::vector<Eigen::Vector3d> moved, finite;
+    for (std::size_t s = b; s < e; ++s) {
+      perturbation.apply(int(s), subset, &moved);
+      finite.clear();
+      for (const auto& p : moved) {
+        if (p.allFinite()) finite.push_back(p);
+      }
+      if (finite.size() >= 5) by_draw[s] = Refit(finite, sphere);
     }
-    if (finite.size() < 5) continue;
-    if (const auto e = Refit(finite, sphere)) draws.push_back(*e);
+  });
+  std::vector<Eigen::Vector4d> draws;
+  for (const auto& e : by_draw) {
+    if (e) draws.push_back(*e);
   }
   if (draws.size() < 2) return std::nullopt;
   return Eigen::Vector4d((SquaredDeviations(draws) / double(draws.size() - 1)).cwiseSqrt());
