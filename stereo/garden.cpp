@@ -172,6 +172,16 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
   // across a depth edge by more. Three footprints (a surface up to ~70 degrees from facing the
   // camera) within depth_jump at most.
   auto jump_at = [&](double z) { return std::min(o.depth_jump_mm, std::max(10.0, 3.0 * k * z / f)); };
+  auto add_pixel = [&](Blob* b, int i) {
+    b->pixels.push_back(i);
+    const cv::Vec3d& p = xyz[std::size_t(i)];
+    const double hh = height(p), x = p.dot(across);
+    b->min_h = std::min(b->min_h, hh), b->max_h = std::max(b->max_h, hh);
+    b->min_x = std::min(b->min_x, x), b->max_x = std::max(b->max_x, x);
+    b->min_z = std::min(b->min_z, p[2]), b->max_z = std::max(b->max_z, p[2]);
+    b->min_u = std::min(b->min_u, i % w), b->max_u = std::max(b->max_u, i % w);
+    b->sum += p;
+  };
   std::vector<int> blob_of(xyz.size(), -1);
   std::vector<Blob> blobs;
   std::vector<int> stack;
@@ -184,15 +194,9 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     while (!stack.empty()) {
       const int i = stack.back();
       stack.pop_back();
-      b.pixels.push_back(i);
+      add_pixel(&b, i);
       const int u = i % w, v = i / w;
       const cv::Vec3d& p = xyz[std::size_t(i)];
-      const double hh = height(p), x = p.dot(across);
-      b.min_h = std::min(b.min_h, hh), b.max_h = std::max(b.max_h, hh);
-      b.min_x = std::min(b.min_x, x), b.max_x = std::max(b.max_x, x);
-      b.min_z = std::min(b.min_z, p[2]), b.max_z = std::max(b.max_z, p[2]);
-      b.min_u = std::min(b.min_u, u), b.max_u = std::max(b.max_u, u);
-      b.sum += p;
       const int nbr[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
       for (const auto& q : nbr) {
         if (q[0] < 0 || q[1] < 0 || q[0] >= w || q[1] >= h) continue;
@@ -205,10 +209,110 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     }
     blobs.push_back(std::move(b));
   }
-  // 4. Which blobs are hedges. Blobs smaller than a quarter of the smallest hedge's disc at the
-  // far end of the working range are specks, not worth a reason.
+  // Blobs smaller than a quarter of the smallest hedge's disc at the far end of the working range
+  // are specks, not worth a reason.
   const double r_px = (f / k) * o.min_radius_mm / o.max_z_mm;
   const std::size_t min_pixels = std::size_t(std::max(30.0, 0.25 * 3.14159 * r_px * r_px));
+  // 3b. Bridges. The coarse match fattens near objects into whatever lies beside them (a strip
+  // of lawn next to a pot, the gap between two balls where the background is beyond the working
+  // range), so a ball and its neighbour can come out as one blob. Each blob is opened with a disc
+  // of a third of its largest inscribed radius, which cuts such bridges and keeps a ball's
+  // outline; when that leaves more than one piece of a speck's size, each becomes a blob of its
+  // own (a pot is then judged, and rejected, alone), else the blob stays as it was, rim and all.
+  // Two balls of like size can be joined by a bridge as thick as that disc: a blob wider
+  // than it is high whose distance transform has several cores (over half its largest inscribed
+  // radius) is first split between them, every pixel to the nearest core through the blob. A hedge
+  // row or a wall has one elongated core and stays whole (then fails the tests below, as before).
+  {
+    const std::size_t n_before = blobs.size();
+    std::vector<Blob> pieces_all;
+    for (std::size_t bi = 0; bi < n_before; ++bi) {
+      const Blob& b = blobs[bi];
+      if (b.pixels.size() < 200) continue;
+      int v0 = h, v1 = -1;
+      for (int i : b.pixels) v0 = std::min(v0, i / w), v1 = std::max(v1, i / w);
+      const cv::Rect box(b.min_u - 1, v0 - 1, b.max_u - b.min_u + 3, v1 - v0 + 3);  // a blank border
+      cv::Mat mask = cv::Mat::zeros(box.size(), CV_8U);
+      for (int i : b.pixels) mask.at<std::uint8_t>(i / w - box.y, i % w - box.x) = 255;
+      mask = FillHoles(mask);
+      cv::Mat dt;
+      cv::distanceTransform(mask, dt, cv::DIST_L2, cv::DIST_MASK_5);
+      double dt_max = 0;
+      cv::minMaxLoc(dt, nullptr, &dt_max);
+      cv::Mat part = cv::Mat::zeros(mask.size(), CV_32S);
+      part.setTo(1, mask);
+      int n_parts = 1;
+      const double width = b.max_x - b.min_x, tall = ground ? b.max_h : b.max_h - b.min_h;
+      if (width > o.max_aspect * tall) {
+        cv::Mat cores;
+        cv::threshold(dt, cores, 0.5 * dt_max, 255, cv::THRESH_BINARY);
+        cores.convertTo(cores, CV_8U);
+        cv::Mat core_labels;
+        const int n_cores = cv::connectedComponents(cores, core_labels, 4, CV_32S) - 1;
+        if (n_cores >= 2) {
+          // Every pixel of the blob to the nearest core through the blob (breadth first).
+          part = core_labels;
+          n_parts = n_cores;
+          std::vector<cv::Point> frontier;
+          for (int y = 0; y < part.rows; ++y) {
+            for (int x = 0; x < part.cols; ++x) {
+              if (part.at<int>(y, x) > 0) frontier.emplace_back(x, y);
+            }
+          }
+          for (std::size_t q = 0; q < frontier.size(); ++q) {
+            const cv::Point c = frontier[q];
+            for (const cv::Point d : {cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1), cv::Point(0, -1)}) {
+              const cv::Point n = c + d;
+              if (n.x < 0 || n.y < 0 || n.x >= part.cols || n.y >= part.rows) continue;
+              if (mask.at<std::uint8_t>(n) == 0 || part.at<int>(n) != 0) continue;
+              part.at<int>(n) = part.at<int>(c);
+              frontier.push_back(n);
+            }
+          }
+        }
+      }
+      const bool split = n_parts > 1;
+      std::vector<Blob> pieces;
+      for (int lab = 1; lab <= n_parts; ++lab) {
+        cv::Mat one = part == lab;
+        double inscribed = 0;
+        cv::minMaxLoc(dt, nullptr, &inscribed, nullptr, nullptr, one);
+        const int r_open = std::max(1, int(std::lround(inscribed / 3)));
+        cv::morphologyEx(one, one, cv::MORPH_OPEN,
+                         cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r_open + 1, 2 * r_open + 1)));
+        cv::Mat labels;
+        const int n = cv::connectedComponents(one, labels, 8, CV_32S);
+        std::vector<Blob> found(std::size_t(std::max(0, n - 1)));
+        for (int y = 0; y < labels.rows; ++y) {
+          for (int x = 0; x < labels.cols; ++x) {
+            const int l = labels.at<int>(y, x), i = (y + box.y) * w + (x + box.x);
+            // Only pixels of the blob itself (not its filled holes) carry a point.
+            if (l > 0 && blob_of[std::size_t(i)] == int(bi)) add_pixel(&found[std::size_t(l - 1)], i);
+          }
+        }
+        for (Blob& piece : found) {
+          if (piece.pixels.size() >= min_pixels) pieces.push_back(std::move(piece));  // crumbs of a bridge go
+        }
+      }
+      if (!split && pieces.size() < 2) continue;  // one ball (or nothing ball-sized): as it was
+      for (int i : blobs[bi].pixels) blob_of[std::size_t(i)] = -1;
+      blobs[bi] = Blob();  // left empty: it is below every size the tests keep
+      for (Blob& piece : pieces) pieces_all.push_back(std::move(piece));
+    }
+    for (Blob& piece : pieces_all) {
+      for (int i : piece.pixels) blob_of[std::size_t(i)] = int(blobs.size());
+      blobs.push_back(std::move(piece));
+    }
+  }
+  if (const char* dump = std::getenv("HEDGEFIT_GARDEN_DEBUG")) {
+    cv::Mat vis(h, w, CV_8UC3, cv::Scalar(0, 0, 0));
+    for (std::size_t bi = 0; bi < blobs.size(); ++bi) {
+      const cv::Vec3b c((bi * 97) % 200 + 55, (bi * 57) % 200 + 55, (bi * 31) % 200 + 55);
+      for (int i : blobs[bi].pixels) vis.at<cv::Vec3b>(i / w, i % w) = c;
+    }
+    cv::imwrite(std::string(dump) + "_blobs.png", vis);
+  }
+  // 4. Which blobs are hedges.
   const bool colour = small_l.channels() == 3 && cv::norm(small_l.reshape(1, int(small_l.total())).col(0),
                                                           small_l.reshape(1, int(small_l.total())).col(1), cv::NORM_INF) > 0;
   struct Kept {
@@ -317,14 +421,6 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     r.min_z_mm = std::max(o.min_z_mm, fb / d_near);
     r.max_z_mm = std::min(o.max_z_mm, fb / d_far);
     out.hedges.push_back(r);
-  }
-  if (const char* dump = std::getenv("HEDGEFIT_GARDEN_DEBUG")) {
-    cv::Mat vis(h, w, CV_8UC3, cv::Scalar(0, 0, 0));
-    for (std::size_t bi = 0; bi < blobs.size(); ++bi) {
-      const cv::Vec3b c((bi * 97) % 200 + 55, (bi * 57) % 200 + 55, (bi * 31) % 200 + 55);
-      for (int i : blobs[bi].pixels) vis.at<cv::Vec3b>(i / w, i % w) = c;
-    }
-    cv::imwrite(std::string(dump) + "_blobs.png", vis);
   }
   if (out.hedges.empty()) {
     throw Error("no hedge found: every candidate is too small to measure once eroded (" + out.rejected.back() +

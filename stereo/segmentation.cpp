@@ -138,16 +138,7 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
                 std::to_string(int(std::lround(o.green_floor))) +
                 " everywhere); give a mask (--mask) or a box around the hedge (--box)");
   }
-  if (o.largest_component) {
-    cv::Mat labels, stats, centroids;
-    const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);
-    int best = 0, best_area = 0;
-    for (int i = 1; i < n; ++i) {
-      if (stats.at<int>(i, cv::CC_STAT_AREA) > best_area) best_area = stats.at<int>(i, cv::CC_STAT_AREA), best = i;
-    }
-    mask = labels == best;
-    if (best == 0) mask.setTo(0);
-  }
+  if (o.largest_component) mask = LargestComponent(mask);
   if (o.fill_holes) mask = FillHoles(mask);
   // Otsu always splits the image in two, green or not: what it selects must be green, and must
   // not be the whole frame (a green background, or one colour everywhere), or there is no hedge.
@@ -169,6 +160,18 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
     }
   }
   return ErodeMask(mask, o.erode_px);
+}
+
+cv::Mat LargestComponent(const cv::Mat& mask) {
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8);
+  int best = 0, best_area = 0;
+  for (int i = 1; i < n; ++i) {
+    if (stats.at<int>(i, cv::CC_STAT_AREA) > best_area) best_area = stats.at<int>(i, cv::CC_STAT_AREA), best = i;
+  }
+  cv::Mat out = labels == best;
+  if (best == 0) out.setTo(0);
+  return out;
 }
 
 cv::Mat FillHoles(const cv::Mat& mask) {

@@ -75,6 +75,9 @@ cv::Mat SegmentByDepth(const cv::Mat& disparity, const cv::Rect& box, double tol
 /// Fills the holes of a mask: background regions not connected to the image border.
 cv::Mat FillHoles(const cv::Mat& mask);
 
+/// The largest 8-connected region of `mask` (255), nothing else; all zero when it is empty.
+cv::Mat LargestComponent(const cv::Mat& mask);
+
 /// Drops `px` pixels from a mask's outline (elliptical structuring element); 0 = as is.
 /// The outermost ring of a silhouette mixes hedge and background in both views, and the
 /// sub-pixel refinement's windows must not reach it.
