@@ -541,6 +541,10 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
 
 std::vector<std::string> GardenPresetNames() { return {"row", "single", "outdoor"}; }
 
+std::vector<std::string> GardenHardPresetNames() {
+  return {"pair", "low_camera", "high_camera", "small_far", "big_near", "off_centre"};
+}
+
 GardenScene GardenPreset(const std::string& name) {
   GardenScene sc;
   if (name == "row") {
@@ -555,8 +559,42 @@ GardenScene GardenPreset(const std::string& name) {
     sc.hedges = {{100, 2850, 920, 40}};
     sc.pot = false;
     sc.texture_seed = 31;
+  } else if (name == "pair") {
+    // Two balls a hand's width apart in the image, the hedge row between them.
+    sc.hedges = {{-700, 2200, 450, 30}, {600, 2400, 500, 30}};
+    sc.pot = false;
+    sc.texture_seed = 61;
+  } else if (name == "low_camera") {
+    // A camera 0.8 m up, pitched 3 degrees: the lawn between the pot and the ball seen edge-on.
+    sc.hedges = {{0, 2300, 480, 30}};
+    sc.camera_height_mm = 800;
+    sc.pitch_deg = 3;
+    sc.texture_seed = 53;
+  } else if (name == "high_camera") {
+    // 1.5 m up, pitched 15 degrees down: the ball against the lawn, the hedge row out of view.
+    sc.hedges = {{-100, 2500, 550, 30}};
+    sc.camera_height_mm = 1500;
+    sc.pitch_deg = 15;
+    sc.pot = false;
+    sc.texture_seed = 59;
+  } else if (name == "small_far") {
+    // The smallest, farthest ball the issue names (r 420 mm at 2.6 m), the pot nearer.
+    sc.hedges = {{-200, 2600, 420, 25}};
+    sc.pot_x_mm = 700, sc.pot_z_mm = 2000;
+    sc.texture_seed = 41;
+  } else if (name == "big_near") {
+    // The largest, nearest (r 600 mm at 2.0 m).
+    sc.hedges = {{250, 2000, 600, 35}};
+    sc.pot_x_mm = -1000, sc.pot_z_mm = 1900;
+    sc.texture_seed = 43;
+  } else if (name == "off_centre") {
+    // Towards the image's right edge, where distortion and vignetting are strongest.
+    sc.hedges = {{900, 2300, 500, 30}};
+    sc.pot_x_mm = -400, sc.pot_z_mm = 2100;
+    sc.texture_seed = 47;
   } else {
-    throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor");
+    throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
+                "high_camera, small_far, big_near, off_centre");
   }
   return sc;
 }

@@ -153,62 +153,43 @@ TEST(GardenSegment, PotIsRejectedAsNotGreenAndNamed) {
 // come out alone, as a real camera records it, with at most 2 % of its points more than 50 mm
 // outside its envelope (the target).
 TEST(GardenSegment, NeighboursTheCoarseMatchJoinsAreCutApart) {
-  struct Case {
-    const char* name;
-    GardenScene scene;
-  };
-  std::vector<Case> cases;
-  {
-    GardenScene s;  // two balls a hand's width apart in the image, the hedge row between them
-    s.hedges = {{-700, 2200, 450, 30}, {600, 2400, 500, 30}};
-    s.pot = false;
-    s.texture_seed = 61;
-    cases.push_back({"pair", s});
-  }
-  {
-    GardenScene s;  // a low camera: the lawn between the pot and the ball is seen edge-on
-    s.hedges = {{0, 2300, 480, 30}};
-    s.camera_height_mm = 800;
-    s.pitch_deg = 3;
-    s.texture_seed = 53;
-    cases.push_back({"low camera, pot beside", s});
-  }
   const SimRig sim = PaperRig(0.5);
   const StereoRig rig = RigFromSimulation(sim);
   RenderOptions ro;
   ro.supersample = 2;
   ro.blur_sigma_px = 0.5;
   const CameraModel camera;  // a real camera: gains, white balance, vignetting, Bayer, noise
-  for (const Case& c : cases) {
-    const cv::Mat left = ApplyCameraModel(RenderGarden(sim, false, c.scene, ro), camera, false, 7);
-    const cv::Mat right = ApplyCameraModel(RenderGarden(sim, true, c.scene, ro), camera, true, 7);
+  for (const std::string name : {"pair", "low_camera"}) {
+    const GardenScene scene = GardenPreset(name);
+    const cv::Mat left = ApplyCameraModel(RenderGarden(sim, false, scene, ro), camera, false, 7);
+    const cv::Mat right = ApplyCameraModel(RenderGarden(sim, true, scene, ro), camera, true, 7);
     ConvertOptions o;
     o.mode = SegmentMode::kGarden;
     ConvertResult res;
     try {
       res = ConvertCapture(left, right, rig, o);
     } catch (const Error& e) {
-      ADD_FAILURE() << c.name << ": " << e.what();
+      ADD_FAILURE() << name << ": " << e.what();
       continue;
     }
     const auto groups = cloud::HedgeGroups(res.cloud);
-    ASSERT_EQ(groups.size(), c.scene.hedges.size()) << c.name;
+    ASSERT_EQ(groups.size(), scene.hedges.size()) << name;
     for (std::size_t i = 0; i < groups.size(); ++i) {
-      const cv::Vec3d t = GardenHedgeCenter(c.scene, i);
+      const cv::Vec3d t = GardenHedgeCenter(scene, i);
       const Eigen::Vector3d centre(t[0], t[1], t[2]);
       std::size_t outside = 0;
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t k : groups[i].indices) {
         const Eigen::Vector3d p = res.cloud.points_mm[k].cast<double>();
         mean += p;
-        if ((p - centre).norm() - c.scene.hedges[i].radius_mm > 50) ++outside;
+        if ((p - centre).norm() - scene.hedges[i].radius_mm > 50) ++outside;
       }
-      ASSERT_GT(groups[i].indices.size(), 1000u) << c.name;
+      ASSERT_GT(groups[i].indices.size(), 1000u) << name;
       mean /= double(groups[i].indices.size());
       // Ids left to right: hedge i's points lie on ball i (its visible cap's mean is within a
       // radius of the centre), and hardly any lie off it.
-      EXPECT_LT((mean - centre).norm(), c.scene.hedges[i].radius_mm) << c.name << ", hedge " << i + 1;
-      EXPECT_LE(double(outside) / double(groups[i].indices.size()), 0.02) << c.name << ", hedge " << i + 1;
+      EXPECT_LT((mean - centre).norm(), scene.hedges[i].radius_mm) << name << ", hedge " << i + 1;
+      EXPECT_LE(double(outside) / double(groups[i].indices.size()), 0.02) << name << ", hedge " << i + 1;
     }
   }
 }
