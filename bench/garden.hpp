@@ -20,6 +20,7 @@ struct GardenOptions {
   bool reuse = false;                      ///< reuse captures already in `dir`
   std::string renderer = "hedgefit";       ///< hedgefit (its own ray caster) or povray (leaf discs)
   std::string camera = "ideal";            ///< povray: ideal or real (stereo::CameraModel)
+  bool hard = false;                       ///< stereo::GardenHardPresetNames() instead of the three presets
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
   GardenOptions();
 };
