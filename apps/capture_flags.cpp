@@ -18,13 +18,16 @@ void CaptureFlags::Add(CLI::App* cmd) {
       ->capture_default_str();
   cmd->add_option("--mask", mask_, "segment with this mask image (drawn on the left view) instead of by colour");
   cmd->add_flag("--garden", garden_,
-                "find every hedge by depth (lawn, hedge rows, several hedges): stereo.segment_garden");
+                "always find every hedge by depth (lawn, hedge rows, several hedges): stereo.segment_garden; by "
+                "default the colour mask is used where it isolates the hedge and depth where it does not "
+                "(--garden-above)");
   // The stages' own options, declared once in their tables.
   flags_.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"});
   flags_.Add(cmd, stereo::MatchOptions::Table().Specs());
   flags_.Add(cmd, stereo::GardenSegmentOptions::Table().Specs());
   flags_.Add(cmd, stereo::SegmentOptions::Table().Specs());
   flags_.Add(cmd, stereo::ReprojectOptions::Table().Specs());
+  flags_.Add(cmd, stereo::AutoSegmentOptions::Table().Specs(), {"garden_above"});
   cmd->add_flag("--full-frame", full_frame_, "match the whole image, not just the hedge's region");
 }
 
@@ -51,6 +54,11 @@ stereo::ConvertOptions CaptureFlags::Resolve(const cloud::Registry& registry) co
   bind(stereo::MatchOptions::Table(), &o.match, "stereo.sgbm");
   bind(stereo::GardenSegmentOptions::Table(), &o.garden, "stereo.segment_garden");
   bind(stereo::ReprojectOptions::Table(), &o.reproject, "stereo.reproject");
+  {
+    stereo::AutoSegmentOptions a;
+    bind(stereo::AutoSegmentOptions::Table(), &a, "stereo.segment_auto");
+    o.garden_above = a.garden_above;
+  }
   if (full_frame_) o.match.region_only = false;
   o.matcher = matcher_;
   if (int(!mask_.empty()) + int(given.count("box")) + int(garden_) > 1) {

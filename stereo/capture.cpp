@@ -160,6 +160,7 @@ cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px
 
 void ConvertOptions::Check() const {
   switch (mode) {
+    case SegmentMode::kAuto: segment.Check(), garden.Check(); break;
     case SegmentMode::kColour: segment.Check(); break;
     case SegmentMode::kMask: mask.Check(); break;
     case SegmentMode::kDepth: depth.Check(); break;
@@ -182,6 +183,14 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
   if (!left.empty()) p.push_back({{"type", "readers.stereo"}, {"left", left}, {"right", right}, {"rig", rig}});
   p.push_back({{"type", "stereo.rectify"}});
   switch (o.mode) {
+    case SegmentMode::kAuto: {
+      AutoSegmentOptions a;
+      a.colour = o.segment;
+      a.garden = o.garden;
+      a.garden_above = o.garden_above;
+      p.push_back(stage("stereo.segment_auto", AutoSegmentOptions::Table().Values(a)));
+      break;
+    }
     case SegmentMode::kColour: p.push_back(stage("stereo.segment", SegmentOptions::Table().Values(o.segment))); break;
     case SegmentMode::kMask: p.push_back(stage("stereo.mask", MaskOptions::Table().Values(o.mask))); break;
     case SegmentMode::kDepth:

@@ -79,10 +79,12 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
 cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px);
 
 /// How the hedge is found.
-enum class SegmentMode { kColour, kMask, kDepth, kGarden };
+enum class SegmentMode { kAuto, kColour, kMask, kDepth, kGarden };
 
 struct ConvertOptions {
-  SegmentMode mode = SegmentMode::kColour;
+  /// kAuto (stereo.segment_auto): the colour mask in a lab, every hedge by depth in a garden.
+  SegmentMode mode = SegmentMode::kAuto;
+  double garden_above = AutoSegmentOptions().garden_above;  ///< kAuto's switch to depth
   SegmentOptions segment;     ///< kColour
   MaskOptions mask;           ///< kMask
   DepthSegmentOptions depth;  ///< kDepth

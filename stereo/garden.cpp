@@ -49,6 +49,25 @@ void GardenSegmentOptions::Check() const {
   if (block_size % 2 == 0) throw Error("option 'coarse_block_size': must be odd");
 }
 
+const cloud::OptionTable<AutoSegmentOptions>& AutoSegmentOptions::Table() {
+  using O = AutoSegmentOptions;
+  static const auto table =
+      cloud::OptionTable<O>()
+          .Nest(SegmentOptions::Table(), &O::colour)
+          .Nest(GardenSegmentOptions::Table(), &O::garden, {"erode"})
+          .Add("garden_above", &O::garden_above,
+               "when the colour mask covers more than this share of the frame, find every hedge by depth instead; "
+               "0 = never")
+          .Range(0, 1);
+  return table;
+}
+
+void AutoSegmentOptions::Check() const {
+  Table().Validate(*this);
+  colour.Check();
+  garden.Check();
+}
+
 namespace {
 
 constexpr double kCoarseFocalPx = 233;  // the paper's rig (f = 933 px) at 1/4

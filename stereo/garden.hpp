@@ -18,6 +18,7 @@
 
 #include "cloud/option_table.hpp"
 #include "stereo/rig.hpp"
+#include "stereo/segmentation.hpp"
 
 namespace hedgefit::stereo {
 
@@ -39,6 +40,21 @@ struct GardenSegmentOptions {
   int erode_px = 5;                  ///< px at full resolution, beyond the coarse match's own margin
   void Check() const;
   static const cloud::OptionTable<GardenSegmentOptions>& Table();  ///< the options, declared once
+};
+
+/// The default segmentation (stereo.segment_auto): the paper's colour mask where it isolates the
+/// hedge (a lab, a hedge before a wall or soil), and every hedge by depth where it cannot: when
+/// the colour mask covers more than `garden_above` of the frame (a lawn, a hedge row, trees are
+/// green too) or finds nothing green. Should the depth search find no hedge either, the colour
+/// mask stands (and `measure` says it covers too much). Both take the same `erode`.
+struct AutoSegmentOptions {
+  SegmentOptions colour;
+  GardenSegmentOptions garden;  ///< its erode is the colour mask's
+  /// A lab's hedge covers a few per cent of the frame (the paper's r 300 mm sphere at 2 m: 3 %;
+  /// a r 920 mm hedge filling the view at 1.9 m: ~35 %); the excess-green mask of a garden 54-69 %.
+  double garden_above = 0.4;
+  void Check() const;
+  static const cloud::OptionTable<AutoSegmentOptions>& Table();  ///< the options, declared once
 };
 
 /// One hedge found in the capture.

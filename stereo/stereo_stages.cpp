@@ -100,6 +100,43 @@ void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoR
   ctx->Put("disparity_perturbation", DisparityOffsetPerturbation(rig));
 }
 
+namespace {
+
+// Every hedge by depth: the garden segmentation's artifacts and notes (stereo.segment_garden, and
+// stereo.segment_auto when the colour mask cannot isolate the hedge).
+void PutGardenSegmentation(const GardenSegmentOptions& p, Context& ctx) {
+  const bool* rectified = ctx.Find<bool>("rectified");
+  if (rectified && !*rectified) {
+    throw Error("stage '" + ctx.current_stage + "': the images are not rectified; add stereo.rectify before it");
+  }
+  GardenSegmentation g = FindHedges(RigOf(ctx), ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), p);
+  ctx.Note("hedges", static_cast<std::int64_t>(g.hedges.size()));
+  for (const HedgeRegion& h : g.hedges) {
+    const std::string key = "hedge" + std::to_string(h.id) + ".";
+    ctx.Note(key + "image_box", std::vector<double>{double(h.image_box.x), double(h.image_box.y),
+                                                    double(h.image_box.width), double(h.image_box.height)});
+    ctx.Note(key + "approx_radius_mm", h.approx_radius_mm);
+    ctx.Note(key + "depth_range_mm", std::vector<double>{h.min_z_mm, h.max_z_mm});
+    if (h.touches_border) ctx.Note(key + "cut_by_frame", true);
+  }
+  ctx.Note("ground_found", g.ground_found);
+  std::string rejected;
+  for (const auto& why : g.rejected) rejected += (rejected.empty() ? "" : "; ") + why;
+  if (!rejected.empty()) ctx.Note("rejected", rejected);
+  PutMask(ctx, g.labels != 0);
+  if (g.ground_found) {
+    // The ground in the unrectified left frame (the cloud's): n_u = R1^T n, d unchanged.
+    const cv::Matx33d R1(RigOf(ctx).R1);
+    const cv::Vec3d n = R1.t() * cv::Vec3d(g.ground[0], g.ground[1], g.ground[2]);
+    ctx.Put("ground_plane", cv::Vec4d(n[0], n[1], n[2], g.ground[3]));
+    ctx.Put("ground_clearance", p.ground_clearance_mm);
+  }
+  ctx.Put("hedge_labels", g.labels);
+  ctx.Put("hedges", g.hedges);
+}
+
+}  // namespace
+
 void RegisterStereoStages(cloud::Registry& r) {
   using namespace hedgefit::cloud;
   r.Add(StageInfo{"readers.stereo", "Reads a stereo capture (left and right images) and its rig file",
@@ -169,34 +206,43 @@ void RegisterStereoStages(cloud::Registry& r) {
                   {"mask", "hedge_labels", "hedges"}, {}},
         TableFactory<GardenSegmentOptions>("stereo.segment_garden",
                                            [](const GardenSegmentOptions& p, const Options&, Context& ctx) {
-          const bool* rectified = ctx.Find<bool>("rectified");
-          if (rectified && !*rectified) {
-            throw Error("stage 'stereo.segment_garden': the images are not rectified; add stereo.rectify before it");
+          PutGardenSegmentation(p, ctx);
+        }));
+  r.Add(StageInfo{"stereo.segment_auto",
+                  "The default: the paper's colour mask where it isolates the hedge (a lab), every hedge by depth "
+                  "(stereo.segment_garden) where the colour mask covers more than garden_above of the frame or finds "
+                  "nothing green (a garden)",
+                  TableOptions<AutoSegmentOptions>(), {"left_image", "right_image", "rig"},
+                  {"mask", "hedge_labels", "hedges"}, {}},
+        TableFactory<AutoSegmentOptions>("stereo.segment_auto", [](const AutoSegmentOptions& p, const Options&,
+                                                                   Context& ctx) {
+          cv::Mat colour;
+          std::string why;
+          try {
+            colour = SegmentHedge(ctx.Get<cv::Mat>("left_image"), p.colour);
+            const double share = double(cv::countNonZero(colour)) / double(colour.total());
+            if (p.garden_above > 0 && share > p.garden_above) {
+              why = "the colour mask covers " + std::to_string(int(std::lround(100 * share))) + "% of the frame";
+            }
+          } catch (const Error& e) {
+            if (p.garden_above <= 0) throw;
+            why = e.what();  // nothing green, or all of it: depth may still find the hedge
           }
-          GardenSegmentation g = FindHedges(RigOf(ctx), ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), p);
-          ctx.Note("hedges", static_cast<std::int64_t>(g.hedges.size()));
-          for (const HedgeRegion& h : g.hedges) {
-            const std::string key = "hedge" + std::to_string(h.id) + ".";
-            ctx.Note(key + "image_box", std::vector<double>{double(h.image_box.x), double(h.image_box.y),
-                                                            double(h.image_box.width), double(h.image_box.height)});
-            ctx.Note(key + "approx_radius_mm", h.approx_radius_mm);
-            ctx.Note(key + "depth_range_mm", std::vector<double>{h.min_z_mm, h.max_z_mm});
-            if (h.touches_border) ctx.Note(key + "cut_by_frame", true);
+          if (!why.empty()) {
+            GardenSegmentOptions g = p.garden;
+            g.erode_px = p.colour.erode_px;
+            try {
+              PutGardenSegmentation(g, ctx);
+              ctx.Note("segmentation", "by depth (" + why + ")");
+              return;
+            } catch (const Error& e) {
+              if (colour.empty()) throw Error(why + "; by depth: " + e.what());
+              ctx.Note("segmentation", "colour (by depth: " + std::string(e.what()) + ")");
+            }
+          } else {
+            ctx.Note("segmentation", std::string("colour"));
           }
-          ctx.Note("ground_found", g.ground_found);
-          std::string rejected;
-          for (const auto& why : g.rejected) rejected += (rejected.empty() ? "" : "; ") + why;
-          if (!rejected.empty()) ctx.Note("rejected", rejected);
-          PutMask(ctx, g.labels != 0);
-          if (g.ground_found) {
-            // The ground in the unrectified left frame (the cloud's): n_u = R1^T n, d unchanged.
-            const cv::Matx33d R1(RigOf(ctx).R1);
-            const cv::Vec3d n = R1.t() * cv::Vec3d(g.ground[0], g.ground[1], g.ground[2]);
-            ctx.Put("ground_plane", cv::Vec4d(n[0], n[1], n[2], g.ground[3]));
-            ctx.Put("ground_clearance", p.ground_clearance_mm);
-          }
-          ctx.Put("hedge_labels", g.labels);
-          ctx.Put("hedges", g.hedges);
+          PutMask(ctx, colour);
         }));
   r.Add(StageInfo{"stereo.sgbm",
                   "Improved semi-global matching: SGBM, left-right check, background-side hole filling, sub-pixel "

@@ -152,13 +152,18 @@ TEST(ConvertCli, RealGreyPairSegmentedByDepthInABox) {
   Result r = RunHedgefit(
       "rig --size 640x480 --focal 368.5347 --cx 318.1122 --cy 224.3349 --baseline 838.7445 -o rig.yaml", dir);
   ASSERT_EQ(r.code, 0) << r.err;
-  // Without colour, excess green cannot work: one line saying what to do, exit code 2.
+  // Without colour, excess green cannot work, and the search by depth the default then makes finds
+  // nothing standing on a ground in this range: one line saying both and what to do, exit code 2.
   const std::string pair = "--left '" + d + "/stereo_left.png' --right '" + d + "/stereo_right.png' --rig rig.yaml";
   r = RunHedgefit("convert " + pair + " -o shrub.pcd -q", dir);
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.err,
-            "hedgefit: shrub: no hedge found: the image has no colour, so excess green cannot segment it; segment by "
-            "depth inside a box around the hedge (convert --box X,Y,W,H) or give a mask\n");
+  EXPECT_EQ(r.err.rfind("hedgefit: shrub: no hedge found: the image has no colour, so excess green cannot segment it; "
+                        "segment by depth inside a box around the hedge (convert --box X,Y,W,H) or give a mask; by "
+                        "depth: no hedge found: ",
+                        0),
+            0u)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   r = RunHedgefit("convert " + pair + " -o shrub.pcd --box 270,178,44,34 --erode 1 --min-z 10000 --max-z 60000", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const hedgefit::cloud::PointCloud pc = hedgefit::cloud::ReadCloud((dir / "shrub.pcd").string());
@@ -243,9 +248,15 @@ TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
     EXPECT_GT(f["capture_ms"].get<double>(), 0.0);
   }
   EXPECT_EQ(r.err, "");  // with --garden, no hint to use it
-  // Without --garden the paper's colour mask takes in the lawn and the hedge row (about two
-  // thirds of this frame): the fit may find one ball, so stderr says to use --garden.
-  r = RunHedgefit("measure" + capture, dir);
+  // By default the colour mask is tried first; here it takes in the lawn and the hedge row (about
+  // two thirds of this frame), so every hedge is found by depth instead, with nothing to warn of.
+  r = RunHedgefit("measure --method envelope" + capture, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 3) << r.out;
+  EXPECT_EQ(r.err, "");
+  // Forced to the colour mask (--garden-above 0), the fit may find one ball, so stderr says to use
+  // --garden.
+  r = RunHedgefit("measure --garden-above 0" + capture, dir);
   EXPECT_NE(r.err.find("hedgefit: warning: garden/garden_row_left.png: the colour mask covers "), std::string::npos)
       << r.err;
   EXPECT_NE(r.err.find("--garden finds every hedge by depth"), std::string::npos) << r.err;
