@@ -370,7 +370,9 @@ TEST(StereoStages, ConvertAndTheEquivalentPipelineGiveTheSamePoints) {
   };
   // Non-default options on purpose, so each must reach its stage on both paths.
   const std::vector<Mode> modes = {
-      {"colour", "--erode 3 --gamma 1.2", R"({"type": "stereo.segment", "erode": 3, "gamma": 1.2})"},
+      // The default: colour where the mask isolates the hedge, as here.
+      {"auto", "--erode 3 --gamma 1.2", R"({"type": "stereo.segment_auto", "erode": 3, "gamma": 1.2})"},
+      {"colour", "--erode 3 --gamma 1.2 --garden-above 0", R"({"type": "stereo.segment", "erode": 3, "gamma": 1.2})"},
       {"mask", "--mask mask.png --erode 3", R"({"type": "stereo.mask", "filename": ")" + d + R"(/mask.png", "erode": 3})"},
       {"box", "--box " + box + " --erode 3",
        // convert's --block-size and --min-z set every stage that has them: the depth stage too.
