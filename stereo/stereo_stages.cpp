@@ -216,17 +216,37 @@ void RegisterStereoStages(cloud::Registry& r) {
                   {"mask", "hedge_labels", "hedges"}, {}},
         TableFactory<AutoSegmentOptions>("stereo.segment_auto", [](const AutoSegmentOptions& p, const Options&,
                                                                    Context& ctx) {
-          cv::Mat colour;
+          const cv::Mat& left = ctx.Get<cv::Mat>("left_image");
+          auto share_of = [](const cv::Mat& m) { return double(cv::countNonZero(m)) / double(m.total()); };
+          auto too_much = [&](double share) {
+            return "the colour mask covers " + std::to_string(int(std::lround(100 * share))) + "% of the frame";
+          };
           std::string why;
-          try {
-            colour = SegmentHedge(ctx.Get<cv::Mat>("left_image"), p.colour);
-            const double share = double(cv::countNonZero(colour)) / double(colour.total());
-            if (p.garden_above > 0 && share > p.garden_above) {
-              why = "the colour mask covers " + std::to_string(int(std::lround(100 * share))) + "% of the frame";
+          cv::Mat colour;
+          // The share first from a quarter-size image (a lab's few per cent and a garden's 54-69 % lie
+          // far either side of garden_above): in a garden the full-size colour mask is never made.
+          if (p.garden_above > 0 && left.cols >= 64 && left.rows >= 64) {
+            cv::Mat small;
+            cv::resize(left, small, cv::Size(left.cols / 4, left.rows / 4), 0, 0, cv::INTER_AREA);
+            SegmentOptions quarter = p.colour;
+            quarter.bilateral_diameter = quarter.bilateral_diameter > 0 ? std::max(1, quarter.bilateral_diameter / 4) : 0;
+            quarter.bilateral_sigma_space /= 4;
+            quarter.erode_px = 0;
+            try {
+              const double share = share_of(SegmentHedge(small, quarter));
+              if (share > p.garden_above) why = too_much(share);
+            } catch (const Error&) {  // decided on the full-size mask below
             }
-          } catch (const Error& e) {
-            if (p.garden_above <= 0) throw;
-            why = e.what();  // nothing green, or all of it: depth may still find the hedge
+          }
+          if (why.empty()) {
+            try {
+              colour = SegmentHedge(left, p.colour);
+              const double share = share_of(colour);
+              if (p.garden_above > 0 && share > p.garden_above) why = too_much(share);
+            } catch (const Error& e) {
+              if (p.garden_above <= 0) throw;
+              why = e.what();  // nothing green, or all of it: depth may still find the hedge
+            }
           }
           if (!why.empty()) {
             GardenSegmentOptions g = p.garden;
@@ -236,7 +256,15 @@ void RegisterStereoStages(cloud::Registry& r) {
               ctx.Note("segmentation", "by depth (" + why + ")");
               return;
             } catch (const Error& e) {
-              if (colour.empty()) throw Error(why + "; by depth: " + e.what());
+              // Depth found nothing either: the colour mask stands (measure warns that it covers
+              // too much), or, with none, both reasons.
+              if (colour.empty()) {
+                try {
+                  colour = SegmentHedge(left, p.colour);
+                } catch (const Error&) {
+                  throw Error(why + "; by depth: " + e.what());
+                }
+              }
               ctx.Note("segmentation", "colour (by depth: " + std::string(e.what()) + ")");
             }
           } else {
