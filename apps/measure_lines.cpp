@@ -60,6 +60,15 @@ std::string CaptureHint(cloud::Context& ctx) {
                     "garden, --garden finds every hedge by depth",
                     100 * share);
       hint = buf;
+      // The default searched by depth and found nothing: say so and why (a pair swapped left for
+      // right, or a wrong rig, matches nothing in the working range).
+      if (const auto* why = ctx.Find<std::string>("depth_segmentation_failed")) {
+        std::snprintf(buf, sizeof(buf),
+                      "the colour mask covers %.0f%% of the frame (a lawn, a hedge row or trees are green too) and the "
+                      "search by depth found no hedge; check --min-z/--max-z and that left and right are not swapped",
+                      100 * share);
+        hint = std::string(buf) + " (" + *why + ")";
+      }
     }
   }
   if (const double* rows = ctx.Find<double>("vertical_disparity_px"); rows && *rows > 0.5) {

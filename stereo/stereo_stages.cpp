@@ -266,6 +266,7 @@ void RegisterStereoStages(cloud::Registry& r) {
                 }
               }
               ctx.Note("segmentation", "colour (by depth: " + std::string(e.what()) + ")");
+              ctx.Put("depth_segmentation_failed", std::string(e.what()));  // for measure's warning
             }
           } else {
             ctx.Note("segmentation", std::string("colour"));
