@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -302,6 +303,23 @@ void RegisterStereoStages(cloud::Registry& r) {
           if (m.vertical.samples > 0) {
             ctx.Note("vertical_disparity_px", m.vertical_max_px);
             ctx.Put("vertical_disparity_px", m.vertical_max_px);
+          }
+          // Views that do not match at all (two unrelated images, left given for right, a rig of
+          // other cameras) leave a few hundred chance survivors of the left-right check out of a
+          // hedge of tens of thousands of pixels, and a sphere fitted to them means nothing. A
+          // real hedge, even half beyond the working range, keeps well over a tenth.
+          if (mask && !mask->empty()) {
+            const int hedge = cv::countNonZero(*mask);
+            const cv::Mat measured = (m.disparity == m.disparity) & (m.filled == 0) & (*mask != 0);
+            const int matched = cv::countNonZero(measured);
+            if (hedge >= 2000 && matched < hedge / 50) {
+              char buf[160];
+              std::snprintf(buf, sizeof(buf), "only %d of the hedge's %d pixels (%.1f %%) match between the views", matched,
+                            hedge, 100.0 * matched / hedge);
+              throw Error("stage 'stereo.sgbm': " + std::string(buf) +
+                          ": the images are not a stereo pair of this rig, left and right are swapped, or the hedge "
+                          "lies outside --min-z/--max-z");
+            }
           }
           ctx.Put("disparity", m.disparity);
           ctx.Put("filled", m.filled);

@@ -254,14 +254,17 @@ TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 3) << r.out;
   EXPECT_EQ(r.err, "");
-  // Left and right swapped: the search by depth matches nothing in the working range, the colour
-  // mask stands, and the warning says both and what to check.
+  // Left and right swapped: nothing matches in the working range, neither by depth nor in the
+  // colour mask's region; exit 2 and one line saying what to check (it used to fit the few chance
+  // matches and exit 0).
   r = RunHedgefit("measure --rig garden/rig.yaml --left garden/garden_row_right.png --right garden/garden_row_left.png",
                   dir);
-  EXPECT_NE(r.err.find("the search by depth found no hedge; check --min-z/--max-z and that left and right are not "
-                       "swapped"),
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.err.find("match between the views: the images are not a stereo pair of this rig, left and right are "
+                       "swapped, or the hedge lies outside --min-z/--max-z"),
             std::string::npos)
       << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   // Forced to the colour mask (--garden-above 0), the fit may find one ball, so stderr says to use
   // --garden.
   r = RunHedgefit("measure --garden-above 0" + capture, dir);

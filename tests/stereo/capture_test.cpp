@@ -262,6 +262,34 @@ TEST(Capture, RigForARectifiedPairReprojectsByTheNumbers) {
   EXPECT_THROW(RigForRectifiedPair(cv::Size(640, 480), f, cx, cy, 0), Error);
 }
 
+// Two views that match nowhere (unrelated images; a pair given left for right is the same to the
+// matcher) are refused rather than fitted: a few hundred chance survivors of the left-right check
+// out of 144000 pixels describe no hedge.
+TEST(StereoStages, ViewsThatDoNotMatchAreRefused) {
+  const StereoRig rig = RigForRectifiedPair(cv::Size(480, 300), 233.3, 239.5, 149.5, 140.0);
+  cv::Mat l(rig.image_size, CV_8UC3), r(rig.image_size, CV_8UC3);
+  cv::RNG rng(6);
+  rng.fill(l, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(r, cv::RNG::UNIFORM, 0, 256);
+  const auto dir = hedgefit::testing::ScratchDir();
+  cv::imwrite((dir / "all.png").string(), cv::Mat(rig.image_size, CV_8U, cv::Scalar(255)));
+  ConvertOptions o;
+  o.mode = SegmentMode::kMask;
+  o.mask.filename = (dir / "all.png").string();
+  try {
+    ConvertCapture(l, r, rig, o);
+    FAIL() << "unrelated views were measured";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("match between the views: the images are not a stereo pair of this rig"),
+              std::string::npos)
+        << e.what();
+  }
+  // The same views as a pair (the right one the left shifted by 15 px of disparity) are measured:
+  // max_points keeps every 2nd pixel and row of the 144000, 36000, and over two thirds match.
+  l.colRange(15, l.cols).copyTo(r.colRange(0, l.cols - 15));
+  EXPECT_GT(ConvertCapture(l, r, rig, o).cloud.size(), 24000u);
+}
+
 }  // namespace
 }  // namespace hedgefit::stereo
 
@@ -429,11 +457,16 @@ TEST(StereoStages, APluginMatcherFillsTheMatchingSlot) {
 // Whatever the images, no point leaves the matcher outside the working range: on two unrelated
 // noise images (nothing to match) every disparity written lies within f b / max_z..f b / min_z.
 TEST(StereoStages, NoPointOutsideTheWorkingRange) {
-  const StereoRig rig = TrueRig(PaperRig(0.25));
+  // Already rectified (identity rectification), so a shift between the views is a disparity.
+  const StereoRig rig = RigForRectifiedPair(cv::Size(480, 300), 233.3, 239.5, 149.5, 140.0);
   cv::Mat l(rig.image_size, CV_8UC3), r(rig.image_size, CV_8UC3);
   cv::RNG rng(5);
   rng.fill(l, cv::RNG::UNIFORM, 0, 256);
   rng.fill(r, cv::RNG::UNIFORM, 0, 256);
+  // The left half of the views is one surface 15 px of disparity away (2.2 m, inside the range),
+  // so the views are a stereo pair (a pair that matches nowhere is refused); the right half
+  // stays unrelated noise.
+  l.colRange(15, l.cols / 2 + 15).copyTo(r.colRange(0, l.cols / 2));
   const auto dir = hedgefit::testing::ScratchDir();
   cv::imwrite((dir / "all.png").string(), cv::Mat(rig.image_size, CV_8U, cv::Scalar(255)));
   ConvertOptions o;
