@@ -262,34 +262,6 @@ TEST(Capture, RigForARectifiedPairReprojectsByTheNumbers) {
   EXPECT_THROW(RigForRectifiedPair(cv::Size(640, 480), f, cx, cy, 0), Error);
 }
 
-// Two views that match nowhere (unrelated images; a pair given left for right is the same to the
-// matcher) are refused rather than fitted: a few hundred chance survivors of the left-right check
-// out of 144000 pixels describe no hedge.
-TEST(StereoStages, ViewsThatDoNotMatchAreRefused) {
-  const StereoRig rig = RigForRectifiedPair(cv::Size(480, 300), 233.3, 239.5, 149.5, 140.0);
-  cv::Mat l(rig.image_size, CV_8UC3), r(rig.image_size, CV_8UC3);
-  cv::RNG rng(6);
-  rng.fill(l, cv::RNG::UNIFORM, 0, 256);
-  rng.fill(r, cv::RNG::UNIFORM, 0, 256);
-  const auto dir = hedgefit::testing::ScratchDir();
-  cv::imwrite((dir / "all.png").string(), cv::Mat(rig.image_size, CV_8U, cv::Scalar(255)));
-  ConvertOptions o;
-  o.mode = SegmentMode::kMask;
-  o.mask.filename = (dir / "all.png").string();
-  try {
-    ConvertCapture(l, r, rig, o);
-    FAIL() << "unrelated views were measured";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("match between the views: the images are not a stereo pair of this rig"),
-              std::string::npos)
-        << e.what();
-  }
-  // The same views as a pair (the right one the left shifted by 15 px of disparity) are measured:
-  // max_points keeps every 2nd pixel and row of the 144000, 36000, and over two thirds match.
-  l.colRange(15, l.cols).copyTo(r.colRange(0, l.cols - 15));
-  EXPECT_GT(ConvertCapture(l, r, rig, o).cloud.size(), 24000u);
-}
-
 }  // namespace
 }  // namespace hedgefit::stereo
 
@@ -454,24 +426,36 @@ TEST(StereoStages, APluginMatcherFillsTheMatchingSlot) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bm2.pcd"));
 }
 
-// Whatever the images, no point leaves the matcher outside the working range: on two unrelated
-// noise images (nothing to match) every disparity written lies within f b / max_z..f b / min_z.
+// Two views of uniform noise, unrelated, on an already rectified rig (identity rectification,
+// so a shift between the views is a disparity), and options that take the whole frame as the
+// hedge (a mask file of all 255 in `dir`).
+struct NoisePair {
+  StereoRig rig = RigForRectifiedPair(cv::Size(480, 300), 233.3, 239.5, 149.5, 140.0);
+  cv::Mat left, right;
+  ConvertOptions options;
+  NoisePair(std::uint64_t seed, const std::filesystem::path& dir)
+      : left(rig.image_size, CV_8UC3), right(rig.image_size, CV_8UC3) {
+    cv::RNG rng(seed);
+    rng.fill(left, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(right, cv::RNG::UNIFORM, 0, 256);
+    cv::imwrite((dir / "all.png").string(), cv::Mat(rig.image_size, CV_8U, cv::Scalar(255)));
+    options.mode = SegmentMode::kMask;
+    options.mask.filename = (dir / "all.png").string();
+  }
+};
+
+// Whatever the images, no point leaves the matcher outside the working range: where the views
+// are unrelated noise (nothing to match) every disparity written lies within f b / max_z..f b /
+// min_z.
 TEST(StereoStages, NoPointOutsideTheWorkingRange) {
-  // Already rectified (identity rectification), so a shift between the views is a disparity.
-  const StereoRig rig = RigForRectifiedPair(cv::Size(480, 300), 233.3, 239.5, 149.5, 140.0);
-  cv::Mat l(rig.image_size, CV_8UC3), r(rig.image_size, CV_8UC3);
-  cv::RNG rng(5);
-  rng.fill(l, cv::RNG::UNIFORM, 0, 256);
-  rng.fill(r, cv::RNG::UNIFORM, 0, 256);
+  NoisePair n(5, hedgefit::testing::ScratchDir());
+  const StereoRig& rig = n.rig;
+  cv::Mat &l = n.left, &r = n.right;
   // The left half of the views is one surface 15 px of disparity away (2.2 m, inside the range),
   // so the views are a stereo pair (a pair that matches nowhere is refused); the right half
   // stays unrelated noise.
   l.colRange(15, l.cols / 2 + 15).copyTo(r.colRange(0, l.cols / 2));
-  const auto dir = hedgefit::testing::ScratchDir();
-  cv::imwrite((dir / "all.png").string(), cv::Mat(rig.image_size, CV_8U, cv::Scalar(255)));
-  ConvertOptions o;
-  o.mode = SegmentMode::kMask;
-  o.mask.filename = (dir / "all.png").string();
+  ConvertOptions& o = n.options;
   o.match.min_z_mm = 1800;
   o.match.max_z_mm = 2600;
   o.reproject.keep_filled = true;  // filled values too
@@ -484,6 +468,28 @@ TEST(StereoStages, NoPointOutsideTheWorkingRange) {
     ASSERT_GE(d, fb / 2600 - 1e-4);
     ASSERT_LE(d, fb / 1800 + 1e-4);
   }
+}
+
+// Two views that match nowhere (unrelated images; a pair given left for right is the same to the
+// matcher) are refused rather than fitted: a few hundred chance survivors of the left-right check
+// out of 144000 pixels describe no hedge.
+TEST(StereoStages, ViewsThatDoNotMatchAreRefused) {
+  NoisePair n(6, hedgefit::testing::ScratchDir());
+  const StereoRig& rig = n.rig;
+  cv::Mat &l = n.left, &r = n.right;
+  const ConvertOptions& o = n.options;
+  try {
+    ConvertCapture(l, r, rig, o);
+    FAIL() << "unrelated views were measured";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("match between the views: the images are not a stereo pair of this rig"),
+              std::string::npos)
+        << e.what();
+  }
+  // The same views as a pair (the right one the left shifted by 15 px of disparity) are measured:
+  // max_points keeps every 2nd pixel and row of the 144000, 36000, and over two thirds match.
+  l.colRange(15, l.cols).copyTo(r.colRange(0, l.cols - 15));
+  EXPECT_GT(ConvertCapture(l, r, rig, o).cloud.size(), 24000u);
 }
 
 }  // namespace
