@@ -308,11 +308,12 @@ void RegisterStereoStages(cloud::Registry& r) {
           // other cameras) leave a few hundred chance survivors of the left-right check out of a
           // hedge of tens of thousands of pixels, and a sphere fitted to them means nothing. A
           // real hedge, even half beyond the working range, keeps well over a tenth.
+          // A hedge thinned to every stride-th pixel and row (max_points) is judged on the pixels kept.
           if (mask && !mask->empty()) {
-            const int hedge = cv::countNonZero(*mask);
+            const int hedge = cv::countNonZero(*mask) / (m.stride * m.stride);
             const cv::Mat measured = (m.disparity == m.disparity) & (m.filled == 0) & (*mask != 0);
             const int matched = cv::countNonZero(measured);
-            if (hedge >= 2000 && matched < hedge / 50) {
+            if (hedge >= 500 && matched < hedge / 50) {
               char buf[160];
               std::snprintf(buf, sizeof(buf), "only %d of the hedge's %d pixels (%.1f %%) match between the views", matched,
                             hedge, 100.0 * matched / hedge);

@@ -490,6 +490,11 @@ TEST(StereoStages, ViewsThatDoNotMatchAreRefused) {
   // max_points keeps every 2nd pixel and row of the 144000, 36000, and over two thirds match.
   l.colRange(15, l.cols).copyTo(r.colRange(0, l.cols - 15));
   EXPECT_GT(ConvertCapture(l, r, rig, o).cloud.size(), 24000u);
+  // Thinned hard (every 9th pixel and row: 1777 of the 144000), the pair is judged on the pixels
+  // kept, not refused for matching under 2 % of the whole hedge.
+  ConvertOptions thin = o;
+  thin.match.max_points = 2000;
+  EXPECT_GT(ConvertCapture(l, r, rig, thin).cloud.size(), 1000u);
 }
 
 }  // namespace
