@@ -202,6 +202,18 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
         }
       }
 
+      // A cloud (or hedge) that no method could fit is a failure of the run, not only a table
+      // row: a script must not read "every fit failed" as success.
+      int unfitted = 0;
+      for (const auto& r : reports) {
+        if (r.fits.empty() || std::any_of(r.fits.begin(), r.fits.end(), [](const auto& f) { return f.converged; })) {
+          continue;
+        }
+        std::cerr << "hedgefit: " << r.file << ": no method fitted a sphere (" << r.fits.front().message
+                  << "); give the points of one hedge's surface\n";
+        ++unfitted;
+      }
+
       fitting::SummaryBuilder summary;
       std::size_t with_truth = 0;
       for (const auto& r : reports) {
@@ -358,7 +370,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
           std::printf("  (mm; AER = measured - true radius, RER = |AER| / true radius, LD = centre distance)\n");
         }
       }
-      return failed > 0 ? kExitBadInput : kExitOk;
+      return failed > 0 ? kExitBadInput : unfitted > 0 ? kExitProcessing : kExitOk;
     };
   });
 }

@@ -156,10 +156,21 @@ void RegisterFittingStages(cloud::Registry& r) {
                 target.center_mm = Eigen::Vector3d(center[0], center[1], center[2]);
               } else {
                 const SphereFitResult* fit = nullptr;
+                const SphereFitResult* failed = nullptr;  // the last fit of this hedge that failed, for its reason
                 if (const auto* fits = ctx.Find<std::vector<SphereFitResult>>("fits")) {
                   for (auto it = fits->rbegin(); it != fits->rend() && !fit; ++it) {
-                    if (it->hedge_id == g.id && it->converged) fit = &*it;
+                    if (it->hedge_id != g.id) continue;
+                    if (it->converged) {
+                      fit = &*it;
+                    } else if (!failed) {
+                      failed = &*it;
+                    }
                   }
+                }
+                if (!fit && failed) {
+                  throw Error("stage '" + trim + "': " + hedge + " has no sphere to centre the target on: " +
+                              failed->method + " failed (" + failed->message +
+                              "); give a cloud of the hedge's surface, or 'center'");
                 }
                 if (!fit) {
                   throw Error("stage '" + trim + "': " + hedge +

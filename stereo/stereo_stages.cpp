@@ -56,6 +56,23 @@ cv::Mat ReadCaptureImage(const std::string& path, int flags) {
     if (!png && !jpeg && !bmp && !tiff && !pnm) {
       throw Error(path + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
     }
+    // A PNG ends with its IEND chunk, a JPEG with its EOI marker (FF D9; some cameras append
+    // data after it, so the end's last 64 KiB are searched). Without them the file was cut
+    // short, and OpenCV would decode a JPEG's missing rows as grey and carry on.
+    if (png || jpeg) {
+      in.clear();
+      in.seekg(0, std::ios::end);
+      const std::streamoff size = in.tellg();
+      const std::streamoff tail = std::min<std::streamoff>(size, 65536);
+      std::string end(static_cast<std::size_t>(std::max<std::streamoff>(0, tail)), '\0');
+      in.seekg(size - tail);
+      in.read(end.data(), tail);
+      const bool whole = png ? end.find("IEND") != std::string::npos : end.find("\xFF\xD9") != std::string::npos;
+      if (!in || !whole) {
+        throw Error(path + ": the " + (png ? "PNG" : "JPEG") + " file is cut short (no " +
+                    (png ? "IEND chunk" : "end-of-image marker") + "); copy it from the camera again");
+      }
+    }
   }
   cv::Mat m;
   try {

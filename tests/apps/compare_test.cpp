@@ -94,6 +94,29 @@ TEST(Compare, BadArgumentsAreOneLine) {
   EXPECT_NE(r.err.find("missing.json: cannot open the truth file"), std::string::npos) << r.err;
 }
 
+// A cloud no method can fit (here a flat grid: every fit's degeneracy check refuses it) is a
+// failed run, exit 2 with a line saying why, not a table of failures and exit 0; trim names the
+// failed fit instead of only "no converged fit".
+TEST(Compare, ACloudNoMethodCanFitExitsTwo) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  {
+    std::ofstream f(dir / "plane.xyz");
+    for (int i = 0; i < 400; ++i) f << i % 20 * 10 << " " << i / 20 * 10 << " 2000\n";
+  }
+  Result r = RunHedgefit("compare " + (dir / "plane.xyz").string() + " --methods kasa,ransac_geometric", dir);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("plane.xyz: no method fitted a sphere (points are coplanar"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.out.find("kasa              failed: points are coplanar"), std::string::npos) << r.out;
+  // One cloud fitted beside it: still exit 2, as the flat one was not measured.
+  r = RunHedgefit("compare sample_clouds/cap_z2000_a60_o10.pcd " + (dir / "plane.xyz").string(), dir);
+  EXPECT_EQ(r.code, 2) << r.err;
+  r = RunHedgefit("trim " + (dir / "plane.xyz").string() + " --radius 280", dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("has no sphere to centre the target on: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("failed (points are coplanar"), std::string::npos) << r.err;
+}
+
 // hedgefit trim on a sample cap of a 300 mm sphere (truth file beside it), target 280 mm about
 // the fitted centre: every point stands 20 mm proud, and all round the volume to remove is
 // 4 pi (300^3 - 280^3) / 3 = 21.1 L.

@@ -17,6 +17,7 @@
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
 #include "stereo/simulator.hpp"
+#include "stereo/stereo_stages.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
@@ -290,6 +291,32 @@ TEST(ConvertCli, BatchSkipsACorruptCaptureAndFinishesTheRest) {
   EXPECT_NE(text.find("converted 1 of 2 captures"), std::string::npos) << text;
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "good.pcd"));
   EXPECT_FALSE(std::filesystem::exists(dir / "out" / "bad.pcd"));
+}
+
+// A capture cut short (a copy interrupted, a file still being written) is refused by name:
+// OpenCV would decode a JPEG's missing rows as grey and the matcher would carry on. The whole
+// files are read, so the check cannot pass by refusing everything.
+TEST(ReadCaptureImage, FilesCutShortAreRefused) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  cv::Mat img(120, 160, CV_8UC3);
+  cv::randu(img, 0, 255);
+  for (const std::string ext : {".png", ".jpg"}) {
+    const std::string whole = (dir / ("whole" + ext)).string(), cut = (dir / ("cut" + ext)).string();
+    ASSERT_TRUE(cv::imwrite(whole, img));
+    std::ifstream in(whole, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() * 2 / 3);
+    EXPECT_EQ(ReadCaptureImage(whole).size(), img.size()) << ext;
+    try {
+      ReadCaptureImage(cut);
+      ADD_FAILURE() << ext << ": a file cut to two thirds was read";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(cut + ": the " + std::string(ext == ".png" ? "PNG" : "JPEG") +
+                                           " file is cut short"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace
