@@ -12,6 +12,7 @@
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 
+#include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "apps/parse.hpp"
 #include "stereo/calibration.hpp"
@@ -106,12 +107,7 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
       o.alpha = a->alpha;
       o.reject_factor = a->reject;
       o.refine_intrinsics = !a->keep_intrinsics;
-      if (!a->coverage.empty()) {
-        const std::string ext = std::filesystem::path(a->coverage).extension().string();
-        if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") {
-          throw Error("--coverage " + a->coverage + ": give a .png or .jpg file name");
-        }
-      }
+      if (!a->coverage.empty()) CheckImageOutput("--coverage", a->coverage, {".png", ".jpg", ".jpeg"});
       try {
         o.Check();
       } catch (const Error& e) {

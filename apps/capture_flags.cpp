@@ -1,6 +1,7 @@
 #include "apps/capture_flags.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -105,12 +106,35 @@ void CheckOutputDirectory(const std::string& flag, const std::string& path) {
   }
 }
 
-void CheckCloudOutput(const std::string& flag, const std::string& path) {
+void CheckCloudOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs) {
   CheckOutputDirectory(flag, path);
   try {
     cloud::FormatFromPath(path);
   } catch (const Error&) {
     throw Error(flag + " " + path + ": not a cloud file name; end it in " + cloud::CloudExtensionList());
+  }
+  CheckNotAnInput(flag, path, inputs);
+}
+
+void CheckImageOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& extensions,
+                      const std::vector<std::string>& inputs) {
+  CheckOutputDirectory(flag, path);
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
+    std::string list;
+    for (const std::string& e : extensions) list += (list.empty() ? "" : " or ") + e;
+    throw Error(flag + " " + path + ": not an image file name this writes; end it in " + list);
+  }
+  CheckNotAnInput(flag, path, inputs);
+}
+
+void CheckNotAnInput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs) {
+  std::error_code ec;
+  for (const std::string& in : inputs) {
+    if (!in.empty() && std::filesystem::equivalent(path, in, ec)) {
+      throw Error(flag + " " + path + ": is the input " + in + "; write it to another file");
+    }
   }
 }
 

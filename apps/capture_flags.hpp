@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <string>
+#include <vector>
 
 #include "apps/stage_flags.hpp"
 #include "cloud/registry.hpp"
@@ -46,7 +47,17 @@ void CheckCaptureImages(const std::string& left, const std::string& right);
 void CheckOutputDirectory(const std::string& flag, const std::string& path);
 
 /// CheckOutputDirectory, and the name ends in a cloud format's extension (.pcd, .ply, .xyz...),
-/// so a bad name fails before the work and names the flag, not the writer's temporary file.
-void CheckCloudOutput(const std::string& flag, const std::string& path);
+/// so a bad name fails before the work and names the flag, not the writer's temporary file;
+/// and it names none of `inputs` (see CheckNotAnInput).
+void CheckCloudOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs = {});
+
+/// CheckOutputDirectory, and the name ends in one of `extensions` (".png", ".jpg": any case),
+/// which is the format written; and it names none of `inputs`.
+void CheckImageOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& extensions,
+                      const std::vector<std::string>& inputs = {});
+
+/// An output that is one of the command's own input files (the same file by any path) is
+/// refused: an overlay written over the camera's image would lose the capture.
+void CheckNotAnInput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs);
 
 }  // namespace hedgefit::apps

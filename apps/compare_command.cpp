@@ -136,6 +136,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
+      if (!a->plot.empty()) CheckImageOutput("--plot", a->plot, {".png"}, a->clouds);
       const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--methods");
       const auto fit_options = a->fit_flags.Given();
       const json cleaning = CleaningStages(*a);

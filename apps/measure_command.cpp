@@ -70,7 +70,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       }
       stereo::ReadRig(a->rig);
       CheckCaptureImages(a->left, a->right);
-      if (!a->overlay.empty()) CheckOutputDirectory("--overlay", a->overlay);
+      if (!a->overlay.empty()) CheckImageOutput("--overlay", a->overlay, {".png", ".jpg", ".jpeg"}, {a->left, a->right, a->rig});
       cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "measure", registry);
       cloud::Context ctx;
       ctx.quiet = true;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "apps/stage_flags.hpp"
 #include "apps/parse.hpp"
@@ -97,6 +98,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
   cmd->callback([=]() {
     *run = [=]() {
+      CheckImageOutput("-o", a->output, {".png"}, {a->cloud, a->fits, a->truth});
       render::RenderOptions o;
       try {
         const auto specs = render::RenderOptions::Table().Specs();

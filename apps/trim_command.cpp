@@ -98,8 +98,8 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
         std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
         return kExitOk;
       }
-      if (!a->output.empty()) CheckCloudOutput("-o", a->output);
-      if (!a->render.empty()) CheckOutputDirectory("--render", a->render);
+      if (!a->output.empty()) CheckCloudOutput("-o", a->output, {a->cloud});
+      if (!a->render.empty()) CheckImageOutput("--render", a->render, {".png"}, {a->cloud});
       cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "trim", cloud::Registry::Global());
       cloud::Context ctx;
       ctx.quiet = true;

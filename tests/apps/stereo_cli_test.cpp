@@ -436,4 +436,33 @@ TEST(RigCli, NonFiniteAndAbsurdNumbersAreRejected) {
   }
 }
 
+// An output that names one of the command's inputs (by any path) is refused before any work, and
+// the input is left as it was: `--overlay` over the right image used to replace the capture with
+// the drawing. An image output whose extension the writer does not write is refused too.
+TEST(OutputsCli, AnOutputThatIsAnInputIsRefusedAndTheInputKept) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  ASSERT_EQ(RunHedgefit("rig --size 64x48 --focal 60 --cx 32 --cy 24 --baseline 100 -o rig.yaml", dir).code, 0);
+  cv::Mat img(48, 64, CV_8UC3, cv::Scalar(20, 200, 40));
+  ASSERT_TRUE(cv::imwrite((dir / "l.png").string(), img) && cv::imwrite((dir / "r.png").string(), img));
+  const std::string right = Slurp(dir / "r.png");
+  Result r = RunHedgefit("measure --left l.png --right r.png --rig rig.yaml --overlay ./r.png", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --overlay ./r.png: is the input r.png; write it to another file\n");
+  EXPECT_EQ(Slurp(dir / "r.png"), right);
+  r = RunHedgefit("measure --left l.png --right r.png --rig rig.yaml --overlay o.bmpx", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --overlay o.bmpx: not an image file name this writes; end it in .png or .jpg or .jpeg\n");
+  const fs::path cloud = fs::path(HEDGEFIT_SOURCE_DIR) / "sample_clouds" / "cap_z2300_a60_o0.pcd";
+  fs::copy_file(cloud, dir / "c.pcd");
+  const std::string before = Slurp(dir / "c.pcd");
+  r = RunHedgefit("trim c.pcd --radius 280 -o " + (dir / "c.pcd").string(), dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find(": is the input c.pcd; write it to another file"), std::string::npos) << r.err;
+  EXPECT_EQ(Slurp(dir / "c.pcd"), before);
+  r = RunHedgefit("render c.pcd -o c.jpg", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: -o c.jpg: not an image file name this writes; end it in .png\n");
+  EXPECT_FALSE(fs::exists(dir / "c.jpg"));
+}
+
 }  // namespace
