@@ -89,8 +89,8 @@ const CloudFormat& FormatFromPath(const std::string& path) {
 
 PointCloud ReadCloud(const std::string& path, const ReadOptions& options, CloudFileHeader* header) {
   options.Check();
+  CheckReadable(path);  // first: a directory or a missing file says so, whatever its name
   const CloudFormat& format = FormatFromPath(path);
-  CheckReadable(path);
   QuietPcl();
   CloudFileHeader info;
   info.format = format.name;
