@@ -22,8 +22,8 @@ namespace hedgefit::stereo {
 
 struct MatchOptions {
   SgbmOptions sgbm;                ///< min/num disparities are set from the working range
-  double min_z_mm = 1500;          ///< working range, nearest: sets the disparity search
-  double max_z_mm = 3500;          ///< working range, farthest
+  double min_z_mm = kDefaultMinZmm;  ///< working range, nearest: sets the disparity search
+  double max_z_mm = kDefaultMaxZmm;  ///< working range, farthest
   bool region_only = true;         ///< match only the mask's bounding box (plus margin)
   int margin_px = 24;              ///< around the mask's bounding box
   bool precise_resampling = true;  ///< B-spline rectification of the matched region
@@ -75,7 +75,8 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
                        cv::Mat* right_rect, const cv::Mat& mask, const MatchOptions& options);
 
 /// The region SGBM needs for the mask's pixels: its bounding box plus `margin_px`, widened
-/// to the left by the disparity reach so every masked pixel gets a full search.
+/// to the left by the disparity reach so every masked pixel gets a full search, and to the
+/// right by the number of disparities so the left-right check's right matcher sees them too.
 cv::Rect MatchRegion(const cv::Mat& mask, const SgbmOptions& sgbm, int margin_px);
 
 /// How the hedge is found.
