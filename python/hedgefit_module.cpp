@@ -235,7 +235,7 @@ PYBIND11_MODULE(hedgefit, m) {
       py::arg("garden") = false, py::arg("clean") = true,
       "Measures every hedge of a stereo pair: left and right as (H, W, 3) uint8 BGR arrays (hedgefit.read_image), "
       "the rig file from `hedgefit calibrate`. Runs what `hedgefit measure` runs; keyword arguments set capture "
-      "options (min_z=1500, max_z=3500, erode=3, ...). Hedges are found by the colour mask where it isolates them and "
+      "options (min_z=1000, max_z=3500, erode=3, ...). Hedges are found by the colour mask where it isolates them and "
       "by depth where it does not (a garden; garden_above=0.4 of the frame), or always by depth with garden=True. "
       "Returns one dict per hedge (hedge, center_mm, radius_mm, std_error_mm, inliers, rms_mm, wall_ms, ...).");
   m.def(

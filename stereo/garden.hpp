@@ -27,8 +27,8 @@ struct GardenSegmentOptions {
   /// about 230 px (4 for the paper's 1920 x 1200 rig): the depth resolution the ground and the
   /// depth jumps need (a coarse pixel of disparity ~ 50 mm at 1.5 m), whatever the camera.
   int downscale = 0;
-  double min_z_mm = 1500;            ///< working range, nearest
-  double max_z_mm = 3500;            ///< working range, farthest
+  double min_z_mm = kDefaultMinZmm;  ///< working range, nearest
+  double max_z_mm = kDefaultMaxZmm;  ///< working range, farthest
   int block_size = 5;                ///< the coarse match's block, coarse px
   double ground_clearance_mm = 100;  ///< points lower than this above the ground are lawn
   double depth_jump_mm = 100;        ///< neighbours further apart in depth are different objects

@@ -122,6 +122,10 @@ VerticalDisparity EstimateVerticalDisparity(const cv::Mat& left, const cv::Mat& 
 /// to the left and right; returns how many pixels were filled.
 int FillHolesFromBackground(cv::Mat* disparity);
 
+/// The default working range, mm. Nearest: the paper's outdoor hedges (r 880-960 mm, centres about
+/// 2 m away) have their front leaves about 1.1 m from the cameras. Farthest: a row's last ball.
+inline constexpr double kDefaultMinZmm = 1000, kDefaultMaxZmm = 3500;
+
 /// Disparity search range [min, min + num) for depths [min_z, max_z] mm: d = f b / Z.
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
                             int* num_disparities);

@@ -51,8 +51,8 @@ struct DepthSegmentOptions {
   std::vector<double> box;         ///< [X, Y, W, H] px in the original left image; required
   double tolerance_px = 1.0;       ///< disparity band around the box middle's median
   int erode_px = 5;                ///< drop this many silhouette pixels
-  double min_z_mm = 1500;          ///< working range, nearest: sets the coarse match's search
-  double max_z_mm = 3500;          ///< working range, farthest
+  double min_z_mm = kDefaultMinZmm;  ///< working range, nearest: sets the coarse match's search
+  double max_z_mm = kDefaultMaxZmm;  ///< working range, farthest
   int margin_px = 24;              ///< matched around the box
   int block_size = 5;              ///< the coarse match's block, px
   bool precise_resampling = true;  ///< B-spline rectification of the matched box

@@ -555,8 +555,9 @@ GardenScene GardenPreset(const std::string& name) {
     sc.pot_x_mm = -1100, sc.pot_z_mm = 2200;
     sc.texture_seed = 23;
   } else if (name == "outdoor") {
-    // The paper's outdoor hedges: r 880-960 mm, about 2 m away (front of the ball ~1.9 m).
-    sc.hedges = {{100, 2850, 920, 40}};
+    // The paper's outdoor hedges: r 880-960 mm, centres about 2 m away, so the front leaves are
+    // about 1.1 m from the cameras.
+    sc.hedges = {{100, 2000, 920, 40}};
     sc.pot = false;
     sc.texture_seed = 31;
   } else if (name == "pair") {

@@ -108,8 +108,8 @@ cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& scene, co
 cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& scene, const RenderOptions& options = {});
 
 /// The garden presets: "row" (three balls, r 450-600 mm, 2.1-2.7 m, pot in front), "single"
-/// (one r 520 mm ball at 2.4 m), "outdoor" (the paper's outdoor case: one r 920 mm ball whose
-/// front is ~1.9 m away). Throws hedgefit::Error for another name.
+/// (one r 520 mm ball at 2.4 m), "outdoor" (the paper's outdoor case: one r 920 mm ball about
+/// 2 m away, its front leaves 1.1 m from the cameras). Throws hedgefit::Error for another name.
 GardenScene GardenPreset(const std::string& name);
 std::vector<std::string> GardenPresetNames();
 /// Harder gardens for segmentation, each a case that once failed or a corner of the issue's
