@@ -53,8 +53,10 @@ const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
           .Min(1e-6)
           .Add("refine_drop_uncertain", &O::refine_drop_uncertain,
                "drop pixels the refinement cannot settle (else keep SGBM's value, biased far on a dome)")
-          .Add("half_res_when_thinned", &O::half_res_when_thinned,
-               "when the points are thinned (max_points), SGBM runs at half resolution and the refinement at full")
+          .Add("half_res_from_stride", &O::half_res_from_stride,
+               "when max_points thins a hedge to every s-th pixel with s at least this, SGBM runs at half resolution "
+               "and the refinement at full; 0 = never")
+          .Range(0, 1000)
           .Add("correct_vertical", &O::correct_vertical,
                "estimate the pair's residual vertical disparity (rectification error) and remove it before the "
                "refinement")
@@ -425,7 +427,8 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
                                                    : cv::StereoSGBM::MODE_HH4;
   // Half resolution for a thinned hedge: the disparity range halves with the images (rounded
   // outwards), the check's tolerance too.
-  const bool half = stride >= 2 && o.half_res_when_thinned && left.cols >= 64 && left.rows >= 32;
+  const bool half = o.half_res_from_stride > 0 && stride >= std::max(2, o.half_res_from_stride) && left.cols >= 64 &&
+                    left.rows >= 32;
   cv::Mat l = left, r = right;
   int min_d = o.min_disparity, num_d = num;
   double lrc = o.lrc_tolerance_px;

@@ -133,7 +133,7 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
   // sub-pixel precision back, so the same tolerances hold (SGBM alone misses them, below).
   ConvertOptions half = o;
   half.match.max_points = 12000;  // about a quarter of the cap's pixels: every 2nd pixel and row
-  half.match.sgbm.half_res_when_thinned = true;
+  half.match.sgbm.half_res_from_stride = 2;
   const ConvertResult half_res = ConvertCapture(l, r, rig, half);
   EXPECT_LT(half_res.cloud.size(), res.cloud.size() / 3);
   const fitting::Sphere half_fit = fit_of(half_res);
