@@ -13,6 +13,7 @@
 #include <random>
 #include <vector>
 
+#include "stereo/bspline.hpp"
 #include "stereo/middlebury.hpp"
 #include "tests/test_data.hpp"
 
@@ -418,6 +419,55 @@ TEST(Refinement, VerticalDisparityNeedsTexturedWindows) {
   const VerticalDisparity v = EstimateVerticalDisparity(l, r, cv::Mat(l.size(), CV_32F, cv::Scalar(14.3)));
   EXPECT_GT(v.samples, 30);
   EXPECT_LT(v.MaxAbs(l.size()), 0.02);  // as in RemovesTheRowsResidualVerticalDisparity
+}
+
+// The 2-D spline coefficients interpolate the image: the spline evaluated at a pixel gives its
+// value back (the prefilter's purpose; a plain cubic filter would blur it by ~10 grey levels on
+// this noise). The column pass, run down the rows without transposing, gives the same bits as the
+// row pass applied to the transposed image.
+TEST(BSpline, CoefficientsInterpolateAndTheColumnPassIsTheRowPassTransposed) {
+  cv::Mat image(90, 130, CV_32F);
+  cv::randu(image, 0.0, 255.0);
+  const cv::Mat c = BSplineCoefficients2D(image);
+  cv::Mat t, reference;
+  cv::transpose(BSplineCoefficientsAlongRows(image), t);
+  cv::transpose(BSplineCoefficientsAlongRows(t), reference);
+  EXPECT_EQ(cv::norm(c, reference, cv::NORM_INF), 0.0);
+  double worst = 0;
+  for (int y = 1; y + 2 < image.rows; ++y) {
+    for (int x = 1; x + 2 < image.cols; ++x) {
+      double w[4];
+      BSplineWeights(0.0, w, nullptr);
+      double v = 0;
+      for (int j = 0; j < 4; ++j) {
+        for (int i = 0; i < 4; ++i) v += w[j] * w[i] * c.at<float>(y - 1 + j, x - 1 + i);
+      }
+      worst = std::max(worst, std::abs(v - image.at<float>(y, x)));
+    }
+  }
+  EXPECT_LT(worst, 1e-3);  // float coefficients: ~1e-5 of 255
+}
+
+// RemapBSpline with a map half a pixel to the right reproduces a ramp shifted by half a grey
+// step per pixel (cubic B-splines reproduce linear functions), to the 8-bit rounding.
+TEST(BSpline, RemapShiftsARampByHalfAPixel) {
+  cv::Mat ramp(40, 120, CV_8UC3);
+  for (int y = 0; y < ramp.rows; ++y) {
+    for (int x = 0; x < ramp.cols; ++x) ramp.at<cv::Vec3b>(y, x) = cv::Vec3b(uchar(2 * x), uchar(x), uchar(200 - x));
+  }
+  cv::Mat map(ramp.size(), CV_32FC2);
+  for (int y = 0; y < map.rows; ++y) {
+    for (int x = 0; x < map.cols; ++x) map.at<cv::Vec2f>(y, x) = cv::Vec2f(float(x) + 0.5f, float(y));
+  }
+  const cv::Mat out = RemapBSpline(ramp, map);
+  for (int y = 5; y < 35; ++y) {
+    for (int x = 20; x < 100; ++x) {  // away from the mirrored borders
+      const cv::Vec3b v = out.at<cv::Vec3b>(y, x);
+      EXPECT_NEAR(v[0], 2 * x + 1.0, 0.51);
+      EXPECT_NEAR(v[1], x + 0.5, 0.51);
+      EXPECT_NEAR(v[2], 200 - x - 0.5, 0.51);
+    }
+  }
 }
 
 }  // namespace
