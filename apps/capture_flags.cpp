@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <fstream>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "cloud/pipeline.hpp"
+#include "stereo/image_io.hpp"
 #include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
@@ -90,7 +91,12 @@ void CheckCaptureImages(const std::string& left, const std::string& right) {
   std::error_code ec;
   for (const std::string& image : {left, right}) {
     if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
-    if (!cv::haveImageReader(image)) throw Error(image + ": not an image OpenCV can read; give a PNG or JPEG file");
+    unsigned char head[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    std::ifstream(image, std::ios::binary).read(reinterpret_cast<char*>(head), sizeof(head));
+    const std::string format = stereo::SniffImageFormat(head, sizeof(head));
+    if (format.empty() || format == "pfm") {
+      throw Error(image + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
+    }
   }
 }
 

@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
-#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "apps/commands.hpp"
@@ -19,6 +18,7 @@
 #include "cloud/cloud_io.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/stereo_stages.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::apps {
 
@@ -188,9 +188,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
             const fs::path base = fs::path(out).parent_path() / stem;
             cv::Mat pair;
             cv::hconcat(left_rect, ctx.Get<cv::Mat>("right_image"), pair);
-            cv::imwrite(base.string() + "_rectified.png", pair);
-            cv::imwrite(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
-            cv::imwrite(base.string() + "_disparity.png", stereo::ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
+            stereo::WriteImageFile(base.string() + "_rectified.png", pair);
+            stereo::WriteImageFile(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
+            stereo::WriteImageFile(base.string() + "_disparity.png",
+                                   stereo::ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
           }
           const int* area = ctx.Find<int>("matched_area");
           const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");

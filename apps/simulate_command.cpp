@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "apps/commands.hpp"
@@ -15,6 +14,7 @@
 #include "cloud/cloud_io.hpp"
 #include "stereo/camera_model.hpp"
 #include "stereo/simulator.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::apps {
 
@@ -135,7 +135,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
         for (const auto& f : files) {
           const bool left = f.find("_left.png") != std::string::npos, right = f.find("_right.png") != std::string::npos;
           if (!left && !right) continue;
-          SaveImage(f, stereo::ApplyCameraModel(cv::imread(f), camera, right, a->seed * 1000 + view++ / 2));
+          SaveImage(f, stereo::ApplyCameraModel(stereo::ReadImageFile(f), camera, right, a->seed * 1000 + view++ / 2));
         }
       };
       const auto t0 = std::chrono::steady_clock::now();

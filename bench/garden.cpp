@@ -1,7 +1,6 @@
 #include "bench/garden.hpp"
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -12,6 +11,7 @@
 #include "fitting/methods.hpp"
 #include "stereo/povray.hpp"
 #include "stereo/simulator.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::bench {
 
@@ -54,7 +54,8 @@ GardenResult RunGarden(const GardenOptions& a) {
   garden.mode = stereo::SegmentMode::kGarden;
   for (const std::string& name : presets) {
     const fs::path base = fs::path(a.dir) / ("garden_" + name);
-    const cv::Mat left = cv::imread(base.string() + "_left.png"), right = cv::imread(base.string() + "_right.png");
+    const cv::Mat left = stereo::ReadImageFile(base.string() + "_left.png"),
+                  right = stereo::ReadImageFile(base.string() + "_right.png");
     const std::vector<cloud::SphereTruth> truths = cloud::ReadSphereTruths(base.string() + ".truth.json");
     GardenScene scene;
     scene.name = name;

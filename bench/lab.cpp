@@ -1,7 +1,6 @@
 #include "bench/lab.hpp"
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -14,6 +13,7 @@
 #include "stereo/povray.hpp"
 #include "stereo/rig_uncertainty.hpp"
 #include "stereo/simulator.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::bench {
 
@@ -46,7 +46,7 @@ LabResult RunLab(const LabOptions& a) {
         for (const auto& f : files) {
           if (f.size() < 4 || f.compare(f.size() - 4, 4, ".png") != 0) continue;
           const bool right = f.find("_right.png") != std::string::npos;
-          cv::imwrite(f, stereo::ApplyCameraModel(cv::imread(f), camera, right, 1 + view++ / 2));
+          stereo::WriteImageFile(f, stereo::ApplyCameraModel(stereo::ReadImageFile(f), camera, right, 1 + view++ / 2));
         }
       }
     }
@@ -87,8 +87,9 @@ LabResult RunLab(const LabOptions& a) {
     LabRow row;
     row.z_mm = z;
     row.truth = fitting::ReadTruthFile(base.string() + ".truth.json");
-    const stereo::ConvertResult res = stereo::ConvertCapture(cv::imread(base.string() + "_left.png"),
-                                                             cv::imread(base.string() + "_right.png"), rig, a.convert);
+    const stereo::ConvertResult res = stereo::ConvertCapture(stereo::ReadImageFile(base.string() + "_left.png"),
+                                                             stereo::ReadImageFile(base.string() + "_right.png"), rig,
+                                                             a.convert);
     row.convert_ms = res.wall_ms;
     std::vector<Eigen::Vector3d> pts;
     for (const auto& p : res.cloud.points_mm) {

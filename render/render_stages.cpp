@@ -7,8 +7,8 @@
 #include "cloud/cloud_io.hpp"
 #include "render/overlay.hpp"
 #include "render/render.hpp"
+#include "stereo/image_io.hpp"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cctype>
@@ -83,7 +83,7 @@ void RegisterRenderStages(cloud::Registry& r) {
                                                 mask ? *mask : cv::Mat(), spheres, int(opts.GetInt("line_width")),
                                                 opts.GetBool("crop"));
             std::vector<std::uint8_t> png;
-            if (!cv::imencode(".png", picture, png)) throw Error(file + ": cannot encode the overlay as PNG");
+            if (!stereo::EncodeImage(".png", picture, &png)) throw Error(file + ": cannot encode the overlay as PNG");
             cloud::WriteTextFileAtomic(ctx.OutputPath(file), std::string(png.begin(), png.end()));
             ctx.Note("filename", file);
             ctx.Note("spheres", static_cast<std::int64_t>(spheres.size()));

@@ -6,7 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config git
   libpcl-dev libopencv-dev libopencv-contrib-dev libeigen3-dev libflann-dev libvtk9-dev
-  libceres-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev libjpeg-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libtbb-dev libnanoflann-dev
   xvfb xauth
   clang libclang-rt-14-dev

@@ -1,12 +1,12 @@
 #include "stereo/camera_model.hpp"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <random>
 
 #include "cloud/error.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::stereo {
 
@@ -71,8 +71,8 @@ cv::Mat ApplyCameraModel(const cv::Mat& image, const CameraModel& m, bool right,
   }
   if (m.jpeg_quality > 0) {
     std::vector<std::uint8_t> buf;
-    cv::imencode(".jpg", out, buf, {cv::IMWRITE_JPEG_QUALITY, m.jpeg_quality});
-    out = cv::imdecode(buf, cv::IMREAD_COLOR);
+    if (!EncodeImage(".jpg", out, &buf, m.jpeg_quality)) throw Error("camera model: cannot encode the JPEG");
+    out = DecodeImage(buf, cv::IMREAD_COLOR, "camera model");
   }
   return out;
 }

@@ -6,7 +6,6 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/ximgproc/disparity_filter.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -411,6 +410,27 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
   return refined.load();
 }
 
+namespace {
+
+// The right view's matcher for the left-right check, set up as opencv_contrib's
+// ximgproc::createRightMatcher does: the mirrored search range and no uniqueness, consistency or
+// speckle rejection of its own. Written here so that the stereo library does not link ximgproc,
+// which links imgcodecs and its ~140 libraries into every command.
+cv::Ptr<cv::StereoSGBM> RightMatcherFor(const cv::Ptr<cv::StereoSGBM>& left) {
+  cv::Ptr<cv::StereoSGBM> right = cv::StereoSGBM::create(-(left->getMinDisparity() + left->getNumDisparities()) + 1,
+                                                         left->getNumDisparities(), left->getBlockSize());
+  right->setUniquenessRatio(0);
+  right->setP1(left->getP1());
+  right->setP2(left->getP2());
+  right->setMode(left->getMode());
+  right->setPreFilterCap(left->getPreFilterCap());
+  right->setDisp12MaxDiff(1000000);
+  right->setSpeckleWindowSize(0);
+  return right;
+}
+
+}  // namespace
+
 DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask,
                               int stride) {
   o.Check();
@@ -449,8 +469,7 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
       if (i == 0) {
         sgbm->compute(l, r, d16_left);
       } else {
-        cv::Ptr<cv::StereoMatcher> right_matcher = cv::ximgproc::createRightMatcher(sgbm);
-        right_matcher->compute(r, l, d16_right);  // negative disparities, as OpenCV's right matcher gives
+        RightMatcherFor(sgbm)->compute(r, l, d16_right);  // negative disparities, as OpenCV's right matcher gives
       }
     }
   });

@@ -7,9 +7,10 @@
 #include <sstream>
 
 #include <Eigen/Dense>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags
 
 #include "cloud/error.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::stereo {
 
@@ -72,9 +73,11 @@ BadPixelScore ScoreDisparity(const cv::Mat& disparity, const cv::Mat& truth, con
 namespace {
 
 cv::Mat ReadOrThrow(const std::string& path, int flags) {
-  cv::Mat m = cv::imread(path, flags);
-  if (m.empty()) throw Error(path + ": cannot read the image (missing or not an image); check the data directory");
-  return m;
+  try {
+    return ReadImageFile(path, flags);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + "; check the data directory");
+  }
 }
 
 int SearchRange(const cv::Mat& truth) {

@@ -1,7 +1,7 @@
 #include "stereo/povray.hpp"
 #include "stereo/stereo_stages.hpp"
 
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags
 
 #include <cmath>
 #include <cstdio>
@@ -17,6 +17,7 @@
 #include "cloud/error.hpp"
 #include "cloud/truth_file.hpp"
 #include "stereo/rig.hpp"
+#include "stereo/image_io.hpp"
 
 namespace hedgefit::stereo {
 
@@ -160,8 +161,12 @@ cv::Mat RenderPovrayText(const SimRig& rig, bool right, const std::function<std:
       << fs::path(stem).filename().string() << ".png' +W" << canvas.size.width << " +H" << canvas.size.height
       << " +A0.05 +AM2 +R3 +FN8 +Q9 -D -V -GA +WT2 > '" << fs::path(stem).filename().string() << ".log' 2>&1";
   if (std::system(cmd.str().c_str()) != 0) throw Error(stem + ".log: POV-Ray failed; see its log");
-  const cv::Mat full = cv::imread(stem + ".png", cv::IMREAD_COLOR);
-  if (full.empty()) throw Error(stem + ".png: POV-Ray wrote no image; see " + stem + ".log");
+  cv::Mat full;
+  try {
+    full = ReadImageFile(stem + ".png", cv::IMREAD_COLOR);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + ": POV-Ray wrote no image; see " + stem + ".log");
+  }
   // The camera's image within the canvas: its principal point lands where K puts it.
   const int ox = std::abs(canvas.dx) - canvas.dx, oy = std::abs(canvas.dy) - canvas.dy;
   return full(cv::Rect(ox, oy, cam.size.width, cam.size.height)).clone();

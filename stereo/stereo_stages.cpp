@@ -2,18 +2,20 @@
 
 #include "stereo/stereo_stages.hpp"
 
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags
 #include <opencv2/imgproc.hpp>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/option_table.hpp"
 #include "cloud/parallel.hpp"
 #include "cloud/point_cloud.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/image_io.hpp"
 #include "stereo/rig_uncertainty.hpp"
 
 namespace hedgefit::stereo {
@@ -41,49 +43,33 @@ const StereoRig& RigOf(Context& ctx) { return ctx.Get<StereoRig>("rig"); }
 }  // namespace
 
 cv::Mat ReadCaptureImage(const std::string& path, int flags) {
-  // Only the formats cameras write reach OpenCV: it sniffs every file and hands what it does not
-  // recognise to decoders such as GDCM's DICOM reader, which fuzzing showed abort()s on bad input.
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(path + ": cannot open the image; check the path and permissions");
-    unsigned char m[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-    in.read(reinterpret_cast<char*>(m), 8);
-    const bool png = m[0] == 0x89 && m[1] == 'P' && m[2] == 'N' && m[3] == 'G';
-    const bool jpeg = m[0] == 0xFF && m[1] == 0xD8 && m[2] == 0xFF;
-    const bool bmp = m[0] == 'B' && m[1] == 'M';
-    const bool tiff = (m[0] == 'I' && m[1] == 'I' && m[2] == 42 && m[3] == 0) || (m[0] == 'M' && m[1] == 'M' && m[2] == 0 && m[3] == 42);
-    const bool pnm = m[0] == 'P' && m[1] >= '1' && m[1] <= '6';
-    if (!png && !jpeg && !bmp && !tiff && !pnm) {
-      throw Error(path + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
-    }
-    // A PNG ends with its IEND chunk, a JPEG with its EOI marker (FF D9; some cameras append
-    // data after it, so the end's last 64 KiB are searched). Without them the file was cut
-    // short, and OpenCV would decode a JPEG's missing rows as grey and carry on.
-    if (png || jpeg) {
-      in.clear();
-      in.seekg(0, std::ios::end);
-      const std::streamoff size = in.tellg();
-      const std::streamoff tail = std::min<std::streamoff>(size, 65536);
-      std::string end(static_cast<std::size_t>(std::max<std::streamoff>(0, tail)), '\0');
-      in.seekg(size - tail);
-      in.read(end.data(), tail);
-      const bool whole = png ? end.find("IEND") != std::string::npos : end.find("\xFF\xD9") != std::string::npos;
-      if (!in || !whole) {
-        throw Error(path + ": the " + (png ? "PNG" : "JPEG") + " file is cut short (no " +
-                    (png ? "IEND chunk" : "end-of-image marker") + "); copy it from the camera again");
-      }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open the image; check the path and permissions");
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // Only the formats cameras write are decoded: OpenCV's imgcodecs (the module that reads TIFF,
+  // BMP and PNM) hands what it does not recognise to decoders such as GDCM's DICOM reader, which
+  // fuzzing showed abort()s on bad input.
+  const std::string format = SniffImageFormat(bytes.data(), bytes.size());
+  if (format.empty() || format == "pfm") {
+    throw Error(path + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
+  }
+  // A PNG ends with its IEND chunk, a JPEG with its EOI marker (FF D9; some cameras append data
+  // after it, so the end's last 64 KiB are searched). Without them the file was cut short.
+  if (format == "png" || format == "jpeg") {
+    const std::size_t tail = std::min<std::size_t>(bytes.size(), 65536);
+    const std::string end(bytes.end() - std::ptrdiff_t(tail), bytes.end());
+    const bool png = format == "png";
+    if (end.find(png ? "IEND" : "\xFF\xD9") == std::string::npos) {
+      throw Error(path + ": the " + (png ? "PNG" : "JPEG") + " file is cut short (no " +
+                  (png ? "IEND chunk" : "end-of-image marker") + "); copy it from the camera again");
     }
   }
   cv::Mat m;
   try {
-    m = cv::imread(path, flags);
-  } catch (const std::exception& e) {
-    // OpenCV refuses, e.g., a header claiming more than 2^30 pixels: a damaged or hostile file.
-    const auto* cv_error = dynamic_cast<const cv::Exception*>(&e);
-    throw Error(path + ": cannot read the image (" + (cv_error ? cv_error->err : std::string(e.what())) +
-                "); give a PNG or JPEG file");
+    m = DecodeImage(bytes, flags, path);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + "; give a PNG or JPEG file");
   }
-  if (m.empty()) throw Error(path + ": cannot read the image (damaged or truncated?); give a PNG or JPEG file");
   if (m.depth() != CV_8U) throw Error(path + ": not an 8-bit image; give an 8-bit PNG or JPEG file");
   if (flags == cv::IMREAD_COLOR && m.channels() == 1) cv::cvtColor(m, m, cv::COLOR_GRAY2BGR);
   return m;
@@ -92,13 +78,9 @@ cv::Mat ReadCaptureImage(const std::string& path, int flags) {
 void WriteImageAtomic(const std::string& path, const cv::Mat& image) {
   const std::string ext = std::filesystem::path(path).extension().string();
   std::vector<uchar> bytes;
-  bool ok = false;
-  try {
-    ok = !image.empty() && !ext.empty() && cv::imencode(ext, image, bytes);
-  } catch (const cv::Exception&) {
-    ok = false;
+  if (ext.empty() || !EncodeImage(ext, image, &bytes)) {
+    throw Error(path + ": cannot encode the image as '" + ext + "'; give a .png or .jpg file name");
   }
-  if (!ok) throw Error(path + ": cannot encode the image as '" + ext + "'; give a .png or .jpg file name");
   cloud::WriteTextFileAtomic(path, std::string(bytes.begin(), bytes.end()));
 }
 

@@ -423,7 +423,7 @@ TEST(RigCli, NonFiniteAndAbsurdNumbersAreRejected) {
   EXPECT_EQ(r.err, "hedgefit: missing.png: no such image file; check the path\n");
   r = RunHedgefit("convert --left notes.png --right notes.png --rig rig.yaml -o x.pcd", dir);
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.err, "hedgefit: notes.png: not an image OpenCV can read; give a PNG or JPEG file\n");
+  EXPECT_EQ(r.err, "hedgefit: notes.png: not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file\n");
   for (const std::string& t : {std::string(".nan, 0., 0."), std::string("0., 0., 0.")}) {
     std::string bad = good;
     const auto at = bad.find("data: [", bad.find("\nT: "));

@@ -11,11 +11,13 @@
 #include <sys/wait.h>
 
 #include <fstream>
+#include <iostream>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
+#include "stereo/image_io.hpp"
 #include "stereo/simulator.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "tests/test_data.hpp"
@@ -291,6 +293,54 @@ TEST(ConvertCli, BatchSkipsACorruptCaptureAndFinishesTheRest) {
   EXPECT_NE(text.find("converted 1 of 2 captures"), std::string::npos) << text;
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "good.pcd"));
   EXPECT_FALSE(std::filesystem::exists(dir / "out" / "bad.pcd"));
+}
+
+// hedgefit decodes PNG and JPEG itself (libpng, libjpeg: OpenCV's imgcodecs would load ~140
+// libraries into every command) and other formats through its imgcodecs module. Every pixel must
+// be the one OpenCV's imread gives, in colour and in grey: on the shared data's real camera files
+// (OpenCV's JPEG chessboards, Middlebury's Aloe JPEG, Motorcycle PNG and Cones TIFF, PCL's grey
+// outdoor PNG) when present, and always on the PNG variants cameras write (grey, 16-bit, with
+// alpha) and on JPEG and BMP files. Encoding round-trips: PNG exactly, JPEG as OpenCV decodes it.
+TEST(ImageIo, DecodesEveryPixelAsOpenCvDoes) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  cv::Mat colour(61, 83, CV_8UC3), grey(61, 83, CV_8UC1), deep(61, 83, CV_16UC1), alpha(61, 83, CV_8UC4);
+  cv::randu(colour, 0, 255);
+  cv::randu(grey, 0, 255);
+  cv::randu(deep, 0, 65535);
+  cv::randu(alpha, 0, 255);
+  std::vector<std::string> files;
+  for (const auto& [name, image] : std::vector<std::pair<std::string, cv::Mat>>{
+           {"colour.png", colour}, {"grey.png", grey}, {"deep.png", deep}, {"alpha.png", alpha},
+           {"colour.jpg", colour}, {"grey.jpg", grey}, {"colour.bmp", colour}}) {
+    ASSERT_TRUE(cv::imwrite((dir / name).string(), image)) << name;
+    files.push_back((dir / name).string());
+  }
+  int real = 0;
+  for (const std::string rel : {"calib_chessboard/left01.jpg", "stereo_gt/aloe/aloeL.jpg",
+                                "stereo_gt/middlebury2014_motorcycle_Q/im0.png", "stereo_gt/middlebury2003_cones_pandora/left.tif",
+                                "stereo_plants/pcl_outdoor_stereo_pair/stereo_left.png"}) {
+    if (std::filesystem::exists(hedgefit::testing::DataPath(rel))) files.push_back(hedgefit::testing::DataPath(rel)), ++real;
+  }
+  for (const std::string& f : files) {
+    for (const int flags : {cv::IMREAD_COLOR, cv::IMREAD_GRAYSCALE, cv::IMREAD_UNCHANGED}) {
+      const cv::Mat expected = cv::imread(f, flags), got = ReadImageFile(f, flags);
+      ASSERT_FALSE(expected.empty()) << f;
+      ASSERT_EQ(got.type(), expected.type()) << f << " flags " << flags;
+      ASSERT_EQ(got.size(), expected.size()) << f << " flags " << flags;
+      EXPECT_EQ(cv::norm(got, expected, cv::NORM_INF), 0.0) << f << " flags " << flags;
+    }
+  }
+  std::cout << files.size() - real << " synthetic and " << real << " real files decoded as OpenCV does\n";
+  for (const cv::Mat& image : {colour, grey, deep, alpha}) {
+    std::vector<unsigned char> bytes;
+    ASSERT_TRUE(EncodeImage(".png", image, &bytes));
+    EXPECT_EQ(cv::norm(DecodeImage(bytes, cv::IMREAD_UNCHANGED, "png"), image, cv::NORM_INF), 0.0);
+  }
+  std::vector<unsigned char> bytes;
+  ASSERT_TRUE(EncodeImage(".jpg", colour, &bytes, 90));
+  EXPECT_EQ(cv::norm(DecodeImage(bytes, cv::IMREAD_COLOR, "jpg"), cv::imdecode(bytes, cv::IMREAD_COLOR), cv::NORM_INF), 0.0);
+  EXPECT_FALSE(EncodeImage(".nope", colour, &bytes));
+  EXPECT_THROW(DecodeImage({1, 2, 3}, cv::IMREAD_COLOR, "noise"), Error);
 }
 
 // A capture cut short (a copy interrupted, a file still being written) is refused by name:
