@@ -21,3 +21,10 @@ err=$("$scratch/prefix/bin/hedgefit" stream --left "$source_dir/README.md" --rig
 echo "$err" | grep -q "OpenCV cannot open it as a video" || {
   echo "installed hedgefit stream did not load its video module:"; echo "$err"; exit 1; }
 echo "installed stream loads its video module: ok"
+# The image module (stereo/image_io.hpp: TIFF, BMP, PNM through imgcodecs) is found beside the
+# installed library: a BMP is decoded and only then judged (here: too small for the rig).
+err=$("$scratch/prefix/bin/hedgefit" measure --left "$source_dir/fuzz/corpus/capture_image/colour.bmp" \
+  --right "$source_dir/fuzz/corpus/capture_image/colour.bmp" --rig "$source_dir/fuzz/corpus/rig_yaml/simulated.yaml" 2>&1 || true)
+echo "$err" | grep -q "images are 16x12 but the rig was calibrated at" || {
+  echo "installed hedgefit did not read a BMP through its image module:"; echo "$err"; exit 1; }
+echo "installed hedgefit reads BMP through its image module: ok"
