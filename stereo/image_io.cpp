@@ -320,12 +320,19 @@ cv::Mat DecodeImage(const std::vector<unsigned char>& bytes, int flags, const st
   return out;
 }
 
-cv::Mat ReadImageFile(const std::string& path, int flags) {
-  std::ifstream in(path, std::ios::binary);
+std::vector<unsigned char> ReadFileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw Error(path + ": cannot open the image; check the path and permissions");
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return DecodeImage(bytes, flags, path);
+  const std::streamoff size = in.tellg();
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(std::max<std::streamoff>(0, size)));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()))) {
+    throw Error(path + ": cannot read the image; check the file");
+  }
+  return bytes;
 }
+
+cv::Mat ReadImageFile(const std::string& path, int flags) { return DecodeImage(ReadFileBytes(path), flags, path); }
 
 bool EncodeImage(const std::string& extension, const cv::Mat& image, std::vector<unsigned char>* bytes,
                  int jpeg_quality) {

@@ -24,6 +24,9 @@ std::string SniffImageFormat(const unsigned char* head, std::size_t size);
 /// bytes cannot be decoded (damaged, cut short, or a format neither decoder reads).
 cv::Mat DecodeImage(const std::vector<unsigned char>& bytes, int flags, const std::string& name);
 
+/// A file's bytes, read in one call; throws hedgefit::Error naming `path` when it cannot be read.
+std::vector<unsigned char> ReadFileBytes(const std::string& path);
+
 /// Reads and decodes a file (DecodeImage); throws hedgefit::Error naming `path`.
 cv::Mat ReadImageFile(const std::string& path, int flags = cv::IMREAD_COLOR);
 

@@ -43,9 +43,7 @@ const StereoRig& RigOf(Context& ctx) { return ctx.Get<StereoRig>("rig"); }
 }  // namespace
 
 cv::Mat ReadCaptureImage(const std::string& path, int flags) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open the image; check the path and permissions");
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<unsigned char> bytes = ReadFileBytes(path);
   // Only the formats cameras write are decoded: OpenCV's imgcodecs (the module that reads TIFF,
   // BMP and PNM) hands what it does not recognise to decoders such as GDCM's DICOM reader, which
   // fuzzing showed abort()s on bad input.
