@@ -103,6 +103,19 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
   EXPECT_NEAR(fit.radius_mm, 300.0, 1.0);
   EXPECT_LT((fit.center_mm - Eigen::Vector3d(70, 50, 2300)).norm(), 1.5);
 
+  // The fine match searched only the sphere's own disparities (coarse_range): f b / Z is 56.8 px
+  // at the silhouette (Z = 2300 mm) and 65.3 px at the front (2000 mm), where the working range from
+  // 1 m would search 96.
+  ASSERT_FALSE(res.left_rect.empty());
+  cv::Mat lr = res.left_rect.clone(), rr = res.right_rect.clone();
+  const MatchResult narrow = MatchHedge(rig, nullptr, nullptr, &lr, &rr, res.mask, o.match);
+  EXPECT_LE(narrow.min_disparity, 56);
+  EXPECT_GE(narrow.min_disparity + narrow.num_disparities, 66);
+  EXPECT_LE(narrow.num_disparities, 32);
+  MatchOptions whole = o.match;
+  whole.coarse_range = false;
+  EXPECT_GE(MatchHedge(rig, nullptr, nullptr, &lr, &rr, res.mask, whole).num_disparities, 80);
+
   // sigma_z comes from each pixel's own refinement: near the cap's middle, where the
   // surface faces the camera, the residuals to the true sphere scatter as predicted. Measured
   // rms(residual / sigma_z) = 1.3 (windows overlap, so the per-window estimate is a little
