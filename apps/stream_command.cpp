@@ -40,6 +40,7 @@ struct Frame {
   cv::Mat left, right;
   std::string name;  ///< a watched capture's name; empty for video
   double time_s = 0; ///< when it was grabbed, seconds since the epoch
+  std::string error; ///< a watched capture that stayed unreadable: why (left and right are empty)
 };
 
 double Now() {
@@ -110,7 +111,10 @@ class SideBySide : public Source {
 };
 
 // NAME_left.* / NAME_right.* pairs arriving in a directory, taken in name order; a pair is
-// taken once both files read as images (a file still being written does not, and is retried).
+// taken once both files read as images. One that does not (a file still being written, or cut
+// short) is retried until both files have stayed unchanged for kSettleS, or the stream stops; it
+// is then given up and returned with its error, so a damaged capture is reported, not skipped
+// in silence.
 class WatchDir : public Source {
  public:
   WatchDir(std::string dir, double idle_s) : dir_(std::move(dir)), idle_s_(idle_s) {
@@ -136,24 +140,62 @@ class WatchDir : public Source {
         try {
           f->left = stereo::ReadCaptureImage(p.first);
           f->right = stereo::ReadCaptureImage(p.second);
-        } catch (const Error&) {
-          continue;  // not complete yet: the next poll sees it again
+        } catch (const Error& e) {
+          // Not complete yet, or damaged: retried while either file still changes.
+          const auto stamp = Stamp(p.first) + "|" + Stamp(p.second);
+          auto it = pending_.find(name);
+          const auto now = std::chrono::steady_clock::now();
+          if (it == pending_.end() || it->second.stamp != stamp) {
+            pending_[name] = Pending{stamp, now, e.what()};
+            continue;
+          }
+          it->second.why = e.what();
+          if (std::chrono::duration<double>(now - it->second.since).count() < kSettleS) continue;
+          return GiveUp(name, f);
         }
+        pending_.erase(name);
         done_.insert(name);
         f->name = name;
         f->time_s = Now();
+        f->error.clear();
         return true;
       }
-      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > idle_s_) return false;
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > idle_s_) {
+        // Stopping: what is still unreadable is reported before the end.
+        return !pending_.empty() && GiveUp(pending_.begin()->first, f);
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
   }
   bool Live() const override { return true; }
 
  private:
+  static constexpr double kSettleS = 2.0;
+  struct Pending {
+    std::string stamp;                              // both files' sizes and modification times
+    std::chrono::steady_clock::time_point since;    // when they last changed
+    std::string why;                                // the last read's error
+  };
+  static std::string Stamp(const std::string& path) {
+    std::error_code ec;
+    const auto size = fs::file_size(path, ec);
+    const auto time = fs::last_write_time(path, ec);
+    return std::to_string(size) + "@" + std::to_string(time.time_since_epoch().count());
+  }
+  bool GiveUp(const std::string& name, Frame* f) {
+    f->left.release();
+    f->right.release();
+    f->name = name;
+    f->time_s = Now();
+    f->error = pending_.at(name).why;
+    pending_.erase(name);
+    done_.insert(name);
+    return true;
+  }
   std::string dir_;
   double idle_s_;
   std::set<std::string> done_;
+  std::map<std::string, Pending> pending_;
 };
 
 // Reads frames on its own thread into a one-frame slot. A live source overwrites a frame not
@@ -302,6 +344,7 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
         ctx.quiet = true;
         const auto t0 = std::chrono::steady_clock::now();
         try {
+          if (!f.error.empty()) throw Error(f.error);
           stereo::PutCapture(f.left, f.right, rig, &ctx);
           const cloud::RunReport report = p.Run(ctx);
           for (const auto& s : report.stages) stage_ms[s.type] += s.wall_ms;

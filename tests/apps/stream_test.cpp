@@ -94,14 +94,23 @@ TEST(StreamCli, VideosSideBySideAndAWatchedDirectory) {
     fs::copy_file(dir / sub / "sphere_left.png", dir / "incoming" / (sub + "_left.png"));
     fs::copy_file(dir / sub / "sphere_right.png", dir / "incoming" / (sub + "_right.png"));
   }
+  // A damaged capture among them is retried while it might still be being written, then reported
+  // with its error when the stream stops, not skipped in silence.
+  std::ofstream(dir / "incoming" / "bad_left.png") << "not a png";
+  std::ofstream(dir / "incoming" / "bad_right.png") << "not a png";
   r = RunHedgefit("stream --rig z2100/rig.yaml --watch incoming --idle-timeout 0.5 --no-drop", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   lines = Lines(r.out);
-  ASSERT_EQ(lines.size(), 3u) << r.out;
+  ASSERT_EQ(lines.size(), 4u) << r.out;
   for (int i = 0; i < 3; ++i) {
     EXPECT_EQ(lines[std::size_t(i)]["name"], "z" + std::to_string(kZ[i]));
     ExpectSphere(lines[std::size_t(i)], kZ[i]);
   }
+  EXPECT_EQ(lines[3]["name"], "bad");
+  EXPECT_EQ(lines[3]["hedges"], 0);
+  EXPECT_NE(lines[3]["message"].get<std::string>().find("bad_left.png: not a PNG, JPEG, TIFF, BMP or PNM image"),
+            std::string::npos)
+      << lines[3].dump();
   // Bad sources: one line naming the flag, exit 1.
   r = RunHedgefit("stream --rig z2100/rig.yaml --left left.avi", dir);
   EXPECT_EQ(r.code, 1);
