@@ -114,8 +114,15 @@ cloud::PointCloud CloudFrom(const py::array_t<double, py::array::c_style | py::a
   return c;
 }
 
-cv::Mat ImageFrom(const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& a, const char* what) {
-  if (!(a.ndim() == 2 || (a.ndim() == 3 && a.shape(2) == 3))) {
+// An image array as OpenCV's 8-bit BGR (or grey). Only uint8 is taken: pybind11 would cast any
+// other dtype silently, and a 0..1 float image would arrive all black.
+cv::Mat ImageFrom(const py::array& any, const char* what) {
+  if (!any.dtype().is(py::dtype::of<std::uint8_t>())) {
+    throw Error(std::string(what) + ": give a uint8 array (got " + std::string(py::str(any.dtype())) +
+                "); a 0..1 float image is (image * 255).round().astype(numpy.uint8)");
+  }
+  const auto a = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(any);
+  if (!a || !(a.ndim() == 2 || (a.ndim() == 3 && a.shape(2) == 3))) {
     throw Error(std::string(what) + ": give an (H, W, 3) BGR or (H, W) grey uint8 array");
   }
   const cv::Mat view(int(a.shape(0)), int(a.shape(1)), a.ndim() == 3 ? CV_8UC3 : CV_8UC1,
@@ -201,8 +208,7 @@ PYBIND11_MODULE(hedgefit, m) {
         py::arg("path"), "Reads a capture image (PNG, JPEG, TIFF, BMP, PNM) as an (H, W, 3) uint8 BGR array.");
   m.def(
       "measure",
-      [](const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& left,
-         const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& right, const std::string& rig_path,
+      [](const py::array& left, const py::array& right, const std::string& rig_path,
          const std::string& method, bool garden, bool clean, const py::kwargs& options) {
         const cloud::Registry& registry = Stages();
         stereo::ConvertOptions o;
@@ -240,8 +246,7 @@ PYBIND11_MODULE(hedgefit, m) {
       "Returns one dict per hedge (hedge, center_mm, radius_mm, std_error_mm, inliers, rms_mm, wall_ms, ...).");
   m.def(
       "check_rig",
-      [](const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& left,
-         const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>& right, const std::string& rig_path,
+      [](const py::array& left, const py::array& right, const std::string& rig_path,
          double min_z, double max_z) {
         if (!(min_z > 0 && max_z > min_z)) throw Error("check_rig: need 0 < min_z < max_z (mm)");
         const stereo::StereoRig rig = stereo::ReadRig(rig_path);

@@ -111,6 +111,10 @@ class Measure(unittest.TestCase):
             with self.assertRaises(hedgefit.Error) as e:
                 hedgefit.measure(left, right, os.path.join(tmp, "rig.yaml"), no_such_option=1)
             self.assertIn("no_such_option", str(e.exception))
+            # Only uint8 images: a 0..1 float image would have been cast to black.
+            with self.assertRaises(hedgefit.Error) as e:
+                hedgefit.measure(left / 255.0, right, os.path.join(tmp, "rig.yaml"))
+            self.assertIn("left: give a uint8 array (got float64)", str(e.exception))
             # The simulator's exact rig leaves the rows within a tenth of a pixel (as
             # MeasureCli.MisalignedRows... asserts); the right image one row down reads as 1 px.
             rows = hedgefit.check_rig(left, right, os.path.join(tmp, "rig.yaml"))
