@@ -93,10 +93,7 @@ void CheckCaptureImages(const std::string& left, const std::string& right) {
     if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
     unsigned char head[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     std::ifstream(image, std::ios::binary).read(reinterpret_cast<char*>(head), sizeof(head));
-    const std::string format = stereo::SniffImageFormat(head, sizeof(head));
-    if (format.empty() || format == "pfm") {
-      throw Error(image + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
-    }
+    stereo::RequireCaptureFormat(image, stereo::SniffImageFormat(head, sizeof(head)));
   }
 }
 

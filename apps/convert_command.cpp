@@ -188,9 +188,9 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
             const fs::path base = fs::path(out).parent_path() / stem;
             cv::Mat pair;
             cv::hconcat(left_rect, ctx.Get<cv::Mat>("right_image"), pair);
-            stereo::WriteImageFile(base.string() + "_rectified.png", pair);
-            stereo::WriteImageFile(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
-            stereo::WriteImageFile(base.string() + "_disparity.png",
+            stereo::WriteImageAtomic(base.string() + "_rectified.png", pair);
+            stereo::WriteImageAtomic(base.string() + "_mask.png", stereo::MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
+            stereo::WriteImageAtomic(base.string() + "_disparity.png",
                                    stereo::ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
           }
           const int* area = ctx.Find<int>("matched_area");

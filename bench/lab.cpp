@@ -46,7 +46,7 @@ LabResult RunLab(const LabOptions& a) {
         for (const auto& f : files) {
           if (f.size() < 4 || f.compare(f.size() - 4, 4, ".png") != 0) continue;
           const bool right = f.find("_right.png") != std::string::npos;
-          stereo::WriteImageFile(f, stereo::ApplyCameraModel(stereo::ReadImageFile(f), camera, right, 1 + view++ / 2));
+          stereo::WriteImageAtomic(f, stereo::ApplyCameraModel(stereo::ReadImageFile(f), camera, right, 1 + view++ / 2));
         }
       }
     }

@@ -329,7 +329,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
       const cv::Vec3b c((bi * 97) % 200 + 55, (bi * 57) % 200 + 55, (bi * 31) % 200 + 55);
       for (int i : blobs[bi].pixels) vis.at<cv::Vec3b>(i / w, i % w) = c;
     }
-    WriteImageFile(std::string(dump) + "_blobs.png", vis);
+    WriteImageAtomic(std::string(dump) + "_blobs.png", vis);
   }
   // 4. Which blobs are hedges.
   const bool colour = small_l.channels() == 3 && cv::norm(small_l.reshape(1, int(small_l.total())).col(0),

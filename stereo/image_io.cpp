@@ -13,9 +13,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <mutex>
 
+#include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "stereo/image_codecs_module.hpp"
 
@@ -354,14 +354,13 @@ bool EncodeImage(const std::string& extension, const cv::Mat& image, std::vector
   return m.encode != nullptr && m.encode(ext.c_str(), &image, bytes) == 0;
 }
 
-void WriteImageFile(const std::string& path, const cv::Mat& image) {
+void WriteImageAtomic(const std::string& path, const cv::Mat& image) {
+  const std::string ext = std::filesystem::path(path).extension().string();
   std::vector<unsigned char> bytes;
-  if (!EncodeImage(std::filesystem::path(path).extension().string(), image, &bytes)) {
-    throw Error(path + ": cannot encode the image in this file's format; use .png or .jpg");
+  if (ext.empty() || !EncodeImage(ext, image, &bytes)) {
+    throw Error(path + ": cannot encode the image as '" + ext + "'; give a .png or .jpg file name");
   }
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-  if (!out) throw Error(path + ": cannot write the image; check the directory and free space");
+  cloud::WriteTextFileAtomic(path, std::string(bytes.begin(), bytes.end()));
 }
 
 }  // namespace hedgefit::stereo

@@ -36,8 +36,10 @@ cv::Mat ReadImageFile(const std::string& path, int flags = cv::IMREAD_COLOR);
 bool EncodeImage(const std::string& extension, const cv::Mat& image, std::vector<unsigned char>* bytes,
                  int jpeg_quality = 95);
 
-/// Encodes and writes `image` to `path` (its extension chooses the format), in place (not
-/// atomic: debug pictures; see WriteImageAtomic for results). Throws hedgefit::Error naming it.
-void WriteImageFile(const std::string& path, const cv::Mat& image);
+/// Writes `image` to `path` in the format its extension names (.png, .jpg, ...), atomically:
+/// encoded in memory, written to a hidden temporary file beside it and renamed, so a failed
+/// or killed run never leaves a half-written image under the final name. Throws
+/// hedgefit::Error naming the file.
+void WriteImageAtomic(const std::string& path, const cv::Mat& image);
 
 }  // namespace hedgefit::stereo

@@ -8,7 +8,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/option_table.hpp"
@@ -44,13 +43,8 @@ const StereoRig& RigOf(Context& ctx) { return ctx.Get<StereoRig>("rig"); }
 
 cv::Mat ReadCaptureImage(const std::string& path, int flags) {
   const std::vector<unsigned char> bytes = ReadFileBytes(path);
-  // Only the formats cameras write are decoded: OpenCV's imgcodecs (the module that reads TIFF,
-  // BMP and PNM) hands what it does not recognise to decoders such as GDCM's DICOM reader, which
-  // fuzzing showed abort()s on bad input.
   const std::string format = SniffImageFormat(bytes.data(), bytes.size());
-  if (format.empty() || format == "pfm") {
-    throw Error(path + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
-  }
+  RequireCaptureFormat(path, format);
   // A PNG ends with its IEND chunk, a JPEG with its EOI marker (FF D9; some cameras append data
   // after it, so the end's last 64 KiB are searched). Without them the file was cut short.
   if (format == "png" || format == "jpeg") {
@@ -73,13 +67,13 @@ cv::Mat ReadCaptureImage(const std::string& path, int flags) {
   return m;
 }
 
-void WriteImageAtomic(const std::string& path, const cv::Mat& image) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  std::vector<uchar> bytes;
-  if (ext.empty() || !EncodeImage(ext, image, &bytes)) {
-    throw Error(path + ": cannot encode the image as '" + ext + "'; give a .png or .jpg file name");
+void RequireCaptureFormat(const std::string& path, const std::string& format) {
+  // Only the formats cameras write are decoded: OpenCV's imgcodecs (the module that reads TIFF,
+  // BMP and PNM) hands what it does not recognise to decoders such as GDCM's DICOM reader, which
+  // fuzzing showed abort()s on bad input.
+  if (format.empty() || format == "pfm") {
+    throw Error(path + ": not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file");
   }
-  cloud::WriteTextFileAtomic(path, std::string(bytes.begin(), bytes.end()));
 }
 
 void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx) {

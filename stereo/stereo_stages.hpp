@@ -11,6 +11,7 @@
 #include <string>
 
 #include "cloud/registry.hpp"
+#include "stereo/image_io.hpp"  // WriteImageAtomic
 #include "stereo/rig.hpp"
 
 namespace hedgefit::stereo {
@@ -24,11 +25,9 @@ void RegisterStereoStages(cloud::Registry& registry);
 /// naming the file when it cannot be read (another format, damaged, absurd size).
 cv::Mat ReadCaptureImage(const std::string& path, int flags = 1 /* cv::IMREAD_COLOR */);
 
-/// Writes `image` to `path` in the format its extension names (.png, .jpg, ...), atomically:
-/// encoded in memory, written to a hidden temporary file beside it and renamed, so a failed
-/// or killed run never leaves a half-written image under the final name. Throws
-/// hedgefit::Error naming the file.
-void WriteImageAtomic(const std::string& path, const cv::Mat& image);
+/// The capture formats ReadCaptureImage decodes: throws hedgefit::Error naming `path` for
+/// `format` (from SniffImageFormat) when it is none of them.
+void RequireCaptureFormat(const std::string& path, const std::string& format);
 
 /// Puts a capture already in memory into `ctx` as readers.stereo would.
 void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx);
