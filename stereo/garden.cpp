@@ -6,8 +6,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <numeric>
+#include <queue>
 
 #include "cloud/error.hpp"
 #include "cloud/filters.hpp"
@@ -86,6 +88,141 @@ std::string Where(const Blob& b, int downscale) {
   std::snprintf(buf, sizeof(buf), "blob at columns %d-%d, %.1f m away", b.min_u * downscale, (b.max_u + 1) * downscale,
                 c[2] / 1000);
   return buf;
+}
+
+// The prominent peaks of `value` (CV_32F; NaN = no value) over `inside` (CV_8U), and every pixel
+// of `inside` given to one of them. Pixels are taken from the highest value down, joining the
+// pieces they touch (a union-find merge tree); when two pieces meet, the one with the lower peak
+// ends. A peak counts when its piece ended at least `rise(peak)` below it (or never ended) and
+// `keep(peak, area)` holds, area being its piece's size down to `rise(peak)` below the peak: its
+// core. Every pixel of `inside` then goes to a core by flooding from the cores, highest values
+// first (a watershed), so the split runs along the valleys between them. Labels 1..n in `labels`
+// (CV_32S, 0 off `inside`); returns n.
+int PeakRegions(const cv::Mat& value, const cv::Mat& inside, const std::function<double(double peak)>& rise,
+                const std::function<bool(double peak, int area)>& keep, cv::Mat* labels) {
+  const int cols = value.cols, n_px = int(value.total());
+  auto at = [&](int i) {
+    const float v = value.at<float>(i / cols, i % cols);
+    return std::isfinite(v) ? double(v) : -std::numeric_limits<double>::infinity();
+  };
+  auto in = [&](int i) { return inside.at<std::uint8_t>(i / cols, i % cols) != 0; };
+  auto neighbours = [&](int i, int* out) {
+    const int x = i % cols, y = i / cols;
+    int m = 0;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if ((dx != 0 || dy != 0) && x + dx >= 0 && y + dy >= 0 && x + dx < cols && y + dy < value.rows) {
+          out[m++] = (y + dy) * cols + x + dx;
+        }
+      }
+    }
+    return m;
+  };
+  std::vector<int> order;
+  for (int i = 0; i < n_px; ++i) {
+    if (in(i) && std::isfinite(at(i))) order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return at(a) > at(b); });
+  struct Piece {
+    double peak = 0;
+    int peak_px = 0, area = 0, core_area = 0;
+  };
+  std::vector<int> parent(static_cast<std::size_t>(n_px), -1);
+  std::vector<Piece> piece(static_cast<std::size_t>(n_px));
+  auto find = [&](int i) {
+    while (parent[std::size_t(i)] != i) i = parent[std::size_t(i)] = parent[std::size_t(parent[std::size_t(i)])];
+    return i;
+  };
+  std::vector<int> peaks;
+  int nb[8];
+  for (const int p : order) {
+    const double v = at(p);
+    parent[std::size_t(p)] = p;
+    piece[std::size_t(p)] = {v, p, 1, 1};
+    for (int k = 0, m = neighbours(p, nb); k < m; ++k) {
+      if (parent[std::size_t(nb[k])] < 0) continue;
+      int hi = find(p), lo = find(nb[k]);
+      if (hi == lo) continue;
+      if (piece[std::size_t(hi)].peak < piece[std::size_t(lo)].peak) std::swap(hi, lo);
+      Piece& a = piece[std::size_t(hi)];
+      const Piece& b = piece[std::size_t(lo)];
+      if (b.peak - v >= rise(b.peak) && keep(b.peak, b.core_area)) peaks.push_back(b.peak_px);
+      if (v >= a.peak - rise(a.peak)) a.core_area += b.area;  // still within the higher one's core
+      a.area += b.area;
+      parent[std::size_t(lo)] = hi;
+    }
+  }
+  for (const int p : order) {
+    const Piece& r = piece[std::size_t(p)];
+    if (find(p) == p && keep(r.peak, r.core_area)) peaks.push_back(r.peak_px);
+  }
+  if (peaks.size() < 2) return 1;
+  // The cores, then the flood from them.
+  cv::Mat lab = cv::Mat::zeros(value.size(), CV_32S);
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item> queue;
+  for (std::size_t c = 0; c < peaks.size(); ++c) {
+    const double floor = at(peaks[c]) - rise(at(peaks[c]));
+    std::vector<int> stack{peaks[c]};
+    lab.at<int>(peaks[c] / cols, peaks[c] % cols) = int(c) + 1;
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      queue.emplace(at(i), i);
+      for (int k = 0, m = neighbours(i, nb); k < m; ++k) {
+        int& l = lab.at<int>(nb[k] / cols, nb[k] % cols);
+        if (l == 0 && in(nb[k]) && at(nb[k]) >= floor) l = int(c) + 1, stack.push_back(nb[k]);
+      }
+    }
+  }
+  while (!queue.empty()) {
+    const int i = queue.top().second;
+    queue.pop();
+    for (int k = 0, m = neighbours(i, nb); k < m; ++k) {
+      int& l = lab.at<int>(nb[k] / cols, nb[k] % cols);
+      if (l == 0 && in(nb[k])) l = lab.at<int>(i / cols, i % cols), queue.emplace(at(nb[k]), nb[k]);
+    }
+  }
+  *labels = lab;
+  return int(peaks.size());
+}
+
+// The balls one blob (`mask`, CV_8U, holes filled) holds, each pixel of it labelled 1..n in
+// `labels`; returns n (1 = one ball, `labels` untouched). Two cues that fail apart; the one that
+// sees more balls is taken.
+//  - Outline. A ball's outline is convex, and the distance transform `dt` of a convex shape is
+//    concave: it has one peak, whatever the shape's size or aspect (a dome, a clipped hedge
+//    row). Balls side by side make a waist where it dips between their peaks. A peak counts when
+//    it is a sizeable ball's inscribed radius (over kMinPeak of the largest) and the waist to a
+//    higher one is at most kWaist of it. Touching balls, whose shadowed lawn the coarse match
+//    fills with their own depth, keep a waist of 0.7-0.8.
+//  - Depth. Each ball's front is a pit in the depth map `z` (mm; NaN = none): between two balls
+//    the surface recedes to their limbs. A lumpy shrub against a ball leaves the outline no waist,
+//    but its front is a pit of its own. A pit counts when it is at least kPitShare of the blob's
+//    radius (`radius_mm`, half its height or width) deep below where it meets a nearer one and
+//    covers kPitArea of the blob's largest inscribed disc down to that depth: coarse depth noise
+//    makes deep pits too, but small ones.
+// On both renderers' gardens (the standard, the hard and the paper's near outdoor balls) no single
+// ball splits at any waist from 0.70 to 0.95 or any pit from 0.06 to 0.25 of its radius; touching
+// rows split at every waist from 0.80 up, a shrub from the ball it touches at every pit tried.
+int BallCores(const cv::Mat& mask, const cv::Mat& dt, const cv::Mat& z, double radius_mm, cv::Mat* labels) {
+  constexpr double kWaist = 0.85, kMinPeak = 0.4, kPitShare = 0.12, kPitArea = 0.1;
+  double dt_max = 0;
+  cv::minMaxLoc(dt, nullptr, &dt_max);
+  int best = PeakRegions(
+      dt, mask, [&](double peak) { return (1 - kWaist) * peak; },
+      [&](double peak, int) { return peak >= kMinPeak * dt_max; }, labels);
+  const double pit = kPitShare * radius_mm;
+  if (!(pit > 0)) return best;
+  const double min_area = kPitArea * 3.14159265358979 * dt_max * dt_max;
+  cv::Mat depth_labels;
+  const int by_depth = PeakRegions(
+      -z, mask, [&](double) { return pit; }, [&](double, int area) { return area >= min_area; }, &depth_labels);
+  if (by_depth > best) {
+    best = by_depth;
+    *labels = depth_labels;
+  }
+  return best;
 }
 
 }  // namespace
@@ -238,10 +375,10 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
   // of a third of its largest inscribed radius, which cuts such bridges and keeps a ball's
   // outline; when that leaves more than one piece of a speck's size, each becomes a blob of its
   // own (a pot is then judged, and rejected, alone), else the blob stays as it was, rim and all.
-  // Two balls of like size can be joined by a bridge as thick as that disc: a blob wider
-  // than it is high whose distance transform has several cores (over half its largest inscribed
-  // radius) is first split between them, every pixel to the nearest core through the blob. A hedge
-  // row or a wall has one elongated core and stays whole (then fails the tests below, as before).
+  // Balls side by side (a row whose balls touch, or joined by a bridge as thick as that disc),
+  // and a pot before a ball, are first split between the peaks of the blob's distance transform
+  // or the pits of its depth (BallCores). A single ball, a dome, a hedge row or a wall has one
+  // and stays whole (a row or a wall then fails the tests below, as before).
   {
     const std::size_t n_before = blobs.size();
     std::vector<Blob> pieces_all;
@@ -256,40 +393,15 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
       mask = FillHoles(mask);
       cv::Mat dt;
       cv::distanceTransform(mask, dt, cv::DIST_L2, cv::DIST_MASK_5);
-      double dt_max = 0;
-      cv::minMaxLoc(dt, nullptr, &dt_max);
+      cv::Mat z(box.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+      for (int i : b.pixels) z.at<float>(i / w - box.y, i % w - box.x) = float(xyz[std::size_t(i)][2]);
       cv::Mat part = cv::Mat::zeros(mask.size(), CV_32S);
       part.setTo(1, mask);
       int n_parts = 1;
+      cv::Mat core_labels;
       const double width = b.max_x - b.min_x, tall = ground ? b.max_h : b.max_h - b.min_h;
-      if (width > o.max_aspect * tall) {
-        cv::Mat cores;
-        cv::threshold(dt, cores, 0.5 * dt_max, 255, cv::THRESH_BINARY);
-        cores.convertTo(cores, CV_8U);
-        cv::Mat core_labels;
-        const int n_cores = cv::connectedComponents(cores, core_labels, 4, CV_32S) - 1;
-        if (n_cores >= 2) {
-          // Every pixel of the blob to the nearest core through the blob (breadth first).
-          part = core_labels;
-          n_parts = n_cores;
-          std::vector<cv::Point> frontier;
-          for (int y = 0; y < part.rows; ++y) {
-            for (int x = 0; x < part.cols; ++x) {
-              if (part.at<int>(y, x) > 0) frontier.emplace_back(x, y);
-            }
-          }
-          for (std::size_t q = 0; q < frontier.size(); ++q) {
-            const cv::Point c = frontier[q];
-            for (const cv::Point d : {cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1), cv::Point(0, -1)}) {
-              const cv::Point n = c + d;
-              if (n.x < 0 || n.y < 0 || n.x >= part.cols || n.y >= part.rows) continue;
-              if (mask.at<std::uint8_t>(n) == 0 || part.at<int>(n) != 0) continue;
-              part.at<int>(n) = part.at<int>(c);
-              frontier.push_back(n);
-            }
-          }
-        }
-      }
+      const int n_cores = BallCores(mask, dt, z, 0.5 * std::min(width, tall), &core_labels);
+      if (n_cores >= 2) part = core_labels, n_parts = n_cores;
       const bool split = n_parts > 1;
       std::vector<Blob> pieces;
       for (int lab = 1; lab <= n_parts; ++lab) {

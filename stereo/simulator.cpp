@@ -541,7 +541,7 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
 std::vector<std::string> GardenPresetNames() { return {"row", "single", "outdoor"}; }
 
 std::vector<std::string> GardenHardPresetNames() {
-  return {"pair", "low_camera", "high_camera", "small_far", "big_near", "off_centre"};
+  return {"pair", "low_camera", "high_camera", "small_far", "big_near", "off_centre", "touching"};
 }
 
 GardenScene GardenPreset(const std::string& name) {
@@ -592,9 +592,15 @@ GardenScene GardenPreset(const std::string& name) {
     sc.hedges = {{900, 2300, 500, 30}};
     sc.pot_x_mm = -400, sc.pot_z_mm = 2100;
     sc.texture_seed = 47;
+  } else if (name == "touching") {
+    // A planted row whose balls touch, the pot in front: no gap between them in the image, and
+    // the lawn below where they meet lies in their shadow.
+    sc.hedges = {{-900, 2500, 450, 30}, {0, 2500, 450, 30}, {900, 2500, 450, 30}};
+    sc.pot_x_mm = 1150, sc.pot_z_mm = 1850;
+    sc.texture_seed = 67;
   } else {
     throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
-                "high_camera, small_far, big_near, off_centre");
+                "high_camera, small_far, big_near, off_centre, touching");
   }
   return sc;
 }
