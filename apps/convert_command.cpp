@@ -210,8 +210,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
             for (const auto& h : *hedges) {
               std::size_t n = 0;
               for (const auto& g : groups) n = g.id == h.id ? g.indices.size() : n;
+              // Without a '#' (the default segmentation found hedges by depth) they share one file,
+              // told apart by its hedge_id field.
               std::string file = out;
-              file.replace(file.rfind('#'), 1, std::to_string(h.id));
+              if (const auto hash = file.rfind('#'); hash != std::string::npos) file.replace(hash, 1, std::to_string(h.id));
               std::snprintf(buf, sizeof(buf), "\n    hedge %d: box %d,%d,%d,%d px, about r %.0f mm at %.2f m%s, %zu points -> %s",
                             h.id, h.image_box.x, h.image_box.y, h.image_box.width, h.image_box.height,
                             h.approx_radius_mm, h.approx_center_mm[2] / 1000, h.touches_border ? " (cut by the frame)" : "",

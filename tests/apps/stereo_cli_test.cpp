@@ -210,6 +210,18 @@ TEST(ConvertCli, GardenRowGivesOnePcdPerHedgeAndComparePerHedge) {
     // tested in garden_test.
     EXPECT_LT(std::abs(c["fits"][0]["errors"]["aer_mm"].get<double>()), 10.0) << "hedge " << i + 1;
   }
+  // Without --garden the default segmentation finds the hedges by depth too; with no '#' in -o
+  // they share one file, each point carrying its hedge_id. This report used to throw ("basic_string::
+  // replace") after the file was written, and convert exited 2.
+  r = RunHedgefit("convert --left garden/garden_row_left.png --right garden/garden_row_right.png "
+          "--rig garden/rig.yaml -o all.pcd",
+          dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("replace"), std::string::npos) << r.err;
+  for (int id = 1; id <= 3; ++id) EXPECT_NE(r.out.find("hedge " + std::to_string(id) + ":"), std::string::npos) << r.out;
+  r = RunHedgefit("compare all.pcd --truth garden/garden_row.truth.json --methods envelope --format json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["clouds"].size(), 3u) << r.out;
   // One way to find the hedge at a time.
   r = RunHedgefit("convert --garden --mask m.png --left garden/garden_row_left.png --right garden/garden_row_right.png "
           "--rig garden/rig.yaml -o x.pcd",
