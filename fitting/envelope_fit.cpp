@@ -194,6 +194,31 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   ceres::GradientProblemSolver::Summary summary;
   ceres::Solve(so, problem, p, &summary);
   r.iterations = static_cast<int>(summary.iterations.size());
+  // Leaf depth and noise are searched as logarithms (both stay positive), so once the leaf depth
+  // has shrunk towards its floor its gradient vanishes and the search stays there, all spread
+  // taken for noise, even where deeper leaves explain the points better: a garden ball's fit
+  // (r 600 mm) stopped at 1.6 mm of leaves and 10.4 mm of noise, its centre 6.9 mm off, where
+  // every other start reached 8.2 and 7.3 mm and a centre 0.6 mm off; on synthetic leafy balls
+  // with noise 4-9 mm and leaves 6-10 mm deep, 63 of 72 ended so. A fit that ends with less leaf
+  // depth than half its noise is searched again with leaves half and all as deep as that noise,
+  // and the likeliest kept (3 of the 72 still end without leaves, all with the noise over 1.5
+  // times the leaf depth; a smooth sphere, whose leaf depth is nil, ends there again).
+  if (summary.IsSolutionUsable() && std::exp(p[4]) < 0.5 * std::exp(p[5])) {
+    const double noise = kMinScaleMm + std::exp(p[5]);
+    double best[6];
+    std::copy(p, p + 6, best);
+    for (const double share : {0.5, 1.0}) {
+      double q[6] = {p[0], p[1], p[2], p[3] + share * noise, std::log(share * noise), std::log(0.6 * noise)};
+      ceres::GradientProblemSolver::Summary again;
+      ceres::Solve(so, problem, q, &again);
+      r.iterations += static_cast<int>(again.iterations.size());
+      if (again.IsSolutionUsable() && again.final_cost < summary.final_cost) {
+        std::copy(q, q + 6, best);
+        summary = again;
+      }
+    }
+    std::copy(best, best + 6, p);
+  }
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const double mu = kMinScaleMm + std::exp(p[4]), sigma = kMinScaleMm + std::exp(p[5]);
   if (!summary.IsSolutionUsable() || !std::isfinite(p[3]) || !(p[3] > 0) || !std::isfinite(mu)) {
