@@ -116,8 +116,18 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   // within max_points.
   const double pixels = mask.empty() ? double(roi.area()) : double(cv::countNonZero(mask));
   r.stride = options.max_points > 0 ? std::max(1, int(std::ceil(std::sqrt(pixels / options.max_points)))) : 1;
-  const DisparityMap d =
-      ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg, mask.empty() ? cv::Mat() : mask(roi), r.stride);
+  // A hedge near the image's edge: the region cannot reach as far past the mask as the search
+  // needs (MatchRegion), so the match is padded by what is missing on that side.
+  int pad_left = 0, pad_right = 0;
+  if (!mask.empty()) {
+    const cv::Rect box = cv::boundingRect(mask);
+    if (!box.empty()) {
+      pad_left = std::max(0, sg.min_disparity + sg.num_disparities + sg.block_size - (box.x - roi.x));
+      pad_right = std::max(0, sg.num_disparities + sg.block_size - (roi.x + roi.width - box.x - box.width));
+    }
+  }
+  const DisparityMap d = ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg,
+                                          mask.empty() ? cv::Mat() : mask(roi), r.stride, pad_left, pad_right);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   r.disparity = cv::Mat(size, CV_32F, cv::Scalar(nan));
   d.disparity.copyTo(r.disparity(roi));

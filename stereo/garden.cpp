@@ -260,7 +260,9 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     throw Error("stereo.segment_garden: the image is too small for option 'downscale' " + std::to_string(k) +
                 " at this working range; lower it");
   }
-  DisparityMap coarse = ComputeDisparity(small_l, small_r, sg);
+  // Padded on both sides, so a hedge near either edge of the image is not cut where a search
+  // would leave the other view (num_disparities coarse columns each side: a tenth of the frame).
+  DisparityMap coarse = ComputeDisparity(small_l, small_r, sg, cv::Mat(), 1, sg.num_disparities, sg.num_disparities);
   // A 5 x 5 median: halves the coarse disparity's noise and keeps the depth edges between objects.
   {
     cv::Mat known = coarse.disparity == coarse.disparity, filtered;
@@ -469,6 +471,11 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     // lawn's clearance or by the ball itself), else its own vertical extent.
     const double tall = ground ? b.max_h : b.max_h - b.min_h;
     const double radius = 0.5 * std::max(width, tall);
+    // A ball cut by the frame's side is narrower than it is high, one cut by its top or bottom
+    // lower than it is wide: the outline's aspect says nothing there.
+    int v0 = h, v1 = -1;
+    for (int i : b.pixels) v0 = std::min(v0, i / w), v1 = std::max(v1, i / w);
+    const bool cut_side = b.min_u <= 1 || b.max_u >= w - 2, cut_end = v0 <= 1 || v1 >= h - 2;
     char why[160] = "";
     if (radius < o.min_radius_mm || radius > o.max_radius_mm) {
       std::snprintf(why, sizeof(why), "about %.0f mm in radius, outside %.0f-%.0f mm (--min-radius/--max-radius)", radius,
@@ -476,7 +483,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     } else if (double(b.pixels.size()) < 0.3 * DiscPixels(radius, b.sum[2] / double(b.pixels.size()))) {
       std::snprintf(why, sizeof(why), "covers %.0f%% of the disc a %.0f mm ball would: a fragment, not a hedge",
                     100.0 * double(b.pixels.size()) / DiscPixels(radius, b.sum[2] / double(b.pixels.size())), radius);
-    } else if (width > o.max_aspect * tall || tall > o.max_aspect * width) {
+    } else if ((width > o.max_aspect * tall && !cut_end) || (tall > o.max_aspect * width && !cut_side)) {
       std::snprintf(why, sizeof(why), "%.0f mm wide but %.0f mm high: not round", width, tall);
     } else if (ground && b.min_h > o.ground_clearance_mm + 0.6 * radius) {
       std::snprintf(why, sizeof(why), "does not stand on the ground (lowest point %.0f mm above it)", b.min_h);
@@ -545,7 +552,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     r.image_box = OriginalBox(rig, r.box);
     r.approx_center_mm = b.sum * (1.0 / double(b.pixels.size()));
     r.approx_radius_mm = kept[n].radius;
-    r.touches_border = b.min_u <= 1 || b.max_u >= w - 2;
+    r.touches_border = b.min_u <= 1 || b.max_u >= w - 2 || v0 <= 1 || v1 >= h - 2;
     // The fine match's search: the blob's depths widened by a coarse pixel of disparity (several
     // times the median-filtered coarse noise) on each side, within the working range.
     const double d_near = fb / b.min_z + k, d_far = std::max(1.0, fb / b.max_z - k);

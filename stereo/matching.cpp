@@ -431,12 +431,12 @@ cv::Ptr<cv::StereoSGBM> RightMatcherFor(const cv::Ptr<cv::StereoSGBM>& left) {
 
 }  // namespace
 
-DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask,
-                              int stride) {
-  o.Check();
-  if (left.empty() || right.empty() || left.size() != right.size() || left.type() != right.type()) {
-    throw Error("stereo.sgbm: the left and right images must be non-empty and of the same size and type");
-  }
+namespace {
+
+// ComputeDisparity on views whose first `blind_px` columns are padding: a match that reads the
+// right view there is no match.
+DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask, int stride,
+                        int blind_px) {
   const int channels = left.channels();
   const int num = ((o.num_disparities + 15) / 16) * 16;
   const int p1 = o.p1 > 0 ? o.p1 : 8 * channels * o.block_size * o.block_size;
@@ -475,13 +475,14 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
   });
   DisparityMap out;
   const float invalid_left = float(min_d - 1) * 16.0f;
+  const int blind = half ? (blind_px + 1) / 2 : blind_px;
   out.disparity.create(l.size(), CV_32F);
   out.rejected = cv::Mat::zeros(l.size(), CV_8U);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int y = 0; y < l.rows; ++y) {
     const short* s = d16_left.ptr<short>(y);
     float* d = out.disparity.ptr<float>(y);
-    for (int x = 0; x < l.cols; ++x) d[x] = s[x] <= invalid_left ? nan : s[x] / 16.0f;
+    for (int x = 0; x < l.cols; ++x) d[x] = s[x] <= invalid_left || x * 16 - s[x] < blind * 16 ? nan : s[x] / 16.0f;
   }
   if (lrc >= 0) {
     for (int y = 0; y < l.rows; ++y) {
@@ -556,6 +557,35 @@ DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const S
     cv::bilateralFilter(src, smooth, diameter, o.bilateral_sigma_disp, o.bilateral_sigma_space);
     smooth.copyTo(out.disparity, known);
   }
+  return out;
+}
+
+}  // namespace
+
+DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask,
+                              int stride, int left_pad_px, int right_pad_px) {
+  o.Check();
+  if (left.empty() || right.empty() || left.size() != right.size() || left.type() != right.type()) {
+    throw Error("stereo.sgbm: the left and right images must be non-empty and of the same size and type");
+  }
+  if (left_pad_px <= 0 && right_pad_px <= 0) return MatchViews(left, right, o, mask, stride, 0);
+  // Whole numbers of (half-resolution) thinning steps, so the same pixels are kept.
+  const int step = 2 * std::max(1, stride);
+  const int pad_l = (std::max(0, left_pad_px) + step - 1) / step * step;
+  const int pad_r = (std::max(0, right_pad_px) + step - 1) / step * step;
+  cv::Mat l, r, m;
+  cv::copyMakeBorder(left, l, 0, 0, pad_l, pad_r, cv::BORDER_REPLICATE);
+  cv::copyMakeBorder(right, r, 0, 0, pad_l, pad_r, cv::BORDER_REPLICATE);
+  if (!mask.empty()) cv::copyMakeBorder(mask, m, 0, 0, pad_l, pad_r, cv::BORDER_CONSTANT, cv::Scalar(0));
+  DisparityMap out = MatchViews(l, r, o, m, stride, pad_l);
+  const cv::Range cols(pad_l, pad_l + left.cols);
+  out.disparity = out.disparity.colRange(cols).clone();
+  out.rejected = out.rejected.colRange(cols).clone();
+  if (!out.sigma.empty()) out.sigma = out.sigma.colRange(cols).clone();
+  // The vertical disparity's model, from the padded frame to this one (the same plane).
+  const double per_px = out.vertical.slope_x_px / double(l.cols);
+  out.vertical.offset_px += per_px * 0.5 * (pad_l - pad_r);
+  out.vertical.slope_x_px = per_px * left.cols;
   return out;
 }
 

@@ -90,8 +90,15 @@ struct DisparityMap {
 /// `stride` > 1 keeps (and refines) only every stride-th pixel of every stride-th row, the
 /// others NaN: the refinement's cost and the cloud's size fall by stride^2, each kept pixel
 /// exactly as accurate.
+/// SGBM leaves the left view's first min_disparity + num_disparities columns unmatched (their
+/// search would leave the right image), and the left-right check's right matcher the right
+/// view's last ones, which fails the left pixels that match there. `left_pad_px` and
+/// `right_pad_px` widen both views on that side by that many columns (edges repeated) before
+/// matching, and the result is cropped: a pixel near either edge is matched wherever both cameras
+/// see it. A match that reads the left padding is dropped.
 DisparityMap ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& options,
-                              const cv::Mat& mask = cv::Mat(), int stride = 1);
+                              const cv::Mat& mask = cv::Mat(), int stride = 1, int left_pad_px = 0,
+                              int right_pad_px = 0);
 
 /// Sub-pixel refinement of an SGBM disparity map. SGM's path costs favour constant
 /// disparity, so on a convex surface (every path arrives from the farther rim) the map is

@@ -541,7 +541,8 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
 std::vector<std::string> GardenPresetNames() { return {"row", "single", "outdoor"}; }
 
 std::vector<std::string> GardenHardPresetNames() {
-  return {"pair", "low_camera", "high_camera", "small_far", "big_near", "off_centre", "touching"};
+  return {"pair", "low_camera", "high_camera", "small_far", "big_near", "off_centre", "touching", "left_edge",
+          "cut_by_frame"};
 }
 
 GardenScene GardenPreset(const std::string& name) {
@@ -598,9 +599,19 @@ GardenScene GardenPreset(const std::string& name) {
     sc.hedges = {{-900, 2500, 450, 30}, {0, 2500, 450, 30}, {900, 2500, 450, 30}};
     sc.pot_x_mm = 1150, sc.pot_z_mm = 1850;
     sc.texture_seed = 67;
+  } else if (name == "left_edge") {
+    // Near the image's left edge, where SGBM's search leaves the right view.
+    sc.hedges = {{-1500, 2300, 500, 30}};
+    sc.pot_x_mm = 400, sc.pot_z_mm = 2100;
+    sc.texture_seed = 71;
+  } else if (name == "cut_by_frame") {
+    // Half out of the image on the right: the fit sees part of the ball.
+    sc.hedges = {{2250, 2400, 500, 30}};
+    sc.pot_x_mm = -600, sc.pot_z_mm = 2000;
+    sc.texture_seed = 73;
   } else {
     throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
-                "high_camera, small_far, big_near, off_centre, touching");
+                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame");
   }
   return sc;
 }

@@ -116,7 +116,8 @@ std::vector<std::string> GardenPresetNames();
 /// range: "pair" (two balls, the hedge row between them), "low_camera" (0.8 m up: the lawn by
 /// the pot seen edge-on), "high_camera" (1.5 m up, 15 degrees down), "small_far" (r 420 mm at
 /// 2.6 m), "big_near" (r 600 mm at 2.0 m), "off_centre" (near the image's right edge),
-/// "touching" (three r 450 mm balls in a row, touching, at 2.5 m).
+/// "touching" (three r 450 mm balls in a row, touching, at 2.5 m), "left_edge" (near the image's
+/// left edge), "cut_by_frame" (half out of the image on the right).
 std::vector<std::string> GardenHardPresetNames();
 
 /// Creates `dir` (throwing hedgefit::Error when it cannot) and writes rig_truth.json and

@@ -239,6 +239,52 @@ TEST(GardenSegment, LabSphereIsOneHedge) {
   EXPECT_NEAR(g.hedges[0].approx_radius_mm, sc.radius, 0.25 * sc.radius);
 }
 
+// A ball near either side of the image. SGBM cannot match the left view's first min + num
+// disparities columns (their search would leave the right view), nor, through the left-right
+// check, the columns whose match lies in the right view's last ones: the coarse match lost a
+// tenth of the frame on each side (48 coarse columns), so a ball near the left edge lost its
+// outer part, and one cut by the right edge came out "not round" and was not found. Both views
+// are now padded. The box must reach the ball's true outline (its label, rectified), or on the
+// left the first column the right camera sees, within the mask's erosion (9 px at half scale)
+// and two coarse pixels; and a ball cut by the frame says so.
+TEST(GardenSegment, BallsAtTheImageEdgesKeepTheirOutline) {
+  const SimRig sim = PaperRig(0.5);
+  const StereoRig rig = RigFromSimulation(sim);
+  RenderOptions ro;
+  ro.supersample = 2;
+  ro.blur_sigma_px = 0.5;
+  ro.noise_sigma = 1.0;
+  RenderOptions lo;
+  lo.labels = true;
+  for (const double x : {-1800.0, 2250.0}) {
+    GardenScene sc = GardenPreset("single");
+    sc.hedges = {{x, 2400, 500, 30}};
+    sc.pot_x_mm = 300;
+    cv::Mat l, r;
+    RectifyPair(rig, RenderGarden(sim, false, sc, ro), RenderGarden(sim, true, sc, ro), &l, &r);
+    // The ball's true outline, rectified as the images are.
+    const cv::Rect truth = cv::boundingRect(RectifyLeftMask(rig, RenderGarden(sim, false, sc, lo) == kLabelHedge));
+    GardenSegmentation g;
+    try {
+      g = FindHedges(rig, l, r, GardenSegmentOptions{});
+    } catch (const Error& e) {
+      ADD_FAILURE() << "ball at x " << x << ": " << e.what();
+      continue;
+    }
+    ASSERT_EQ(g.hedges.size(), 1u) << "ball at x " << x;
+    const cv::Rect box = g.hedges[0].box;
+    const bool cut = truth.x + truth.width >= l.cols - 1;
+    ASSERT_EQ(cut, x > 0) << "the scene is not the case meant: label box " << truth;
+    EXPECT_EQ(g.hedges[0].touches_border, cut) << "ball at x " << x;
+    // On the left the right camera does not see the first d columns (d the disparity there): at
+    // most that of the ball's nearest point.
+    const cv::Vec3d c = GardenHedgeCenter(sc, 0);
+    const double d_max = rig.P1.at<double>(0, 0) * rig.baseline_mm / (c[2] - sc.hedges[0].radius_mm);
+    EXPECT_LE(box.x - std::max(double(truth.x), d_max), 13) << "ball at x " << x << ": box " << box << ", label " << truth;
+    EXPECT_LE(truth.x + truth.width - (box.x + box.width), 13) << "ball at x " << x << ": box " << box << ", label " << truth;
+  }
+}
+
 // A garden without a hedge: lawn, pot, hedge row and trees only. "No hedge", never a lawn.
 TEST(GardenSegment, NoHedgeIsAnErrorNamingWhatWasRejected) {
   SimRig sim = PaperRig(0.5);

@@ -44,14 +44,20 @@ void Synthetic(cv::Mat* left, cv::Mat* right, cv::Rect* square) {
   }
 }
 
-TEST(Matching, LeftRightCheckRejectsOcclusionAndFillingUsesTheBackground) {
-  cv::Mat l, r;
-  cv::Rect sq;
-  Synthetic(&l, &r, &sq);
+// The synthetic pair's search (0-32 px), unfilled and unsmoothed: the matcher's own output.
+SgbmOptions SyntheticOptions() {
   SgbmOptions o;
   o.num_disparities = 32;
   o.fill_holes = false;
   o.bilateral_sigma_disp = 0;
+  return o;
+}
+
+TEST(Matching, LeftRightCheckRejectsOcclusionAndFillingUsesTheBackground) {
+  cv::Mat l, r;
+  cv::Rect sq;
+  Synthetic(&l, &r, &sq);
+  SgbmOptions o = SyntheticOptions();
   const DisparityMap checked = ComputeDisparity(l, r, o);
   // Columns sq.x - 16 .. sq.x - 1 of background (16 = 24 - 8) are hidden behind the square
   // in the right view: the check must reject most of them.
@@ -76,6 +82,53 @@ TEST(Matching, LeftRightCheckRejectsOcclusionAndFillingUsesTheBackground) {
     for (int x = sq.x - 14; x < sq.x - 2; ++x) background += std::abs(filled.disparity.at<float>(y, x) - 8.0f) < 1.0f;
   }
   EXPECT_GT(background, total * 8 / 10);  // filled with the farther (background) disparity
+}
+
+// SGBM leaves the left view's first min + num disparities columns unmatched: a hedge near the
+// image's left edge lost that band. Padded, every column the right camera sees (x >= d, the
+// background at d = 8 here) is matched, right, and none it cannot see (x < d) is: such a match
+// would read the padding. The right pad gives the right-hand band to the left-right check.
+TEST(Matching, PaddedViewsMatchToTheImageEdges) {
+  cv::Mat l, r;
+  cv::Rect sq;
+  Synthetic(&l, &r, &sq);
+  SgbmOptions o = SyntheticOptions();
+  const DisparityMap plain = ComputeDisparity(l, r, o);
+  const DisparityMap padded = ComputeDisparity(l, r, o, cv::Mat(), 1, 32, 32);
+  ASSERT_EQ(padded.disparity.size(), l.size());
+  int plain_known = 0, padded_right = 0, seen = 0, unseen_known = 0;
+  for (int y = 5; y < sq.y - 5; ++y) {  // background only
+    for (int x = 0; x < 32; ++x) {
+      const float dp = padded.disparity.at<float>(y, x);
+      if (x < 8) {
+        unseen_known += std::isfinite(dp);
+        continue;
+      }
+      plain_known += std::isfinite(plain.disparity.at<float>(y, x));
+      if (x >= 10) {  // a block's half-width from where the right view begins
+        ++seen;
+        padded_right += std::isfinite(dp) && std::abs(dp - 8.0f) < 0.5f;
+      }
+    }
+  }
+  EXPECT_EQ(plain_known, 0);
+  EXPECT_EQ(unseen_known, 0);
+  EXPECT_GT(padded_right, seen * 9 / 10);
+  // At the right edge, left pixels whose match lies in the right view's last 32 columns, which
+  // the right matcher cannot search, failed the check.
+  int plain_right_edge = 0, padded_right_edge = 0, edge = 0;
+  for (int y = 5; y < sq.y - 5; ++y) {
+    for (int x = l.cols - 20; x < l.cols - 2; ++x) {
+      ++edge;
+      plain_right_edge += std::isfinite(plain.disparity.at<float>(y, x));
+      padded_right_edge += std::abs(padded.disparity.at<float>(y, x) - 8.0f) < 0.5f;
+    }
+  }
+  EXPECT_LT(plain_right_edge, edge / 10);
+  EXPECT_GT(padded_right_edge, edge * 9 / 10);
+  // Inside, padding changes nothing a pixel's own match depends on.
+  EXPECT_NEAR(padded.disparity.at<float>(sq.y + 30, sq.x + 25), 24.0f, 0.5f);
+  EXPECT_NEAR(padded.disparity.at<float>(sq.y + 30, 60), 8.0f, 0.5f);
 }
 
 TEST(Matching, FillTakesTheSmallerNeighbour) {
