@@ -37,6 +37,7 @@ struct GardenHedgeRow {
 struct GardenScene {
   std::string name;
   std::size_t hedges_true = 0, hedges_found = 0;
+  std::size_t others_found = 0;     ///< taken for hedges but in no hedge's truth (a shrub)
   double convert_ms = 0;            ///< capture to clouds, in process
   double envelope_ms = 0;           ///< the envelope fits of every hedge
   std::vector<GardenHedgeRow> rows;

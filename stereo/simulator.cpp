@@ -400,7 +400,7 @@ double HitLeafyBall(const cv::Vec3d& o, const cv::Vec3d& d, const cv::Vec3d& c, 
 struct GardenHit {
   double t = 1e18;
   int what = kLabelNone;  // kLabelHedge + i, kLabelGround, kLabelWall, kLabelNone = sky
-  int kind = 0;           // 0 sky, 1 hedge, 2 lawn, 3 pot, 4 hedge row, 5 fence, 6 crown, 7 trunk
+  int kind = 0;           // 0 sky, 1 hedge, 2 lawn, 3 pot, 4 hedge row, 5 fence, 6 crown, 7 trunk, 8 shrub
   double leaf = 0;        // hedges: depth fraction
   cv::Vec3d centre;       // hedges and crowns
 };
@@ -415,15 +415,20 @@ constexpr double kPotRadius = 180, kPotHeight = 380;
 GardenHit TraceGarden(const GardenScene& sc, const cv::Vec3d& o, const cv::Vec3d& d, bool shadow_ray) {
   GardenHit h;
   const double ground = sc.camera_height_mm;
-  for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
-    const GardenHedge& g = sc.hedges[i];
-    const cv::Vec3d c = LevelCenter(sc, g);
-    double t, leaf = 0;
-    // Shadow rays test the half-depth sphere only: the sun's shadow edge is not worth the cost.
-    if (shadow_ray) t = HitSphere(o, d, c, g.radius_mm - g.leaf_depth_mm / 2);
-    else t = HitLeafyBall(o, d, c, g.radius_mm, g.leaf_depth_mm, sc.texture_seed + 100 + i, &leaf);
-    if (t > 0 && t < h.t) h = GardenHit{t, kLabelHedge + int(i), 1, leaf, c};
-  }
+  // Leafy balls: the hedges, and the lobes of other shrubs (kind 8, not hedges).
+  auto trace_balls = [&](const std::vector<GardenHedge>& balls, std::uint64_t seed, bool hedges) {
+    for (std::size_t i = 0; i < balls.size(); ++i) {
+      const GardenHedge& g = balls[i];
+      const cv::Vec3d c = LevelCenter(sc, g);
+      double t, leaf = 0;
+      // Shadow rays test the half-depth sphere only: the sun's shadow edge is not worth the cost.
+      if (shadow_ray) t = HitSphere(o, d, c, g.radius_mm - g.leaf_depth_mm / 2);
+      else t = HitLeafyBall(o, d, c, g.radius_mm, g.leaf_depth_mm, seed + i, &leaf);
+      if (t > 0 && t < h.t) h = GardenHit{t, hedges ? kLabelHedge + int(i) : int(kLabelWall), hedges ? 1 : 8, leaf, c};
+    }
+  };
+  trace_balls(sc.hedges, sc.texture_seed + 100, true);
+  trace_balls(sc.shrub_lobes, sc.texture_seed + 300, false);
   if (sc.pot) {
     const double t = HitCylinder(o, d, sc.pot_x_mm, sc.pot_z_mm, kPotRadius, ground - kPotHeight, ground);
     if (t > 0 && t < h.t) h = GardenHit{t, kLabelWall, 3, 0, {}};
@@ -500,10 +505,13 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
       return 0.32 + (shadowed ? 0.0 : 0.78 * direct);
     };
     switch (h.kind) {
-      case 1: {  // leaves: darker deeper in the shell
+      case 1:
+      case 8: {  // leaves: darker deeper in the shell; a shrub's bluer and larger
         const cv::Vec3d nrm = cv::normalize(p - h.centre);
-        const double leaf = Fractal(p, 9.0, 3, seed + 7), vein = Fractal(p, 3.5, 2, seed + 8);
+        const double scale = h.kind == 8 ? 1.6 : 1.0;
+        const double leaf = Fractal(p, 9.0 * scale, 3, seed + 7), vein = Fractal(p, 3.5 * scale, 2, seed + 8);
         const double k = lit(nrm) * (1.0 - 0.6 * h.leaf) * (0.55 + 0.8 * leaf);
+        if (h.kind == 8) return cv::Vec3d((55 + 25 * vein) * k, (115 + 50 * vein) * k, (45 + 25 * vein) * k);
         return cv::Vec3d((30 + 25 * vein) * k, (120 + 60 * vein) * k, (55 + 30 * vein) * k);
       }
       case 2: {  // mown lawn: fine blades, mowing stripes
@@ -542,7 +550,7 @@ std::vector<std::string> GardenPresetNames() { return {"row", "single", "outdoor
 
 std::vector<std::string> GardenHardPresetNames() {
   return {"pair", "low_camera", "high_camera", "small_far", "big_near", "off_centre", "touching", "left_edge",
-          "cut_by_frame"};
+          "cut_by_frame", "shrubs"};
 }
 
 GardenScene GardenPreset(const std::string& name) {
@@ -609,9 +617,17 @@ GardenScene GardenPreset(const std::string& name) {
     sc.hedges = {{2250, 2400, 500, 30}};
     sc.pot_x_mm = -600, sc.pot_z_mm = 2000;
     sc.texture_seed = 73;
+  } else if (name == "shrubs") {
+    // Other shrubs, green and leafy but no balls: four lobes against the ball's right side, two
+    // more apart on the left.
+    sc.hedges = {{-300, 2400, 500, 30}};
+    sc.shrub_lobes = {{420, 2350, 300, 40}, {700, 2500, 320, 40}, {560, 2450, 260, 40},
+                      {950, 2380, 250, 40}, {-1500, 2200, 280, 40}, {-1800, 2300, 240, 40}};
+    sc.pot = false;
+    sc.texture_seed = 91;
   } else {
     throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
-                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame");
+                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs");
   }
   return sc;
 }

@@ -88,6 +88,9 @@ struct GardenScene {
   double pot_x_mm = -700, pot_z_mm = 1900;
   bool background = true;              ///< hedge row, fence, trees
   std::uint64_t texture_seed = 11;
+  /// Other shrubs: leafy lobes (each a ball of leaves like a hedge's, of another, bluer green)
+  /// that overlap into irregular bushes. Not hedges: labelled kLabelWall, not in the truth.
+  std::vector<GardenHedge> shrub_lobes;
 };
 
 /// Hedge `i`'s centre in the left camera frame (mm).
@@ -117,7 +120,8 @@ std::vector<std::string> GardenPresetNames();
 /// the pot seen edge-on), "high_camera" (1.5 m up, 15 degrees down), "small_far" (r 420 mm at
 /// 2.6 m), "big_near" (r 600 mm at 2.0 m), "off_centre" (near the image's right edge),
 /// "touching" (three r 450 mm balls in a row, touching, at 2.5 m), "left_edge" (near the image's
-/// left edge), "cut_by_frame" (half out of the image on the right).
+/// left edge), "cut_by_frame" (half out of the image on the right), "shrubs" (a ball with a
+/// four-lobed shrub against it and a two-lobed one apart).
 std::vector<std::string> GardenHardPresetNames();
 
 /// Creates `dir` (throwing hedgefit::Error when it cannot) and writes rig_truth.json and

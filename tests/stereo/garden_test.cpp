@@ -239,6 +239,38 @@ TEST(GardenSegment, LabSphereIsOneHedge) {
   EXPECT_NEAR(g.hedges[0].approx_radius_mm, sc.radius, 0.25 * sc.radius);
 }
 
+// Other shrubs: leafy, green, no balls. A shrub against a ball leaves their outline no waist
+// (its lobes fill it), but its front is a pit of its own in the depth: the ball must come out
+// alone, with at most 2 % of its points more than 50 mm outside its envelope (the target).
+// The shrubs may be taken for hedges (they are green, round enough and stand on the lawn); they
+// are not in the truth, and the ball's cloud must not hold them.
+TEST(GardenSegment, AShrubAgainstABallIsCutFromIt) {
+  const Rendered r = Render("shrubs", 0.5);
+  const StereoRig rig = RigFromSimulation(r.sim);
+  ConvertOptions o;
+  o.mode = SegmentMode::kGarden;
+  const ConvertResult res = ConvertCapture(r.left, r.right, rig, o);
+  const cv::Vec3d t = GardenHedgeCenter(r.scene, 0);
+  const Eigen::Vector3d centre(t[0], t[1], t[2]);
+  const double radius = r.scene.hedges[0].radius_mm;
+  std::size_t best_outside = 0, best_n = 0;
+  double best_d = 1e18;
+  for (const auto& g : cloud::HedgeGroups(res.cloud)) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    std::size_t outside = 0;
+    for (std::size_t k : g.indices) {
+      const Eigen::Vector3d p = res.cloud.points_mm[k].cast<double>();
+      mean += p;
+      if ((p - centre).norm() - radius > 50) ++outside;
+    }
+    mean /= double(std::max<std::size_t>(1, g.indices.size()));
+    if ((mean - centre).norm() < best_d) best_d = (mean - centre).norm(), best_outside = outside, best_n = g.indices.size();
+  }
+  ASSERT_LT(best_d, radius) << "no hedge's points lie on the ball";
+  ASSERT_GT(best_n, 1000u);
+  EXPECT_LE(double(best_outside) / double(best_n), 0.02);
+}
+
 // A ball near either side of the image. SGBM cannot match the left view's first min + num
 // disparities columns (their search would leave the right view), nor, through the left-right
 // check, the columns whose match lies in the right view's last ones: the coarse match lost a
