@@ -66,7 +66,7 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"
       "  hedgefit bench garden --reuse --json garden.json\n"
       "  hedgefit bench garden --renderer povray --camera real --dir build/garden-povray   # leaf discs, ~5 minutes\n"
-      "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame\n");
+      "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame, shrubs\n");
   struct GardenArgs {
     bench::GardenOptions garden;
     std::string json;
@@ -85,7 +85,7 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       ->capture_default_str();
   g->add_flag("--hard", ga->garden.hard,
               "the harder gardens instead: two balls with the hedge row between them, a low and a high camera, the "
-              "smallest ball farthest, the largest nearest, one near each edge of the image, one cut by it, three touching in a row");
+              "smallest ball farthest, the largest nearest, one near each edge of the image, one cut by it, three touching in a row, one among other shrubs");
   g->add_option("--json", ga->json, "also write the tables as JSON here");
   g->callback([=]() {
     *run = [=]() {
