@@ -34,7 +34,10 @@ MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& re
     }
     if (hedges) {
       for (const auto& h : *hedges) {
-        if (h.id == f.hedge_id) j["image_box"] = {h.image_box.x, h.image_box.y, h.image_box.width, h.image_box.height};
+        if (h.id != f.hedge_id) continue;
+        j["image_box"] = {h.image_box.x, h.image_box.y, h.image_box.width, h.image_box.height};
+        // The fit saw part of the ball: its centre is extrapolated, its errors larger.
+        if (h.touches_border) j["cut_by_frame"] = true;
       }
     }
     j["capture_ms"] = Rounded(report.total_ms);

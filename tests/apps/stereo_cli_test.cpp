@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "cloud/cloud_io.hpp"
+#include "stereo/simulator.hpp"
 #include "tests/cli_helpers.hpp"
 #include "tests/test_data.hpp"
 
@@ -230,6 +231,27 @@ TEST(ConvertCli, GardenRowGivesOnePcdPerHedgeAndComparePerHedge) {
   EXPECT_NE(r.err.find("--garden"), std::string::npos) << r.err;
 }
 
+// A hedge the image's edge cuts says so in its line: the fit saw part of the ball, so its centre
+// is extrapolated. Half out of the frame on the right; found with the defaults.
+TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const hedgefit::stereo::SimRig rig = hedgefit::stereo::PaperRig(0.5);
+  hedgefit::stereo::RenderOptions ro;
+  ro.supersample = 2;
+  ro.blur_sigma_px = 0.5;
+  ro.noise_sigma = 1.0;
+  hedgefit::stereo::WriteGardenWith(
+      (dir / "g").string(), rig, {"cut_by_frame"},
+      [&](const hedgefit::stereo::GardenScene& sc, bool right) { return hedgefit::stereo::RenderGarden(rig, right, sc, ro); },
+      [](const hedgefit::stereo::GardenScene& sc, std::size_t i) { return hedgefit::stereo::GardenHedgeSurfaceRadius(sc, i); });
+  const auto r = RunHedgefit("measure --method envelope --rig g/rig.yaml --left g/garden_cut_by_frame_left.png "
+                             "--right g/garden_cut_by_frame_right.png",
+                             dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto f = nlohmann::json::parse(r.out.substr(0, r.out.find('\n')));
+  EXPECT_TRUE(f.value("cut_by_frame", false)) << r.out;
+}
+
 // measure: the capture path, cleaning and a fit in one step, one JSON line per hedge.
 TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
   const auto dir = hedgefit::testing::ScratchDir();
@@ -250,6 +272,7 @@ TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
     EXPECT_EQ(f["method"], "envelope");
     ASSERT_TRUE(f["converged"].get<bool>()) << f.dump();
     EXPECT_EQ(f["image_box"].size(), 4u);
+    EXPECT_FALSE(f.contains("cut_by_frame")) << "hedge " << i + 1;  // the row is inside the image
     // As in ConvertCli.GardenRow...: half the paper's resolution doubles the depth error per
     // point, so 10 mm on the radius; the centre, seen from one side, moves along the line of
     // sight about 1.5 times as far as the radius errs. Neighbouring hedges are 1.4 m apart.
