@@ -79,7 +79,7 @@ struct Blob {
   std::vector<int> pixels;  // coarse pixel indices
   double min_h = 1e18, max_h = -1e18, min_x = 1e18, max_x = -1e18, min_z = 1e18, max_z = -1e18;
   cv::Vec3d sum{0, 0, 0};
-  int min_u = 1 << 30, max_u = -1;
+  int min_u = 1 << 30, max_u = -1, min_v = 1 << 30, max_v = -1;  // coarse columns and rows
 };
 
 std::string Where(const Blob& b, int downscale) {
@@ -338,6 +338,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     b->min_x = std::min(b->min_x, x), b->max_x = std::max(b->max_x, x);
     b->min_z = std::min(b->min_z, p[2]), b->max_z = std::max(b->max_z, p[2]);
     b->min_u = std::min(b->min_u, i % w), b->max_u = std::max(b->max_u, i % w);
+    b->min_v = std::min(b->min_v, i / w), b->max_v = std::max(b->max_v, i / w);
     b->sum += p;
   };
   std::vector<int> blob_of(xyz.size(), -1);
@@ -387,8 +388,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     for (std::size_t bi = 0; bi < n_before; ++bi) {
       const Blob& b = blobs[bi];
       if (b.pixels.size() < 200) continue;
-      int v0 = h, v1 = -1;
-      for (int i : b.pixels) v0 = std::min(v0, i / w), v1 = std::max(v1, i / w);
+      const int v0 = b.min_v, v1 = b.max_v;
       const cv::Rect box(b.min_u - 1, v0 - 1, b.max_u - b.min_u + 3, v1 - v0 + 3);  // a blank border
       cv::Mat mask = cv::Mat::zeros(box.size(), CV_8U);
       for (int i : b.pixels) mask.at<std::uint8_t>(i / w - box.y, i % w - box.x) = 255;
@@ -473,8 +473,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     const double radius = 0.5 * std::max(width, tall);
     // A ball cut by the frame's side is narrower than it is high, one cut by its top or bottom
     // lower than it is wide: the outline's aspect says nothing there.
-    int v0 = h, v1 = -1;
-    for (int i : b.pixels) v0 = std::min(v0, i / w), v1 = std::max(v1, i / w);
+    const int v0 = b.min_v, v1 = b.max_v;
     const bool cut_side = b.min_u <= 1 || b.max_u >= w - 2, cut_end = v0 <= 1 || v1 >= h - 2;
     char why[160] = "";
     if (radius < o.min_radius_mm || radius > o.max_radius_mm) {
@@ -521,8 +520,7 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
     const Blob& b = blobs[std::size_t(kept[n].blob)];
     // Work inside the blob's box (with a blank border, so holes and erosion behave as on the whole
     // image): full-resolution morphology over the whole frame would cost more than the match.
-    int v0 = h, v1 = -1;
-    for (int i : b.pixels) v0 = std::min(v0, i / w), v1 = std::max(v1, i / w);
+    const int v0 = b.min_v, v1 = b.max_v;
     const cv::Rect coarse_box(b.min_u, v0, b.max_u - b.min_u + 1, v1 - v0 + 1);
     const cv::Rect roi = cv::Rect(coarse_box.x * k - 2, coarse_box.y * k - 2, coarse_box.width * k + 4,
                                   coarse_box.height * k + 4) &

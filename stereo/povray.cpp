@@ -390,13 +390,10 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
       << "    texture { pigment { bozo color_map { [0 rgb <0.45, 0.17, 0.07>] [1 rgb <0.60, 0.26, 0.12>] } scale 20 }\n"
       << "      finish { ambient 0.1 diffuse 0.75 } } }\n";
   }
-  // Other shrubs: the same leaves, one lobe at a time (GardenScene::shrub_lobes), on the hedge's
-  // dark body; a lobe's centre as a hedge's would be.
+  // Other shrubs: the same leaves, one lobe at a time (GardenScene::shrub_lobes), on a dark body.
   for (std::size_t i = 0; i < sc.shrub_lobes.size(); ++i) {
-    GardenScene lobe = sc;
-    lobe.hedges = {sc.shrub_lobes[i]};
     const GardenHedge& g = sc.shrub_lobes[i];
-    const cv::Vec3d c = level_from_camera * GardenHedgeCenter(lobe, 0);
+    const cv::Vec3d c = GardenLevelCenter(sc, g);
     o << "  sphere { " << Pov(c) << ", " << InnerRadius(g)
       << " texture { pigment { rgb <0.03, 0.05, 0.02> } finish { ambient 0.05 diffuse 0.6 } } }\n";
     o.precision(2);

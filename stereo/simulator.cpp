@@ -464,6 +464,8 @@ GardenHit TraceGarden(const GardenScene& sc, const cv::Vec3d& o, const cv::Vec3d
 
 }  // namespace
 
+cv::Vec3d GardenLevelCenter(const GardenScene& sc, const GardenHedge& ball) { return LevelCenter(sc, ball); }
+
 cv::Vec3d GardenHedgeCenter(const GardenScene& sc, std::size_t i) {
   if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
   return GardenFrame(sc.pitch_deg).level_from_camera.t() * LevelCenter(sc, sc.hedges[i]);

@@ -93,6 +93,10 @@ struct GardenScene {
   std::vector<GardenHedge> shrub_lobes;
 };
 
+/// A leafy ball's (a hedge's or a shrub lobe's) centre in the garden's level frame (mm): it sits
+/// on the lawn.
+cv::Vec3d GardenLevelCenter(const GardenScene& scene, const GardenHedge& ball);
+
 /// Hedge `i`'s centre in the left camera frame (mm).
 cv::Vec3d GardenHedgeCenter(const GardenScene& scene, std::size_t i);
 
