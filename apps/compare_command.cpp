@@ -188,7 +188,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
             rep.points_cleaned = pts.size();
             rep.truth = fitting::TruthForPoints(truths, pts);
             for (const auto& m : methods) {
-              rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed));
+              rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed, g.id >= 1));
               rep.fits.back().hedge_id = g.id;
               fitting::AddUncertainty(pts, a->rig.empty() ? nullptr : &rig_perturbation, &rep.fits.back(),
                                       a->rig.empty() ? nullptr : &matching_perturbation);
@@ -295,6 +295,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
         for (const auto& r : reports) {
           for (const auto& f : r.fits) {
             std::string msg = f.message;
+            if (f.converged && f.not_a_ball) msg += (msg.empty() ? "" : "; ") + ("not a ball: " + *f.not_a_ball);
             std::replace(msg.begin(), msg.end(), '"', '\'');
             std::printf("%s,%s,%d,", r.file.c_str(), f.method.c_str(), f.converged ? 1 : 0);
             if (f.converged) {
@@ -351,6 +352,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
               std::printf(" %8.2f %7.2f %8.2f", e.aer_mm, e.rer_percent, e.ld_mm);
             }
             std::printf("\n");
+            if (f.not_a_ball) std::printf("  %-17s ^ not a ball: %s\n", "", f.not_a_ball->c_str());
           }
           std::printf("\n");
         }

@@ -93,6 +93,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       std::fflush(stdout);
       if (converged == 0) throw ProcessingError(a->left + ": no fit converged (" + failure + ")");
       if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());
+      for (const std::string& why : m.not_balls) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), why.c_str());
       return kExitOk;
     };
   });

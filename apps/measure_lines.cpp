@@ -41,6 +41,10 @@ MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& re
       }
     }
     j["capture_ms"] = Rounded(report.total_ms);
+    if (f.converged && f.not_a_ball) {
+      out.not_balls.push_back("hedge " + std::to_string(j["hedge"].get<int>()) + ", " + f.method + ": not a ball: " +
+                              *f.not_a_ball);
+    }
     if (f.converged) {
       ++out.converged;
     } else if (out.first_failure.empty()) {

@@ -16,6 +16,8 @@ struct MeasureLines {
   std::vector<nlohmann::ordered_json> lines;  ///< one per fit, in the pipeline's order
   int converged = 0;
   std::string first_failure;  ///< "hedge N, METHOD: why" of the first fit that did not converge
+  /// "hedge N, METHOD: why" of each fit whose points are not a ball's (SphereFitResult::not_a_ball)
+  std::vector<std::string> not_balls;
 };
 
 /// Millimetres and milliseconds to the micrometre / microsecond (more digits are noise).

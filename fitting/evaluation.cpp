@@ -150,6 +150,7 @@ std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFi
   }
   if (f.converged && f.vertical_axis_mm) out.emplace_back("vertical_axis_mm", *f.vertical_axis_mm);
   if (f.converged && f.horizontal_axis_mm) out.emplace_back("horizontal_axis_mm", *f.horizontal_axis_mm);
+  if (f.converged && f.not_a_ball) out.emplace_back("not_a_ball", *f.not_a_ball);
   return out;
 }
 

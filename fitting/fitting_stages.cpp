@@ -75,6 +75,7 @@ void RegisterFittingStages(cloud::Registry& r) {
                   in.points_mm = &pts;
                   in.seed = seed;
                   in.inliers = m.has_inliers ? &inliers[k] : nullptr;
+                  in.one_hedge = g.id >= 1;
                   // 'previous': the latest converged fit of this hedge.
                   if (earlier) {
                     for (auto it = earlier->rbegin(); it != earlier->rend(); ++it) {

@@ -218,6 +218,21 @@ std::vector<FitMethod> MakeTable() {
   return t;
 }
 
+// Every method's fit says when its sphere is far wider than the points (a shrub or a lawn, not a
+// ball): whichever caller runs it (a stage, compare, the benches, Python).
+std::vector<FitMethod> WithShapeCheck(std::vector<FitMethod> table) {
+  for (FitMethod& m : table) {
+    m.bind = [bind = m.bind](const Options& o) -> BoundFit {
+      return [fit = bind(o)](const FitInputs& in) {
+        SphereFitResult r = fit(in);
+        r.not_a_ball = NotABallReason(*in.points_mm, r, in.one_hedge);
+        return r;
+      };
+    };
+  }
+  return table;
+}
+
 }  // namespace
 
 const FitMethod* MostTrusted(const std::vector<std::string>& names) {
@@ -231,7 +246,7 @@ const FitMethod* MostTrusted(const std::vector<std::string>& names) {
 }
 
 const std::vector<FitMethod>& FitMethods() {
-  static const std::vector<FitMethod> table = MakeTable();
+  static const std::vector<FitMethod> table = WithShapeCheck(MakeTable());
   return table;
 }
 
@@ -278,7 +293,8 @@ std::vector<std::string> ParseMethodList(const std::string& text, const std::str
 }
 
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
-                             const std::map<std::string, cloud::OptionValue>& given, std::uint64_t seed) {
+                             const std::map<std::string, cloud::OptionValue>& given, std::uint64_t seed,
+                             bool one_hedge) {
   const FitMethod& m = FindFitMethod(name, "fit");
   std::map<std::string, cloud::OptionValue> mine;
   for (const auto& spec : m.options) {
@@ -290,6 +306,7 @@ SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::V
   FitInputs in;
   in.points_mm = &points_mm;
   in.seed = seed;
+  in.one_hedge = one_hedge;
   return fit(in);
 }
 

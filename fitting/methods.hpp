@@ -21,6 +21,9 @@ struct FitInputs {
   std::uint64_t seed = 42;                                  ///< for methods that sample
   const Sphere* previous = nullptr;  ///< an earlier fit, for options such as initial = previous
   std::vector<std::size_t>* inliers = nullptr;  ///< out: inlier indices, for methods that have them
+  /// The points are one hedge's (a capture's segmented hedge, hedge_id >= 1), not a scene to pick a
+  /// ball out of: a consensus fit is then judged against all of them (NotABallReason).
+  bool one_hedge = false;
 };
 
 /// A method with its options bound and checked: call it on any number of inputs.
@@ -61,8 +64,9 @@ const FitMethod* MostTrusted(const std::vector<std::string>& names);
 std::vector<std::string> ParseMethodList(const std::string& text, const std::string& where);
 
 /// Runs one method with `given` options (the rest at their defaults; options the method does
-/// not declare are ignored, so one map can serve several methods).
+/// not declare are ignored, so one map can serve several methods). `one_hedge`: see FitInputs.
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
-                             const std::map<std::string, cloud::OptionValue>& given = {}, std::uint64_t seed = 42);
+                             const std::map<std::string, cloud::OptionValue>& given = {}, std::uint64_t seed = 42,
+                             bool one_hedge = false);
 
 }  // namespace hedgefit::fitting

@@ -1,7 +1,9 @@
 #include "fitting/sphere_fit.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace hedgefit::fitting {
 
@@ -36,6 +38,47 @@ std::optional<std::string> DegeneracyReason(const std::vector<Eigen::Vector3d>& 
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : points_mm) cov += (p - mean) * (p - mean).transpose();
   return DegeneracyFromMoments(n, true, mean, cov / double(n));
+}
+
+double PrincipalSpan(const std::vector<Eigen::Vector3d>& points_mm) {
+  if (points_mm.size() < 2) return 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points_mm) mean += p;
+  mean /= double(points_mm.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points_mm) cov += (p - mean) * (p - mean).transpose();
+  const Eigen::Vector3d axis = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(2);
+  std::vector<double> t(points_mm.size());
+  for (std::size_t i = 0; i < points_mm.size(); ++i) t[i] = axis.dot(points_mm[i] - mean);
+  // Percentiles, so a few stray points (lawn at the ball's foot) do not widen it.
+  const auto lo = t.begin() + std::ptrdiff_t(0.02 * double(t.size() - 1));
+  const auto hi = t.begin() + std::ptrdiff_t(0.98 * double(t.size() - 1));
+  std::nth_element(t.begin(), lo, t.end());
+  const double low = *lo;
+  std::nth_element(t.begin(), hi, t.end());
+  return *hi - low;
+}
+
+std::optional<std::string> NotABallReason(const std::vector<Eigen::Vector3d>& points_mm, const SphereFitResult& fit,
+                                          bool one_hedge) {
+  if (!fit.converged) return std::nullopt;
+  const double span = std::max(PrincipalSpan(points_mm), 1e-9), diameter = 2 * fit.sphere.radius_mm;
+  char why[240];
+  if (diameter > kMaxSphereToSpan * span) {
+    std::snprintf(why, sizeof(why),
+                  "the sphere (r %.0f mm) is %.1f times as wide as the points (%.0f mm across): they are a shallow "
+                  "patch of it, not a ball",
+                  fit.sphere.radius_mm, diameter / span, span);
+    return std::string(why);
+  }
+  if (diameter < kMinSphereToSpan * span && (one_hedge || fit.inliers >= fit.points_used)) {
+    std::snprintf(why, sizeof(why),
+                  "the points reach %.0f mm across, beyond the sphere's %.0f mm diameter: not one ball (a shrub's "
+                  "lobes, or a ball with something else)",
+                  span, diameter);
+    return std::string(why);
+  }
+  return std::nullopt;
 }
 
 double RmsResidual(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere) {

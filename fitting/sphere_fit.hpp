@@ -43,6 +43,9 @@ struct SphereFitResult {
   std::optional<Eigen::Vector3d> axes_mm;
   std::optional<double> vertical_axis_mm;
   std::optional<double> horizontal_axis_mm;
+  /// Set when the fitted sphere is far wider than the points (ShallowPatchReason): they are a
+  /// shallow patch of it, as a lumpy shrub, a wall or a lawn gives, not a ball; says why.
+  std::optional<std::string> not_a_ball;
 };
 
 /// Why a point set cannot determine a sphere, or nullopt if it can: fewer than 4
@@ -55,6 +58,30 @@ std::optional<std::string> DegeneracyReason(const std::vector<Eigen::Vector3d>& 
 /// mean and covariance (mean of (p - mean)(p - mean)^T).
 std::optional<std::string> DegeneracyFromMoments(std::size_t n, bool finite, const Eigen::Vector3d& mean,
                                                  const Eigen::Matrix3d& covariance);
+
+/// The points' span: the distance between their 2nd and 98th percentiles along their principal
+/// axis (the direction they spread most), mm. A ball's visible cap spans nearly its diameter.
+double PrincipalSpan(const std::vector<Eigen::Vector3d>& points_mm);
+
+/// Bounds on a ball's sphere against its points' span (PrincipalSpan): the sphere's diameter over
+/// the span. A camera sees a cap of a ball up to its limb, 2r sqrt(1 - (r/D)^2) across (0.89 of
+/// the diameter for the paper's outdoor hedge, r 920 mm at D 2 m; more for smaller or farther
+/// ones); the mask's erosion, a ball half out of the frame and the lowest part hidden by the lawn
+/// take some of that but leave its larger extent above half the diameter. So a ball's points span
+/// between about half its diameter and its diameter (the 2-98 % span of a whole disc is 0.94 of
+/// it): the gardens' balls give 1.3-1.5 on both renderers. A lumpy shrub's front or a stretch of
+/// lawn is fitted by a sphere many times wider than it; a shrub's lobes side by side by one
+/// narrower than they reach.
+constexpr double kMaxSphereToSpan = 2.5;
+constexpr double kMinSphereToSpan = 1.0;
+
+/// Why `fit` is not the ball these points are on, or nullopt: its sphere is more than
+/// kMaxSphereToSpan times as wide as their span (a shallow patch of it), or narrower than
+/// kMinSphereToSpan times their span (they reach beyond it). The second is not asked of a
+/// consensus fit (RANSAC: some points its inliers), which may pick a ball out of a scene, unless
+/// the points are `one_hedge`'s (a segmented hedge, which should be one ball).
+std::optional<std::string> NotABallReason(const std::vector<Eigen::Vector3d>& points_mm, const SphereFitResult& fit,
+                                          bool one_hedge = false);
 
 /// RMS of the geometric residuals |p - c| - r, mm.
 double RmsResidual(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere);

@@ -74,7 +74,8 @@ void RegisterRenderStages(cloud::Registry& r) {
             std::vector<SphereOverlay> spheres;
             for (const auto& f : ctx.Get<std::vector<fitting::SphereFitResult>>("fits")) {
               if (f.converged) {
-                const std::string label = f.hedge_id ? "hedge " + std::to_string(f.hedge_id) + " " + f.method : f.method;
+                std::string label = f.hedge_id ? "hedge " + std::to_string(f.hedge_id) + " " + f.method : f.method;
+                if (f.not_a_ball) label += " (not a ball)";
                 spheres.push_back(SphereOverlay{label, f.sphere, false});
               }
             }

@@ -252,6 +252,54 @@ TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
   EXPECT_TRUE(f.value("cut_by_frame", false)) << r.out;
 }
 
+// Shrubs beside a ball are taken for hedges by depth (they stand on the lawn, round enough in
+// outline) but their fits say they are not a ball: a four-lobed shrub against the ball and a
+// two-lobed one apart. The default fit (ransac_geometric) on each lobe, or the envelope fit on the
+// front of the four, gives a sphere narrower than the shrub's points reach, or many times wider;
+// the ball's sphere is 1.3-1.5 times its points' span (fitting::kMinSphereToSpan and
+// kMaxSphereToSpan are 1.0 and 2.5), and it is within 10 mm of its truth (half the paper's
+// resolution, as in GardenRowGivesOneJsonLinePerHedgeAndAnOverlay).
+TEST(MeasureCli, ShrubsTakenForHedgesAreToldNotABall) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const hedgefit::stereo::SimRig rig = hedgefit::stereo::PaperRig(0.5);
+  hedgefit::stereo::RenderOptions ro;
+  ro.supersample = 2;
+  ro.blur_sigma_px = 0.5;
+  ro.noise_sigma = 1.0;
+  hedgefit::stereo::WriteGardenWith(
+      (dir / "g").string(), rig, {"shrubs"},
+      [&](const hedgefit::stereo::GardenScene& sc, bool right) { return hedgefit::stereo::RenderGarden(rig, right, sc, ro); },
+      [](const hedgefit::stereo::GardenScene& sc, std::size_t i) { return hedgefit::stereo::GardenHedgeSurfaceRadius(sc, i); });
+  const auto truth = nlohmann::json::parse(std::ifstream(dir / "g" / "garden_shrubs.truth.json"))["hedges"];
+  ASSERT_EQ(truth.size(), 1u);
+  for (const std::string method : {"ransac_geometric", "envelope"}) {
+    const auto r = RunHedgefit("measure --method " + method +
+                                   " --rig g/rig.yaml --left g/garden_shrubs_left.png --right g/garden_shrubs_right.png",
+                               dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::istringstream lines(r.out);
+    int balls = 0, not_balls = 0;
+    for (std::string line; std::getline(lines, line);) {
+      const auto f = nlohmann::json::parse(line);
+      ASSERT_TRUE(f["converged"].get<bool>()) << line;
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += std::pow(f["center_mm"][k].get<double>() - truth[0]["center_mm"][k].get<double>(), 2);
+      if (std::sqrt(d2) < 100) {  // the ball
+        ++balls;
+        EXPECT_FALSE(f.contains("not_a_ball")) << method << ": " << line;
+        EXPECT_NEAR(f["radius_mm"].get<double>(), truth[0]["radius_mm"].get<double>(), 10.0) << method;
+      } else {
+        ++not_balls;
+        EXPECT_TRUE(f.contains("not_a_ball")) << method << ": " << line;
+      }
+    }
+    EXPECT_EQ(balls, 1) << method << ": " << r.out;
+    EXPECT_EQ(not_balls, 2) << method << ": " << r.out;  // both shrubs were taken for hedges by depth
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), not_balls) << r.err;  // a warning for each
+    EXPECT_NE(r.err.find("not a ball"), std::string::npos) << r.err;
+  }
+}
+
 // measure: the capture path, cleaning and a fit in one step, one JSON line per hedge.
 TEST(MeasureCli, GardenRowGivesOneJsonLinePerHedgeAndAnOverlay) {
   const auto dir = hedgefit::testing::ScratchDir();

@@ -297,3 +297,84 @@ TEST(MethodTable, RunFitMethodMatchesTheStage) {
 
 }  // namespace
 }  // namespace hedgefit::fitting
+
+namespace hedgefit::fitting {
+namespace {
+
+// Every method says when its sphere is far wider than the points it was fitted to (a lumpy shrub
+// or a stretch of lawn taken for a hedge), and never says it of a ball's cap as a camera sees it:
+// whole, cut in half by the frame, its lower part hidden by the lawn, or the paper's outdoor size.
+// The caps' spheres are 1.1-1.3 times their points' span (the visible cap reaches 2r sin 70 deg
+// across; the 2-98 % span takes a little off), the patch's about 8 times (a r 3000 mm sphere seen
+// 835 mm across): each side of kMaxSphereToSpan (2.5) by a factor of two or more, where 5 mm of
+// noise moves the fitted radius by a few per cent.
+TEST(ShapeCheck, AShallowPatchIsNotABallACapOfOneIs) {
+  std::mt19937_64 rng(23);
+  struct Case {
+    const char* name;
+    std::vector<Eigen::Vector3d> pts;
+  };
+  std::vector<Case> balls;
+  const Eigen::Vector3d c(100, 50, 2300);
+  balls.push_back({"whole ball", hedgefit::testing::LeafyCap(c, 500, 8, 70, 4000, 5, rng)});
+  std::vector<Eigen::Vector3d> half, low_hidden;
+  for (const auto& p : hedgefit::testing::LeafyCap(c, 500, 8, 70, 6000, 5, rng)) {
+    if (p.x() < c.x()) half.push_back(p);                 // the frame's right edge through its centre
+    if (p.y() < c.y() + 0.3 * 500) low_hidden.push_back(p);  // y is down: the lawn hides the bottom
+  }
+  balls.push_back({"ball cut by the frame", half});
+  balls.push_back({"ball above the lawn", low_hidden});
+  balls.push_back({"the paper's outdoor ball", hedgefit::testing::LeafyCap(Eigen::Vector3d(0, 100, 2000), 920, 9, 60,
+                                                                           4000, 6, rng)});
+  for (const Case& b : balls) {
+    for (const std::string& m : SphereMethodNames()) {
+      const SphereFitResult f = RunFitMethod(m, b.pts, {});
+      ASSERT_TRUE(f.converged) << b.name << ", " << m << ": " << f.message;
+      EXPECT_FALSE(f.not_a_ball) << b.name << ", " << m << ": " << f.not_a_ball.value_or("");
+    }
+  }
+  // A shallow lumpy patch 835 mm across, 2.3 m away: a shrub's front, not a ball.
+  const auto patch = hedgefit::testing::Cap(Eigen::Vector3d(0, 0, 5300), 3000, 8, Eigen::Vector3d(0, 0, -1), 4000, 5, rng);
+  int flagged = 0;
+  for (const std::string& m : SphereMethodNames()) {
+    const SphereFitResult f = RunFitMethod(m, patch, {});
+    if (!f.converged) continue;  // "fits a plane better than any sphere" says it as well
+    ++flagged;
+    ASSERT_TRUE(f.not_a_ball) << m << ": r " << f.sphere.radius_mm;
+    EXPECT_NE(f.not_a_ball->find("not a ball"), std::string::npos) << *f.not_a_ball;
+    // And it is in the fit's fields, so compare, measure and stream print it.
+    bool in_fields = false;
+    for (const auto& [key, value] : FitFields(f)) in_fields = in_fields || key == "not_a_ball";
+    EXPECT_TRUE(in_fields) << m;
+  }
+  EXPECT_GE(flagged, 4);  // the robust and geometric fits at least converge on it
+}
+
+// A sphere through one of a shrub's two lobes, fitted to both (the envelope fit on a two-lobed
+// shrub does this): the points reach 1.6 times its diameter beyond it, so it is not their ball. A
+// consensus fit (RANSAC: some points its inliers) may pick a ball out of clutter, so the same
+// sphere from one is left alone; so is the sphere of one lobe fitted to that lobe.
+TEST(ShapeCheck, PointsReachingBeyondTheSphereAreNotOneBall) {
+  std::mt19937_64 rng(29);
+  const Eigen::Vector3d a(-200, 0, 2300), b(200, 0, 2300);
+  const auto lobe_a = hedgefit::testing::LeafyCap(a, 250, 6, 70, 2000, 4, rng);
+  auto both = lobe_a;
+  for (const auto& p : hedgefit::testing::LeafyCap(b, 250, 6, 70, 2000, 4, rng)) both.push_back(p);
+  SphereFitResult f;
+  f.converged = true;
+  f.sphere = Sphere{a, 250};
+  f.points_used = f.inliers = both.size();
+  const auto why = NotABallReason(both, f);
+  ASSERT_TRUE(why);
+  EXPECT_NE(why->find("not one ball"), std::string::npos) << *why;
+  f.inliers = lobe_a.size();  // a consensus of one lobe
+  EXPECT_FALSE(NotABallReason(both, f)) << *NotABallReason(both, f);
+  f.points_used = f.inliers = lobe_a.size();
+  EXPECT_FALSE(NotABallReason(lobe_a, f)) << *NotABallReason(lobe_a, f);
+  f.converged = false;  // a failed fit has no sphere to judge
+  f.points_used = f.inliers = both.size();
+  EXPECT_FALSE(NotABallReason(both, f));
+}
+
+}  // namespace
+}  // namespace hedgefit::fitting
