@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -85,6 +86,7 @@ GardenResult RunGarden(const GardenOptions& a) {
         if (!t || (t->center_mm - row.truth.center_mm).norm() > 1e-9) continue;
         row.id = g.id;
         row.points = pts.size();
+        row.span_mm = fitting::PrincipalSpan(pts);
         for (const auto& rg : raw_groups) {
           if (rg.id != g.id) continue;
           std::size_t outside = 0;
@@ -95,7 +97,7 @@ GardenResult RunGarden(const GardenOptions& a) {
           row.outside_50mm = double(outside) / double(std::max<std::size_t>(1, rg.indices.size()));
         }
         for (const auto& m : fitting::SphereMethodNames()) {
-          row.fits.push_back(fitting::RunFitMethod(m, pts, {}));
+          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true));
           row.fits.back().hedge_id = g.id;
           if (m == "envelope") scene.envelope_ms += row.fits.back().wall_ms;
           summary.Add(m, row.fits.back(), row.truth);
@@ -105,6 +107,17 @@ GardenResult RunGarden(const GardenOptions& a) {
     }
     for (const GardenHedgeRow& row : scene.rows) scene.hedges_found += row.id != 0 ? 1 : 0;
     scene.others_found = res.hedges.size() - std::min(res.hedges.size(), scene.hedges_found);
+    // What else was taken for a hedge (a shrub): does the envelope fit tell it is not a ball?
+    for (const auto& g : groups) {
+      if (std::any_of(scene.rows.begin(), scene.rows.end(), [&](const GardenHedgeRow& row) { return row.id == g.id; })) continue;
+      std::vector<Eigen::Vector3d> pts;
+      for (std::size_t i : g.indices) pts.push_back(cleaned.points_mm[i].cast<double>());
+      const fitting::SphereFitResult f = fitting::RunFitMethod("envelope", pts, {}, 42, true);
+      if (!f.converged) continue;
+      scene.others_not_ball += f.not_a_ball ? 1 : 0;
+      scene.others_not_ball_default += fitting::RunFitMethod("ransac_geometric", pts, {}, 42, true).not_a_ball ? 1 : 0;
+      scene.others_span_ratio.push_back(2 * f.sphere.radius_mm / std::max(1e-9, fitting::PrincipalSpan(pts)));
+    }
     // The paper's path on the same capture.
     try {
       stereo::ConvertOptions colour = a.convert;
@@ -140,8 +153,12 @@ GardenResult RunGarden(const GardenOptions& a) {
 void PrintGarden(const GardenResult& r) {
   const auto methods = fitting::SphereMethodNames();
   for (const GardenScene& s : r.scenes) {
-    char others[96] = "";
-    if (s.others_found > 0) std::snprintf(others, sizeof(others), " (and %zu not a hedge of the truth)", s.others_found);
+    char others[160] = "";
+    if (s.others_found > 0) {
+      std::snprintf(others, sizeof(others),
+                    " (and %zu not a hedge of the truth, told not a ball: %zu by envelope, %zu by ransac_geometric)",
+                    s.others_found, s.others_not_ball, s.others_not_ball_default);
+    }
     std::printf("garden_%s: %zu of %zu hedges found%s; capture to clouds %.0f ms, envelope fits %.0f ms\n", s.name.c_str(),
                 s.hedges_found, s.hedges_true, others, s.convert_ms, s.envelope_ms);
     std::printf("  %4s %8s %8s %9s %8s", "id", "true r", "points", ">50mm out", "");
@@ -168,6 +185,9 @@ void PrintGarden(const GardenResult& r) {
       }
       if (envelope && envelope->converged && envelope->surface_radius_mm) {
         std::printf("   %.1f (%.1f)", *envelope->surface_radius_mm, h.truth_surface_mm);
+      }
+      for (const auto& f : h.fits) {
+        if (f.converged && f.not_a_ball) std::printf("   %s: NOT A BALL", f.method.c_str());
       }
       std::printf("\n");
     }
@@ -199,7 +219,9 @@ std::string GardenJson(const GardenResult& r) {
   j["scenes"] = json::array();
   for (const GardenScene& s : r.scenes) {
     json js = {{"name", s.name},           {"hedges_true", s.hedges_true}, {"hedges_found", s.hedges_found},
-               {"others_found", s.others_found},
+               {"others_found", s.others_found}, {"others_not_ball", s.others_not_ball},
+               {"others_not_ball_default", s.others_not_ball_default},
+               {"others_sphere_to_span", s.others_span_ratio},
                {"convert_ms", s.convert_ms}, {"envelope_ms", s.envelope_ms}};
     js["hedges"] = json::array();
     for (const GardenHedgeRow& h : s.rows) {
@@ -218,6 +240,7 @@ std::string GardenJson(const GardenResult& r) {
           jf["aer_mm"] = e.aer_mm;
           jf["ld_mm"] = e.ld_mm;
           if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
+          jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
         }
         jh["fits"].push_back(jf);
       }

@@ -30,6 +30,7 @@ struct GardenHedgeRow {
   fitting::Sphere truth;            ///< envelope
   double truth_surface_mm = 0;      ///< mean leaf-surface radius
   std::size_t points = 0;
+  double span_mm = 0;               ///< the points' span along their principal axis (fitting::PrincipalSpan)
   double outside_50mm = 0;          ///< share of points more than 50 mm outside the true envelope
   std::vector<fitting::SphereFitResult> fits;  ///< one per method
 };
@@ -38,6 +39,9 @@ struct GardenScene {
   std::string name;
   std::size_t hedges_true = 0, hedges_found = 0;
   std::size_t others_found = 0;     ///< taken for hedges but in no hedge's truth (a shrub)
+  std::size_t others_not_ball = 0;  ///< of those, how many the envelope fit calls not a ball
+  std::size_t others_not_ball_default = 0;  ///< and how many the default fit (ransac_geometric) does
+  std::vector<double> others_span_ratio;  ///< their sphere's diameter over their points' span
   double convert_ms = 0;            ///< capture to clouds, in process
   double envelope_ms = 0;           ///< the envelope fits of every hedge
   std::vector<GardenHedgeRow> rows;
