@@ -107,7 +107,8 @@ GardenResult RunGarden(const GardenOptions& a) {
     }
     for (const GardenHedgeRow& row : scene.rows) scene.hedges_found += row.id != 0 ? 1 : 0;
     scene.others_found = res.hedges.size() - std::min(res.hedges.size(), scene.hedges_found);
-    // What else was taken for a hedge (a shrub): does the envelope fit tell it is not a ball?
+    // What else was taken for a hedge (a shrub): do the envelope fit and the default fit
+    // (ransac_geometric, what measure prints) tell it is not a ball?
     for (const auto& g : groups) {
       if (std::any_of(scene.rows.begin(), scene.rows.end(), [&](const GardenHedgeRow& row) { return row.id == g.id; })) continue;
       std::vector<Eigen::Vector3d> pts;
