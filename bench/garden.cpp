@@ -99,6 +99,7 @@ GardenResult RunGarden(const GardenOptions& a) {
         for (const auto& m : fitting::SphereMethodNames()) {
           row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true));
           row.fits.back().hedge_id = g.id;
+          row.outside_share.push_back(fitting::OutsideShare(pts, row.fits.back().sphere));
           if (m == "envelope") scene.envelope_ms += row.fits.back().wall_ms;
           summary.Add(m, row.fits.back(), row.truth);
         }
@@ -118,6 +119,7 @@ GardenResult RunGarden(const GardenOptions& a) {
       scene.others_not_ball += f.not_a_ball ? 1 : 0;
       scene.others_not_ball_default += fitting::RunFitMethod("ransac_geometric", pts, {}, 42, true).not_a_ball ? 1 : 0;
       scene.others_span_ratio.push_back(2 * f.sphere.radius_mm / std::max(1e-9, fitting::PrincipalSpan(pts)));
+      scene.others_outside_share.push_back(fitting::OutsideShare(pts, f.sphere));
     }
     // The paper's path on the same capture.
     try {
@@ -222,7 +224,7 @@ std::string GardenJson(const GardenResult& r) {
     json js = {{"name", s.name},           {"hedges_true", s.hedges_true}, {"hedges_found", s.hedges_found},
                {"others_found", s.others_found}, {"others_not_ball", s.others_not_ball},
                {"others_not_ball_default", s.others_not_ball_default},
-               {"others_sphere_to_span", s.others_span_ratio},
+               {"others_sphere_to_span", s.others_span_ratio}, {"others_outside_share", s.others_outside_share},
                {"convert_ms", s.convert_ms}, {"envelope_ms", s.envelope_ms}};
     js["hedges"] = json::array();
     for (const GardenHedgeRow& h : s.rows) {
@@ -233,7 +235,8 @@ std::string GardenJson(const GardenResult& r) {
                  {"points", h.points},
                  {"outside_50mm_share", h.outside_50mm}};
       jh["fits"] = json::array();
-      for (const auto& f : h.fits) {
+      for (std::size_t fi = 0; fi < h.fits.size(); ++fi) {
+        const auto& f = h.fits[fi];
         json jf = {{"method", f.method}, {"converged", f.converged}};
         if (f.converged) {
           const auto e = fitting::Evaluate(f.sphere, h.truth);
@@ -242,6 +245,7 @@ std::string GardenJson(const GardenResult& r) {
           jf["ld_mm"] = e.ld_mm;
           if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
           jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
+          jf["outside_share"] = h.outside_share[fi];
         }
         jh["fits"].push_back(jf);
       }

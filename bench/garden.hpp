@@ -33,6 +33,7 @@ struct GardenHedgeRow {
   double span_mm = 0;               ///< the points' span along their principal axis (fitting::PrincipalSpan)
   double outside_50mm = 0;          ///< share of points more than 50 mm outside the true envelope
   std::vector<fitting::SphereFitResult> fits;  ///< one per method
+  std::vector<double> outside_share;            ///< per fit: fitting::OutsideShare of the points
 };
 
 struct GardenScene {
@@ -42,6 +43,7 @@ struct GardenScene {
   std::size_t others_not_ball = 0;  ///< of those, how many the envelope fit calls not a ball
   std::size_t others_not_ball_default = 0;  ///< and how many the default fit (ransac_geometric) does
   std::vector<double> others_span_ratio;  ///< their sphere's diameter over their points' span
+  std::vector<double> others_outside_share;  ///< their points' share far outside it (fitting::OutsideShare)
   double convert_ms = 0;            ///< capture to clouds, in process
   double envelope_ms = 0;           ///< the envelope fits of every hedge
   std::vector<GardenHedgeRow> rows;

@@ -40,13 +40,21 @@ std::optional<std::string> DegeneracyReason(const std::vector<Eigen::Vector3d>& 
   return DegeneracyFromMoments(n, true, mean, cov / double(n));
 }
 
-double PrincipalSpan(const std::vector<Eigen::Vector3d>& points_mm) {
+double PrincipalSpan(const std::vector<Eigen::Vector3d>& points_mm, const Eigen::Vector3d& viewpoint_mm) {
   if (points_mm.size() < 2) return 0.0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto& p : points_mm) mean += p;
   mean /= double(points_mm.size());
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : points_mm) cov += (p - mean) * (p - mean).transpose();
+  cov /= double(points_mm.size());
+  // Across the line of sight when the viewpoint is well outside the points: a camera's depth
+  // noise, along the rays, must not count as extent (at 24 m a stereo point scatters by 0.2 m).
+  const Eigen::Vector3d sight = mean - viewpoint_mm;
+  if (sight.squaredNorm() > cov.trace()) {
+    const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - sight.normalized() * sight.normalized().transpose();
+    cov = across * cov * across;
+  }
   const Eigen::Vector3d axis = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(2);
   std::vector<double> t(points_mm.size());
   for (std::size_t i = 0; i < points_mm.size(); ++i) t[i] = axis.dot(points_mm[i] - mean);
@@ -57,6 +65,13 @@ double PrincipalSpan(const std::vector<Eigen::Vector3d>& points_mm) {
   const double low = *lo;
   std::nth_element(t.begin(), hi, t.end());
   return *hi - low;
+}
+
+double OutsideShare(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere) {
+  const double beyond = kOutsideRadiusShare * sphere.radius_mm;
+  std::size_t outside = 0;
+  for (const auto& p : points_mm) outside += (p - sphere.center_mm).norm() - sphere.radius_mm > beyond ? 1 : 0;
+  return double(outside) / double(std::max<std::size_t>(1, points_mm.size()));
 }
 
 std::optional<std::string> NotABallReason(const std::vector<Eigen::Vector3d>& points_mm, const SphereFitResult& fit,
@@ -71,12 +86,16 @@ std::optional<std::string> NotABallReason(const std::vector<Eigen::Vector3d>& po
                   fit.sphere.radius_mm, diameter / span, span);
     return std::string(why);
   }
-  if (diameter < kMinSphereToSpan * span && (one_hedge || fit.inliers >= fit.points_used)) {
-    std::snprintf(why, sizeof(why),
-                  "the points reach %.0f mm across, beyond the sphere's %.0f mm diameter: not one ball (a shrub's "
-                  "lobes, or a ball with something else)",
-                  span, diameter);
-    return std::string(why);
+  if (one_hedge || fit.inliers >= fit.points_used) {
+    const double beyond = kOutsideRadiusShare * fit.sphere.radius_mm;
+    const double share = OutsideShare(points_mm, fit.sphere);
+    if (share > kMaxOutsideShare) {
+      std::snprintf(why, sizeof(why),
+                    "%.0f%% of the points lie more than %.0f mm outside the sphere (r %.0f mm): not one ball (a "
+                    "shrub's lobes, a ball with something else, or noise of a tenth of its radius)",
+                    100 * share, beyond, fit.sphere.radius_mm);
+      return std::string(why);
+    }
   }
   return std::nullopt;
 }

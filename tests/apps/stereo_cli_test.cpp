@@ -254,11 +254,12 @@ TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
 
 // Shrubs beside a ball are taken for hedges by depth (they stand on the lawn, round enough in
 // outline) but their fits say they are not a ball: a four-lobed shrub against the ball and a
-// two-lobed one apart. The default fit (ransac_geometric) on each lobe, or the envelope fit on the
-// front of the four, gives a sphere narrower than the shrub's points reach, or many times wider;
-// the ball's sphere is 1.3-1.5 times its points' span (fitting::kMinSphereToSpan and
-// kMaxSphereToSpan are 1.0 and 2.5), and it is within 10 mm of its truth (half the paper's
-// resolution, as in GardenRowGivesOneJsonLinePerHedgeAndAnOverlay).
+// two-lobed one apart. The default fit (ransac_geometric) and the envelope fit put a sphere on one
+// lobe, with 12-42 % of the shrub's points more than a tenth of its radius outside it
+// (fitting::kMaxOutsideShare: 5 %), or one many times wider than the shrub (kMaxSphereToSpan:
+// 2.5). The ball has at most 0.1 % of its points so far out and its sphere is 1.3-1.6 times its
+// points' span, and it is within 10 mm of its truth (half the paper's resolution, as in
+// GardenRowGivesOneJsonLinePerHedgeAndAnOverlay).
 TEST(MeasureCli, ShrubsTakenForHedgesAreToldNotABall) {
   const auto dir = hedgefit::testing::ScratchDir();
   const hedgefit::stereo::SimRig rig = hedgefit::stereo::PaperRig(0.5);
