@@ -110,7 +110,9 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit compare ../shared/data/sphere_scans/example2/L1_S1.xyz --scale 1000 --min-radius 250 --max-radius 350\n"
       "  hedgefit compare build/garden/row_*.pcd --truth build/garden/garden_row.truth.json --methods ransac,envelope\n"
       "Truth: --truth FILE, or CLOUD.truth.json beside each cloud: {\"center_mm\": [x, y, z], \"radius_mm\": r}, or\n"
-      "{\"hedges\": [...]} for several; each hedge (a cloud's hedge_id field) is matched to the nearest one.\n");
+      "{\"hedges\": [...]} for several; each hedge (a cloud's hedge_id field) is matched to the nearest one.\n"
+      "A fit whose sphere is far wider than its points, or with over 5 % of them a tenth of its radius outside it,\n"
+      "is marked not a ball (not_a_ball in JSON, a '^ not a ball' line in the table): a shrub, lawn, or two lobes.\n");
   auto a = std::make_shared<CompareArgs>();
   cmd->add_option("CLOUD", a->clouds, "cloud files (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_option("--truth", a->truth, "ground-truth JSON for every cloud (default: CLOUD.truth.json if present)");

@@ -41,7 +41,8 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       "      --left build/garden/garden_row_left.png --right build/garden/garden_row_right.png\n"
       "Prints one JSON line per hedge and method (JSON Lines): hedge id (1, 2, ... left to right), method,\n"
       "centre_mm, radius_mm, std_error_mm (cx, cy, cz, r; from the points' scatter only), inliers, rms_mm,\n"
-      "fit and capture times, and with --garden the hedge's image box. Exit 2 when no fit converges.\n");
+      "fit and capture times, and with --garden the hedge's image box; not_a_ball (and a warning) when the\n"
+      "points are not a ball's (a shrub taken for a hedge: see README, compare). Exit 2 when no fit converges.\n");
   auto a = std::make_shared<MeasureArgs>();
   cmd->add_option("--left", a->left, "left image")->required();
   cmd->add_option("--right", a->right, "right image")->required();
