@@ -303,7 +303,8 @@ namespace {
 
 // Every method says when its sphere is far wider than the points it was fitted to (a lumpy shrub
 // or a stretch of lawn taken for a hedge), and never says it of a ball's cap as a camera sees it:
-// whole, cut in half by the frame, its lower part hidden by the lawn, or the paper's outdoor size.
+// whole, cut in half by the frame, its lower part hidden by the lawn, the paper's outdoor size, or
+// a dome.
 // The caps' spheres are 1.15-1.3 times their points' span across the line of sight (the visible
 // cap reaches 2r sin 70 deg across; the 2-98 % span takes a little off), the patch's about 8 times
 // (a r 3000 mm sphere seen 835 mm across): each side of kMaxSphereToSpan (2.5) by a factor of two
@@ -327,9 +328,21 @@ TEST(ShapeCheck, AShallowPatchIsNotABallACapOfOneIs) {
   balls.push_back({"ball above the lawn", low_hidden});
   balls.push_back({"the paper's outdoor ball", hedgefit::testing::LeafyCap(Eigen::Vector3d(0, 100, 2000), 920, 9, 60,
                                                                            4000, 6, rng)});
+  // A dome: a hedge clipped flatter than a ball (vertical semi-axis 0.8 of the horizontal one) is
+  // a hedge; no sphere fitted to it leaves 5 % of its points a tenth of the radius outside.
+  std::vector<Eigen::Vector3d> dome;
+  {
+    std::normal_distribution<double> noise(0.0, 4.0);
+    const Eigen::Vector3d dc(-150, 120, 2400);
+    for (const auto& n : hedgefit::testing::Cap(Eigen::Vector3d::Zero(), 1.0, 70, -dc.normalized(), 4000, 0.0, rng)) {
+      const Eigen::Vector3d p = dc + Eigen::Vector3d(500 * n.x(), 400 * n.y(), 500 * n.z());
+      dome.push_back(p + noise(rng) * p.normalized());
+    }
+  }
+  balls.push_back({"a dome", dome});
   for (const Case& b : balls) {
     for (const std::string& m : SphereMethodNames()) {
-      const SphereFitResult f = RunFitMethod(m, b.pts, {});
+      const SphereFitResult f = RunFitMethod(m, b.pts, {}, 42, true);  // as a segmented hedge: every test asked
       ASSERT_TRUE(f.converged) << b.name << ", " << m << ": " << f.message;
       EXPECT_FALSE(f.not_a_ball) << b.name << ", " << m << ": " << f.not_a_ball.value_or("");
     }
