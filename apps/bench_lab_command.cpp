@@ -66,7 +66,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"
       "  hedgefit bench garden --reuse --json garden.json\n"
       "  hedgefit bench garden --renderer povray --camera real --dir build/garden-povray   # leaf discs, ~5 minutes\n"
-      "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame, shrubs\n");
+      "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame, shrubs\n"
+      "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n");
   struct GardenArgs {
     bench::GardenOptions garden;
     std::string json;
@@ -86,6 +87,10 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   g->add_flag("--hard", ga->garden.hard,
               "the harder gardens instead: two balls with the hedge row between them, a low and a high camera, the "
               "smallest ball farthest, the largest nearest, one near each edge of the image, one cut by it, three touching in a row, one among other shrubs");
+  g->add_option("--random", ga->garden.random,
+                "N gardens drawn from seeds 1..N instead (random1 ...): one to three balls of the issue's range side by "
+                "side, a camera 0.9-1.4 m up, sometimes a shrub")
+      ->check(CLI::Range(0, 200));
   g->add_option("--json", ga->json, "also write the tables as JSON here");
   g->callback([=]() {
     *run = [=]() {

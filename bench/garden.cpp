@@ -29,7 +29,11 @@ double Ms(std::chrono::steady_clock::time_point t0) {
 GardenResult RunGarden(const GardenOptions& a) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<std::string> presets = a.hard ? stereo::GardenHardPresetNames() : stereo::GardenPresetNames();
+  std::vector<std::string> presets = a.hard ? stereo::GardenHardPresetNames() : stereo::GardenPresetNames();
+  if (a.random > 0) {
+    presets.clear();
+    for (int i = 1; i <= a.random; ++i) presets.push_back("random" + std::to_string(i));
+  }
   if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
   if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
   const bool pov = a.renderer == "povray";

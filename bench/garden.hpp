@@ -21,6 +21,7 @@ struct GardenOptions {
   std::string renderer = "hedgefit";       ///< hedgefit (its own ray caster) or povray (leaf discs)
   std::string camera = "ideal";            ///< povray: ideal or real (stereo::CameraModel)
   bool hard = false;                       ///< stereo::GardenHardPresetNames() instead of the three presets
+  int random = 0;                          ///< > 0: gardens random1 ... randomN (stereo::GardenPreset) instead
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
   GardenOptions();
 };

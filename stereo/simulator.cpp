@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <random>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
@@ -555,7 +556,47 @@ std::vector<std::string> GardenHardPresetNames() {
           "cut_by_frame", "shrubs"};
 }
 
+namespace {
+
+// "random<seed>": one to three balls of the range (r 420-600 mm, centres 2.0-2.7 m away)
+// side by side across the view, leaf layers 25-40 mm, the camera 0.9-1.4 m up and pitched 4-14
+// degrees, and in two gardens of five a two-lobed shrub beside them; no pot (it could hide a
+// ball). The same seed gives the same garden (a 64-bit Mersenne twister, mapped to [0, 1) by
+// hand, so it does not depend on the library's distributions).
+GardenScene RandomGarden(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  auto u = [&rng] { return double(rng() >> 11) * (1.0 / 9007199254740992.0); };
+  GardenScene sc;
+  sc.pot = false;
+  sc.texture_seed = 1000 + seed;
+  sc.camera_height_mm = 900 + 500 * u();
+  sc.pitch_deg = 4 + 10 * u();
+  const int balls = 1 + int(3 * u());
+  double x = -1800 + 400 * u();  // the left edge of the next ball
+  for (int i = 0; i < balls; ++i) {
+    GardenHedge h;
+    h.radius_mm = 420 + 180 * u();
+    h.z_mm = 2000 + 700 * u();
+    h.x_mm = x + h.radius_mm;
+    h.leaf_depth_mm = 25 + 15 * u();
+    if (h.x_mm + h.radius_mm > 2000 && !sc.hedges.empty()) break;  // out of the view
+    sc.hedges.push_back(h);
+    x += 2 * h.radius_mm + 150 + 500 * u();
+  }
+  if (u() < 0.4) {
+    const double z = 2300 + 300 * u();
+    sc.shrub_lobes = {{x + 260, z, 260, 35}, {x + 540, z + 60, 240, 35}};
+  }
+  return sc;
+}
+
+}  // namespace
+
 GardenScene GardenPreset(const std::string& name) {
+  if (name.size() > 6 && name.compare(0, 6, "random") == 0 && name.size() <= 15 &&
+      std::all_of(name.begin() + 6, name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    return RandomGarden(std::stoull(name.substr(6)));
+  }
   GardenScene sc;
   if (name == "row") {
     sc.hedges = {{-1350, 2300, 450, 30}, {80, 2500, 520, 30}, {1500, 2700, 600, 35}};
@@ -629,7 +670,8 @@ GardenScene GardenPreset(const std::string& name) {
     sc.texture_seed = 91;
   } else {
     throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
-                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs");
+                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs, or random<seed> "
+                "(e.g. random7)");
   }
   return sc;
 }

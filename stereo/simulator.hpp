@@ -116,7 +116,10 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& scene, co
 
 /// The garden presets: "row" (three balls, r 450-600 mm, 2.1-2.7 m, pot in front), "single"
 /// (one r 520 mm ball at 2.4 m), "outdoor" (the paper's outdoor case: one r 920 mm ball about
-/// 2 m away, its front leaves 1.1 m from the cameras). Throws hedgefit::Error for another name.
+/// 2 m away, its front leaves 1.1 m from the cameras); the hard ones below; "random<seed>"
+/// (e.g. "random7"): a garden drawn from the seed, one to three balls of the range (r
+/// 420-600 mm, centres 2.0-2.7 m away) side by side, a camera 0.9-1.4 m up pitched 4-14 degrees,
+/// sometimes a two-lobed shrub beside them. Throws hedgefit::Error for another name.
 GardenScene GardenPreset(const std::string& name);
 std::vector<std::string> GardenPresetNames();
 /// Harder gardens for segmentation, each a case that once failed or a corner of the issue's

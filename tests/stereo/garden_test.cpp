@@ -391,3 +391,44 @@ TEST(GardenSegment, BadOptionsAreNamed) {
 
 }  // namespace
 }  // namespace hedgefit::stereo
+
+namespace hedgefit::stereo {
+namespace {
+
+// bench garden --random draws gardens from seeds: the same seed the same garden, every ball of
+// the issue's range (r 420-600 mm, centre 2.0-2.7 m away) standing apart from the next, and a
+// name that is not "random" and digits is refused.
+TEST(GardenPresets, RandomGardensComeFromTheirSeedWithinTheIssuesRange) {
+  std::size_t balls = 0, shrubs = 0;
+  for (int seed = 1; seed <= 40; ++seed) {
+    const std::string name = "random" + std::to_string(seed);
+    const GardenScene a = GardenPreset(name), b = GardenPreset(name);
+    ASSERT_EQ(a.hedges.size(), b.hedges.size()) << name;
+    ASSERT_GE(a.hedges.size(), 1u) << name;
+    ASSERT_LE(a.hedges.size(), 3u) << name;
+    EXPECT_EQ(a.texture_seed, b.texture_seed) << name;
+    for (std::size_t i = 0; i < a.hedges.size(); ++i) {
+      EXPECT_EQ(a.hedges[i].x_mm, b.hedges[i].x_mm) << name;
+      EXPECT_EQ(a.hedges[i].radius_mm, b.hedges[i].radius_mm) << name;
+      EXPECT_GE(a.hedges[i].radius_mm, 420) << name;
+      EXPECT_LE(a.hedges[i].radius_mm, 600) << name;
+      EXPECT_GE(a.hedges[i].z_mm, 2000) << name;
+      EXPECT_LE(a.hedges[i].z_mm, 2700) << name;
+      if (i > 0) {  // apart: a gap of at least 150 mm across the view
+        EXPECT_GE(a.hedges[i].x_mm - a.hedges[i - 1].x_mm, a.hedges[i].radius_mm + a.hedges[i - 1].radius_mm + 150)
+            << name;
+      }
+    }
+    balls += a.hedges.size();
+    shrubs += a.shrub_lobes.empty() ? 0 : 1;
+  }
+  EXPECT_GT(balls, 60u);  // one to three each: rows are common
+  EXPECT_GT(shrubs, 5u);  // and so are shrubs (two in five, about 16 of 40)
+  EXPECT_NE(GardenPreset("random1").hedges.front().x_mm, GardenPreset("random2").hedges.front().x_mm);
+  for (const char* bad : {"random", "random-1", "random7x", "randomness", "random99999999999999999"}) {
+    EXPECT_THROW(GardenPreset(bad), Error) << bad;
+  }
+}
+
+}  // namespace
+}  // namespace hedgefit::stereo
