@@ -84,13 +84,14 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                 "povray: ideal, or real (per-camera noise, gains, white balance, vignetting, Bayer)")
       ->check(CLI::IsMember({"ideal", "real"}))
       ->capture_default_str();
-  g->add_flag("--hard", ga->garden.hard,
+  auto* hard = g->add_flag("--hard", ga->garden.hard,
               "the harder gardens instead: two balls with the hedge row between them, a low and a high camera, the "
               "smallest ball farthest, the largest nearest, one near each edge of the image, one cut by it, three touching in a row, one among other shrubs");
   g->add_option("--random", ga->garden.random,
                 "N gardens drawn from seeds 1..N instead (random1 ...): one to three balls of the issue's range side by "
                 "side, a camera 0.9-1.4 m up, sometimes a shrub")
-      ->check(CLI::Range(0, 200));
+      ->check(CLI::Range(0, 200))
+      ->excludes(hard);
   g->add_option("--json", ga->json, "also write the tables as JSON here");
   g->callback([=]() {
     *run = [=]() {
