@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -73,7 +74,16 @@ cv::Mat DrawOverlay(const cv::Mat& left_rect, const stereo::StereoRig& rig, cons
       poly.push_back(fixed(p));
       drawn.emplace_back(float(p.x), float(p.y));
     }
-    cv::polylines(out, poly, true, colour, line_px, cv::LINE_AA, shift);
+    if (s.dashed) {  // every other stretch of the outline: a sphere its points are not on
+      const std::size_t dash = std::max<std::size_t>(1, poly.size() / 48);
+      for (std::size_t k = 0; k < poly.size(); k += 2 * dash) {
+        std::vector<cv::Point> stretch(poly.begin() + std::ptrdiff_t(k),
+                                       poly.begin() + std::ptrdiff_t(std::min(poly.size(), k + dash + 1)));
+        cv::polylines(out, stretch, false, colour, line_px, cv::LINE_AA, shift);
+      }
+    } else {
+      cv::polylines(out, poly, true, colour, line_px, cv::LINE_AA, shift);
+    }
     cv::Point2d centre;
     const Eigen::Vector3d& c = s.sphere.center_mm;
     if (ToRectifiedPixel(rig, cv::Vec3d(c.x(), c.y(), c.z()), &centre)) {

@@ -25,6 +25,7 @@ struct SphereOverlay {
   std::string label;          ///< "hyper", "truth", ...
   fitting::Sphere sphere;     ///< mm
   bool truth = false;         ///< drawn as a black wireframe
+  bool dashed = false;        ///< overlay: outline dashed (a fit whose points are not a ball)
 };
 
 struct RenderOptions {

@@ -39,7 +39,7 @@ void RegisterRenderStages(cloud::Registry& r) {
       std::vector<SphereOverlay> spheres;
       if (const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
         for (const auto& f : *fits) {
-          if (f.converged) spheres.push_back(SphereOverlay{f.method, f.sphere, false});
+          if (f.converged) spheres.push_back(SphereOverlay{f.method, f.sphere, false, f.not_a_ball.has_value()});
         }
       }
       RenderOptions run = ro;
@@ -76,7 +76,7 @@ void RegisterRenderStages(cloud::Registry& r) {
               if (f.converged) {
                 std::string label = f.hedge_id ? "hedge " + std::to_string(f.hedge_id) + " " + f.method : f.method;
                 if (f.not_a_ball) label += " (not a ball)";
-                spheres.push_back(SphereOverlay{label, f.sphere, false});
+                spheres.push_back(SphereOverlay{label, f.sphere, false, f.not_a_ball.has_value()});
               }
             }
             const cv::Mat* mask = ctx.Find<cv::Mat>("mask");

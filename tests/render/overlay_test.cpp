@@ -55,7 +55,7 @@ TEST(Overlay, OutlineFollowsTheRenderedSilhouette) {
   // Drawn: the outline's pixels take the first fit's colour.
   s.radius_mm = scene.radius;
   const cv::Mat grey(rig.image_size, CV_8UC3, cv::Scalar(128, 128, 128));
-  const cv::Mat picture = DrawOverlay(grey, rig, truth, {SphereOverlay{"geometric", s, false}}, 2);
+  const cv::Mat picture = DrawOverlay(grey, rig, truth, {SphereOverlay{"geometric", s, false, false}}, 2);
   const auto c = OverlayColor(0);
   const cv::Vec3b want(cv::saturate_cast<uchar>(255 * c[2]), cv::saturate_cast<uchar>(255 * c[1]),
                        cv::saturate_cast<uchar>(255 * c[0]));
@@ -65,6 +65,16 @@ TEST(Overlay, OutlineFollowsTheRenderedSilhouette) {
     if (cv::norm(cv::Vec3i(got) - cv::Vec3i(want)) < 40) ++hits;
   }
   EXPECT_GT(hits, 150);
+  // Dashed, as a fit told not a ball is drawn: about half of the outline, spread all round it.
+  const cv::Mat dashed = DrawOverlay(grey, rig, truth, {SphereOverlay{"geometric", s, false, true}}, 2);
+  int dashed_hits = 0, quarters[4] = {0, 0, 0, 0};
+  for (std::size_t k = 0; k < outline.size(); ++k) {
+    const cv::Vec3b got = dashed.at<cv::Vec3b>(cvRound(outline[k].y), cvRound(outline[k].x));
+    if (cv::norm(cv::Vec3i(got) - cv::Vec3i(want)) < 40) ++dashed_hits, ++quarters[4 * k / outline.size()];
+  }
+  EXPECT_GT(dashed_hits, int(0.3 * double(outline.size())));
+  EXPECT_LT(dashed_hits, int(0.75 * double(outline.size())));
+  for (int q : quarters) EXPECT_GT(q, 5);
   // Behind the camera or around it: nothing to draw.
   s.center_mm = Eigen::Vector3d(0, 0, 100);
   EXPECT_TRUE(SphereOutline(rig, s).empty());
