@@ -39,6 +39,11 @@ $H pipeline examples/garden_to_fit.json -q \
   --set readers.stereo.left=$P/garden_row_left.png --set readers.stereo.right=$P/garden_row_right.png \
   --set readers.stereo.rig=$P/rig.yaml --set "writers.pcd.filename=$P/row_#.pcd" \
   --set writers.overlay.filename=docs/garden_row_povray_overlay.png
+# Shrubs taken for hedges by depth, told not a ball (dashed): POV-Ray's hard 'shrubs' garden.
+S=build/docs/garden-hard-povray
+[ -f $S/garden_shrubs_right.png ] || $H bench garden --hard --renderer povray --camera real --scale 0.5 --dir $S > /dev/null
+$H measure --method envelope --rig $S/rig.yaml --left $S/garden_shrubs_left.png --right $S/garden_shrubs_right.png \
+  --overlay docs/garden_shrubs_povray_overlay.png > /dev/null 2>&1
 # The trim plan of the middle ball (envelope 520 mm) against a 500 mm target.
 $H trim $G/row_2.pcd --radius 500 --method envelope --render docs/trim_row2.png > /dev/null
 # PCL's real outdoor pair (grey): the round shrub, segmented by depth inside a box.
