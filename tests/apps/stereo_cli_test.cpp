@@ -231,19 +231,25 @@ TEST(ConvertCli, GardenRowGivesOnePcdPerHedgeAndComparePerHedge) {
   EXPECT_NE(r.err.find("--garden"), std::string::npos) << r.err;
 }
 
-// A hedge the image's edge cuts says so in its line: the fit saw part of the ball, so its centre
-// is extrapolated. Half out of the frame on the right; found with the defaults.
-TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
-  const auto dir = hedgefit::testing::ScratchDir();
+// One of the garden presets (hard ones too) at half the paper's resolution into `dir`, as
+// `simulate --preset garden --scale 0.5 --supersample 2` renders the standard ones.
+void WriteHalfScaleGarden(const std::filesystem::path& dir, const std::string& preset) {
   const hedgefit::stereo::SimRig rig = hedgefit::stereo::PaperRig(0.5);
   hedgefit::stereo::RenderOptions ro;
   ro.supersample = 2;
   ro.blur_sigma_px = 0.5;
   ro.noise_sigma = 1.0;
   hedgefit::stereo::WriteGardenWith(
-      (dir / "g").string(), rig, {"cut_by_frame"},
+      dir.string(), rig, {preset},
       [&](const hedgefit::stereo::GardenScene& sc, bool right) { return hedgefit::stereo::RenderGarden(rig, right, sc, ro); },
       [](const hedgefit::stereo::GardenScene& sc, std::size_t i) { return hedgefit::stereo::GardenHedgeSurfaceRadius(sc, i); });
+}
+
+// A hedge the image's edge cuts says so in its line: the fit saw part of the ball, so its centre
+// is extrapolated. Half out of the frame on the right; found with the defaults.
+TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  WriteHalfScaleGarden(dir / "g", "cut_by_frame");
   const auto r = RunHedgefit("measure --method envelope --rig g/rig.yaml --left g/garden_cut_by_frame_left.png "
                              "--right g/garden_cut_by_frame_right.png",
                              dir);
@@ -262,15 +268,7 @@ TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
 // GardenRowGivesOneJsonLinePerHedgeAndAnOverlay).
 TEST(MeasureCli, ShrubsTakenForHedgesAreToldNotABall) {
   const auto dir = hedgefit::testing::ScratchDir();
-  const hedgefit::stereo::SimRig rig = hedgefit::stereo::PaperRig(0.5);
-  hedgefit::stereo::RenderOptions ro;
-  ro.supersample = 2;
-  ro.blur_sigma_px = 0.5;
-  ro.noise_sigma = 1.0;
-  hedgefit::stereo::WriteGardenWith(
-      (dir / "g").string(), rig, {"shrubs"},
-      [&](const hedgefit::stereo::GardenScene& sc, bool right) { return hedgefit::stereo::RenderGarden(rig, right, sc, ro); },
-      [](const hedgefit::stereo::GardenScene& sc, std::size_t i) { return hedgefit::stereo::GardenHedgeSurfaceRadius(sc, i); });
+  WriteHalfScaleGarden(dir / "g", "shrubs");
   const auto truth = nlohmann::json::parse(std::ifstream(dir / "g" / "garden_shrubs.truth.json"))["hedges"];
   ASSERT_EQ(truth.size(), 1u);
   for (const std::string method : {"ransac_geometric", "envelope"}) {
