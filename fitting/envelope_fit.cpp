@@ -17,6 +17,12 @@ namespace hedgefit::fitting {
 namespace {
 
 constexpr double kMinScaleMm = 0.01;
+// Parameters: centre (3), R, log mu, log sigma, logit w (the share on the envelope).
+constexpr int kParams = 7;
+// The search starts with a quarter of the leaves on the envelope (logit -1: w 0.27), between a
+// freshly clipped ball and an overgrown one; on POV-Ray's and hedgefit's gardens the fits end
+// anywhere from 0 to 1.
+constexpr double kStartLogitShare = -1.0;
 
 // log(erfc(z)), accurate where erfc underflows (z > 5: the asymptotic series).
 template <class T>
@@ -32,7 +38,7 @@ T LogErfc(const T& z) {
 }
 
 // Negative log-likelihood of the shell model over all points, parameters: centre (3), R,
-// log mu, log sigma. Points are centred on their mean (double precision far from the origin).
+// log mu, log sigma, logit w. Points are centred on their mean (double precision far from the origin).
 struct ShellLikelihood {
   const std::vector<Eigen::Vector3d>* pts;
   Eigen::Vector3d view;      // viewpoint, in the centred frame
@@ -51,6 +57,13 @@ struct ShellLikelihood {
     // there overflows.
     const T cx = p[0], cy = p[1], cz = p[2], R = p[3], mu0 = T(kMinScaleMm) + exp(p[4]),
             sigma = T(kMinScaleMm) + exp(p[5]);
+    // Per evaluation, not per point: the densities' constants.
+    const T lambda = T(1) / mu0, lambda_sigma2 = lambda * sigma * sigma, inv_sigma = T(1) / sigma,
+            inv_sqrt2_sigma = inv_sigma / T(std::sqrt(2.0));
+    const T log_w = -log(T(1) + exp(-p[6])), log_1w = -log(T(1) + exp(p[6]));
+    const T emg_const = T(log_inlier_share) + log_1w + log(lambda / T(2));
+    const T clip_const = T(log_inlier_share) + log_w - log(sigma * T(std::sqrt(2 * M_PI)));
+    const T b = T(log_outlier);
     T total(0);
     for (std::size_t i = begin; i < end; ++i) {
       const Eigen::Vector3d& q = (*pts)[i];
@@ -62,16 +75,19 @@ struct ShellLikelihood {
       T cos_t = -(rx * dx + ry * dy + rz * dz) / (rn * s + T(1e-12));
       if (cos_t < T(0.1)) cos_t = T(0.1);
       // Leaf depth and stereo noise both lie along the ray: in the radial direction both are
-      // scaled by cos(theta), so x / cos(theta) follows the face-on model.
-      const T lambda = T(1) / mu0;
+      // scaled by cos(theta), so x / cos(theta) follows the face-on model; log(cos_t) is the
+      // Jacobian of that scaling.
       const T x = (R - s) / cos_t;  // depth below the envelope, along the ray
-      // Exponentially modified Gaussian density of x (exponential depth plus N(0, sigma^2)),
-      // and the Jacobian of the radial-to-ray scaling.
-      const T log_emg = log(lambda / T(2)) + lambda / T(2) * (lambda * sigma * sigma - T(2) * x) +
-                        LogErfc((lambda * sigma * sigma - x) / (T(std::sqrt(2.0)) * sigma)) - log(cos_t);
-      const T a = T(log_inlier_share) + log_emg, b = T(log_outlier);
-      const T m = a > b ? a : b;
-      total -= m + log(exp(a - m) + exp(b - m));
+      const T log_cos = log(cos_t);
+      // The leaves below the envelope: an exponentially modified Gaussian (exponential depth
+      // plus N(0, sigma^2)).
+      const T a1 = emg_const + lambda / T(2) * (lambda_sigma2 - T(2) * x) +
+                   LogErfc((lambda_sigma2 - x) * inv_sqrt2_sigma) - log_cos;
+      // The leaves the shears cut flush with the envelope: N(0, sigma^2) about it.
+      const T xs = x * inv_sigma;
+      const T a2 = clip_const - T(0.5) * xs * xs - log_cos;
+      const T m = max(max(a1, a2), b);
+      total -= m + log(exp(a1 - m) + exp(a2 - m) + exp(b - m));
     }
     return total;
   }
@@ -83,17 +99,17 @@ struct ShellLikelihood {
 class ParallelShellCost : public ceres::FirstOrderFunction {
  public:
   explicit ParallelShellCost(const ShellLikelihood& model) : model_(model) {}
-  int NumParameters() const override { return 6; }
+  int NumParameters() const override { return kParams; }
   bool Evaluate(const double* p, double* cost, double* gradient) const override {
-    using Jet = ceres::Jet<double, 6>;
+    using Jet = ceres::Jet<double, kParams>;
     const std::size_t n = model_.pts->size();
     constexpr std::size_t kChunks = 16;
     const std::size_t chunk = (n + kChunks - 1) / kChunks;
     std::array<Jet, kChunks> partial;
     partial.fill(Jet(0.0));
     cloud::ParallelFor(kChunks, 0, 1, [&](std::size_t b, std::size_t e) {
-      Jet q[6];
-      for (int k = 0; k < 6; ++k) q[k] = Jet(p[k], k);
+      Jet q[kParams];
+      for (int k = 0; k < kParams; ++k) q[k] = Jet(p[k], k);
       for (std::size_t c = b; c < e; ++c) {
         partial[c] = model_.Sum(q, std::min(n, c * chunk), std::min(n, (c + 1) * chunk));
       }
@@ -103,7 +119,7 @@ class ParallelShellCost : public ceres::FirstOrderFunction {
     total /= double(std::max<std::size_t>(1, n));
     cost[0] = total.a;
     if (gradient) {
-      for (int k = 0; k < 6; ++k) gradient[k] = total.v[k];
+      for (int k = 0; k < kParams; ++k) gradient[k] = total.v[k];
     }
     // A non-finite value or gradient is an invalid point for the line search, which then steps
     // back, rather than a Ceres CHECK failure.
@@ -182,9 +198,9 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   }
   ShellLikelihood model{&centred, options.viewpoint_mm - mean, std::log(options.outlier_share / width),
                         std::log(1 - options.outlier_share)};
-  double p[6] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
+  double p[kParams] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
                  start.sphere.center_mm.z() - mean.z(), start.sphere.radius_mm + spread, std::log(spread),
-                 std::log(0.5 * spread)};
+                 std::log(0.5 * spread), kStartLogitShare};
   ceres::GradientProblem problem(new ParallelShellCost(model));
   ceres::GradientProblemSolver::Options so;
   so.max_num_iterations = options.max_iterations;
@@ -205,19 +221,20 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   // times the leaf depth; a smooth sphere, whose leaf depth is nil, ends there again).
   if (summary.IsSolutionUsable() && std::exp(p[4]) < 0.5 * std::exp(p[5])) {
     const double noise = kMinScaleMm + std::exp(p[5]);
-    double best[6];
-    std::copy(p, p + 6, best);
+    double best[kParams];
+    std::copy(p, p + kParams, best);
     for (const double share : {0.5, 1.0}) {
-      double q[6] = {p[0], p[1], p[2], p[3] + share * noise, std::log(share * noise), std::log(0.6 * noise)};
+      double q[kParams] = {p[0], p[1], p[2], p[3] + share * noise, std::log(share * noise), std::log(0.6 * noise),
+                           kStartLogitShare};
       ceres::GradientProblemSolver::Summary again;
       ceres::Solve(so, problem, q, &again);
       r.iterations += static_cast<int>(again.iterations.size());
       if (again.IsSolutionUsable() && again.final_cost < summary.final_cost) {
-        std::copy(q, q + 6, best);
+        std::copy(q, q + kParams, best);
         summary = again;
       }
     }
-    std::copy(best, best + 6, p);
+    std::copy(best, best + kParams, p);
   }
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const double mu = kMinScaleMm + std::exp(p[4]), sigma = kMinScaleMm + std::exp(p[5]);
@@ -231,9 +248,11 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   r.rms_mm = RmsResidual(points_mm, r.sphere);
   // Inliers: points the model explains better than the outlier density.
   r.inliers = points_mm.size();
-  out.leaf_depth_mm = mu;
+  const double w = 1 / (1 + std::exp(-p[6]));
+  out.leaf_depth_mm = (1 - w) * mu;
   out.noise_mm = sigma;
-  out.surface_radius_mm = p[3] - mu;
+  out.clipped_share = w;
+  out.surface_radius_mm = p[3] - (1 - w) * mu;
   return out;
 }
 

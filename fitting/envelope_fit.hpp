@@ -2,14 +2,19 @@
 /// A leafy hedge is a shell, not a surface: stereo sees the outermost leaves and, through the
 /// gaps, leaves deeper along the line of sight. A sphere fitted to all of them has the radius
 /// of the mean leaf and a centre pushed away from the camera. This fit models each point's
-/// distance from the centre s_i as the envelope radius R, minus a leaf depth seen along the
-/// view ray (exponential, mean mu) plus Gaussian measurement noise (sigma, also along the ray,
-/// as stereo's depth error is), both seen radially scaled by cos(theta_i), theta_i the angle
-/// between the ray and the sphere's normal there; a small uniform share of outliers is allowed. Maximum likelihood (exponentially modified Gaussian, Ceres LBFGS) gives
+/// distance from the centre s_i as the envelope radius R minus a depth below it seen along the
+/// view ray, plus Gaussian measurement noise (sigma, also along the ray, as stereo's depth error
+/// is), both seen radially scaled by cos(theta_i), theta_i the angle between the ray and the
+/// sphere's normal there. The depth is a mixture: a share w of the leaves lies on the envelope
+/// itself (a clipped hedge: the shears cut the outer leaves flush with it), the rest deeper,
+/// exponentially (mean mu: the gaps one sees into); a small uniform share of outliers is
+/// allowed. Maximum likelihood (Ceres LBFGS) gives
 ///  - the outer envelope radius R: where the leaves end, what a tape measure and a trimmer see;
-///  - the mean leaf-surface radius R - mu: where the average visible leaf is;
+///  - the mean leaf-surface radius R - (1 - w) mu: where the average visible leaf is;
 ///  - one centre for both, not pulled by the depth of the leaf layer.
-/// On a bare sphere (mu -> 0) it reduces to the geometric fit.
+/// On a bare sphere (w -> 1 or mu -> 0) it reduces to the geometric fit. Without the share on
+/// the envelope, a clipped hedge's cut leaves were read as noise about a start a little deeper,
+/// and the envelope came out inside (see the tests and README's "The envelope").
 
 #include <Eigen/Core>
 
@@ -34,8 +39,9 @@ struct EnvelopeFitOptions {
 struct EnvelopeFit {
   SphereFitResult fit;            ///< sphere = centre and outer envelope radius (method "envelope")
   double surface_radius_mm = 0;   ///< mean leaf-surface radius, R - mu
-  double leaf_depth_mm = 0;       ///< mu: mean depth of the visible leaves below the envelope, face-on
+  double leaf_depth_mm = 0;       ///< (1 - w) mu: mean depth of the visible leaves below the envelope, face-on
   double noise_mm = 0;            ///< sigma: measurement noise along the view ray
+  double clipped_share = 0;       ///< w: share of the points on the envelope itself (leaves cut flush)
 };
 
 /// Fits the envelope, starting from `initial` (e.g. a geometric fit) or a Hyper fit.

@@ -549,6 +549,28 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
   });
 }
 
+cv::Mat RenderGardenSurface(const SimRig& rig, const GardenScene& sc) {
+  const GardenFrame frame(sc.pitch_deg);
+  const SimCamera& cam = rig.left;
+  const auto rays = Rays(cam, 1);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat out(cam.size, CV_32FC3, cv::Scalar(nan, nan, nan));
+  const cv::Matx33d camera_from_level = frame.level_from_camera.t();
+  cloud::ParallelFor(std::size_t(cam.size.height), 0, 16, [&](std::size_t v0, std::size_t v1) {
+    for (int v = int(v0); v < int(v1); ++v) {
+      for (int u = 0; u < cam.size.width; ++u) {
+        const cv::Point2f& r = (*rays)[std::size_t(v) * cam.size.width + u];
+        const cv::Vec3d d = frame.level_from_camera * cv::Vec3d(r.x, r.y, 1.0);
+        const GardenHit h = TraceGarden(sc, cv::Vec3d(0, 0, 0), d, false);
+        if (h.kind == 0) continue;
+        const cv::Vec3d p = camera_from_level * (h.t * d);
+        out.at<cv::Vec3f>(v, u) = cv::Vec3f(float(p[0]), float(p[1]), float(p[2]));
+      }
+    }
+  });
+  return out;
+}
+
 std::vector<std::string> GardenPresetNames() { return {"row", "single", "outdoor"}; }
 
 std::vector<std::string> GardenHardPresetNames() {

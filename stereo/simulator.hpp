@@ -113,6 +113,10 @@ double GardenHedgeSurfaceRadius(const GardenScene& scene, std::size_t i);
 cv::Mat RenderBoard(const SimRig& rig, bool right, const BoardScene& board, const RenderOptions& options = {});
 cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& scene, const RenderOptions& options = {});
 cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& scene, const RenderOptions& options = {});
+/// The left camera's exact view of a garden: each pixel's first hit, one ray through the pixel's
+/// centre, as a point in the left camera frame (CV_32FC3, mm; NaN where the ray meets only sky).
+/// The truth a matcher's cloud is scored against, pixel by pixel (RenderGarden's labels say whose).
+cv::Mat RenderGardenSurface(const SimRig& rig, const GardenScene& scene);
 
 /// The garden presets: "row" (three balls, r 450-600 mm, 2.1-2.7 m, pot in front), "single"
 /// (one r 520 mm ball at 2.4 m), "outdoor" (the paper's outdoor case: one r 920 mm ball about

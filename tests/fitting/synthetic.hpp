@@ -52,14 +52,16 @@ inline void AddOutliers(std::vector<Eigen::Vector3d>* pts, double fraction, doub
 /// A leafy ball seen by a camera at the origin: points on the envelope (radius `radius`) where
 /// it faces the camera (normal within `half_angle_deg` of the direction to the camera), then
 /// deeper along the line of sight by an exponential leaf depth of mean `leaf_depth_mm` (the
-/// gaps one sees into), then noise of `sigma_mm` along the ray, as stereo gives it.
+/// gaps one sees into; a share `clipped_share` of the leaves lies on the envelope, cut flush by the
+/// shears), then noise of `sigma_mm` along the ray, as stereo gives it.
 inline std::vector<Eigen::Vector3d> LeafyCap(const Eigen::Vector3d& center, double radius, double leaf_depth_mm,
                                              double half_angle_deg, std::size_t n, double sigma_mm,
-                                             std::mt19937_64& rng) {
+                                             std::mt19937_64& rng, double clipped_share = 0.0) {
   const Eigen::Vector3d to_camera = (-center).normalized();
   std::vector<Eigen::Vector3d> normals = Cap(Eigen::Vector3d::Zero(), 1.0, half_angle_deg, to_camera, n, 0.0, rng);
   std::exponential_distribution<double> depth(1.0 / leaf_depth_mm);
   std::normal_distribution<double> noise(0.0, sigma_mm);
+  std::uniform_real_distribution<double> clip(0.0, 1.0);
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(n);
   for (const Eigen::Vector3d& nrm : normals) {
@@ -67,7 +69,8 @@ inline std::vector<Eigen::Vector3d> LeafyCap(const Eigen::Vector3d& center, doub
     const Eigen::Vector3d ray = hit.normalized();
     // Leaves stop where the ray leaves the ball again (the chord).
     const double chord = 2.0 * std::max(0.0, -ray.dot(nrm)) * radius;
-    const double u = std::min(depth(rng), chord);
+    // A clipped hedge: the shears leave a share of the leaves cut flush with the envelope.
+    const double u = clipped_share > 0 && clip(rng) < clipped_share ? 0.0 : std::min(depth(rng), chord);
     pts.push_back(hit + (u + noise(rng)) * ray);
   }
   return pts;
