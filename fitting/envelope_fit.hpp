@@ -48,4 +48,13 @@ struct EnvelopeFit {
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options = {},
                         const Sphere* initial = nullptr);
 
+namespace detail {
+/// The shell model's mean negative log-likelihood over `points` at the 7 parameters p (centre x,
+/// y, z, R, log of the exponential's mean, log of the noise, logit of the share on the envelope;
+/// both scales above a 0.01 mm floor) and, when `gradient` is given, its gradient: what
+/// FitEnvelope minimises, exposed so a test can hold the hand-written gradient to differences.
+double ShellCost(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& viewpoint_mm, double outlier_share,
+                 double outlier_width_mm, const double* p, double* gradient);
+}  // namespace detail
+
 }  // namespace hedgefit::fitting
