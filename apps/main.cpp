@@ -9,6 +9,7 @@
 #include "apps/commands.hpp"
 #include "cloud/error.hpp"
 #include "cloud/version.hpp"
+#include "fitting/methods.hpp"
 
 int main(int argc, char** argv) {
   using namespace hedgefit::apps;
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
   // hedgefit reports problems itself, one line each: OpenCV's own warnings would come first.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  hedgefit::fitting::QuietSolverWarnings();  // and Ceres' (glog) warnings: each fit reports its own trouble
   CLI::App app{"hedgefit " + std::string(hedgefit::kVersion) +
                ": reconstruct and measure spherical hedges from stereo images and point clouds"};
   app.set_version_flag("--version", std::string("hedgefit ") + hedgefit::kVersion);

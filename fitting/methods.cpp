@@ -1,5 +1,7 @@
 #include "fitting/methods.hpp"
 
+#include <glog/logging.h>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -309,5 +311,7 @@ SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::V
   in.one_hedge = one_hedge;
   return fit(in);
 }
+
+void QuietSolverWarnings() { FLAGS_minloglevel = google::GLOG_ERROR; }
 
 }  // namespace hedgefit::fitting

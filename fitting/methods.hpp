@@ -69,4 +69,11 @@ SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::V
                              const std::map<std::string, cloud::OptionValue>& given = {}, std::uint64_t seed = 42,
                              bool one_hedge = false);
 
+/// Ceres reports a solver's trouble (e.g. "Linear solver failure" while a geometric refit of
+/// a degenerate sphere steps) through glog, at WARNING, on stderr: dozens of lines before the
+/// one hedgefit writes. Each fit says what went wrong in its own result, so the command line and
+/// the Python module call this once to keep only glog's errors. A library user who wants the
+/// solver's warnings does not call it.
+void QuietSolverWarnings();
+
 }  // namespace hedgefit::fitting

@@ -154,6 +154,7 @@ PYBIND11_MODULE(hedgefit, m) {
   m.doc() = "hedgefit: measure spherical hedges from a binocular camera (clouds as numpy arrays, sphere fits, "
             "stereo measurement, trim plans, JSON pipelines)";
   m.attr("__version__") = kVersion;
+  hedgefit::fitting::QuietSolverWarnings();  // errors reach Python as exceptions and results, not as glog lines
   static py::exception<Error> error(m, "Error", PyExc_ValueError);
   py::register_exception_translator([](std::exception_ptr p) {
     try {
