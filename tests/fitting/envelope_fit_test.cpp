@@ -30,14 +30,14 @@ TEST_P(EnvelopeFitTest, OuterRadiusAndCentreAreUnbiased) {
   hedgefit::testing::AddOutliers(&pts, 0.01, 200, rng);
   const EnvelopeFit e = FitEnvelope(pts);
   ASSERT_TRUE(e.fit.converged) << e.fit.message;
-  // 20000 points, leaf depth 10 mm, noise 2-4 mm: the statistical error of R and the centre
-  // is a few tenths of a mm; 1.5 mm / 3 mm leave room for the model's approximations
-  // (chord-capped depth, noise along the ray rather than the normal) and still fail a fit
-  // that is off by the leaf layer (10 mm).
+  // About 11000 points (a camera's sampling keeps ~55 % of the 20000 drawn), leaf depth 10 mm, noise 2-4 mm:
+  // the statistical error of R and the centre is a few tenths of a mm; 1.5 mm / 3 mm leave room
+  // for the model's approximations (rays that leave the ball before a leaf are lost, noise along
+  // the ray rather than the normal) and still fail a fit that is off by the leaf layer (10 mm).
   EXPECT_NEAR(e.fit.sphere.radius_mm, c.radius, 1.5);
   EXPECT_LT((e.fit.sphere.center_mm - centre).norm(), 3.0);
   // Leaf depth and noise are harder to tell apart when they are of similar size, and rays that
-  // graze the rim see a chord shorter than a deep leaf (the depth is truncated there): 2 mm on
+  // graze the rim leave the ball before a deep leaf (the depth is truncated there): 2 mm on
   // the depth, and the surface radius R - mu inherits both errors (1.5 + 2 mm).
   EXPECT_NEAR(e.leaf_depth_mm, c.leaf_depth, 2.0);
   EXPECT_NEAR(e.surface_radius_mm, c.radius - c.leaf_depth, 3.5);
@@ -77,10 +77,11 @@ TEST(EnvelopeFit, NoiseNearTheLeafDepthDoesNotTakeTheLeavesAway) {
 // points' depth below it is that share at zero and the rest exponential, all seen through the
 // noise. A fit with the exponential alone has no mass at the envelope for the cut leaves: with
 // 45 % of the leaves cut, 12 mm of leaf depth below the rest and 3 mm of noise it put the
-// envelope 1.3-1.4 mm inside, the centre 4.6-4.8 mm off and the mean depth at 10.1-10.4 mm
-// (true 6.6) over these seeds. With the cut share in the model: R within 0.35 mm, the centre
-// within 0.64 mm, the share 0.44-0.47. 20000 points settle R to ~0.2 mm; 1.0 mm on R and 2 mm on
-// the centre fail the exponential alone and leave room for the model's chord truncation.
+// envelope 1.27-1.32 mm inside, the centre 4.5-4.8 mm off and the mean depth at 9.9-10.5 mm
+// (true 6.6) over these seeds. With the cut share in the model: R within 0.21 mm, the centre
+// within 0.40 mm, the share 0.45-0.47, the mean depth 6.5-7.1 mm. About 10700 points (what a
+// camera samples of the 20000 drawn) settle R to ~0.2 mm; 1.0 mm on R and 2 mm on the centre
+// fail the exponential alone and leave room for the model's approximations.
 TEST(EnvelopeFit, LeavesCutFlushByTheShearsDoNotPullTheEnvelopeIn) {
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     std::mt19937_64 rng(seed);

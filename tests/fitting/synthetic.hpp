@@ -50,7 +50,8 @@ inline void AddOutliers(std::vector<Eigen::Vector3d>* pts, double fraction, doub
 }
 
 /// A leafy ball seen by a camera at the origin: points on the envelope (radius `radius`) where
-/// it faces the camera (normal within `half_angle_deg` of the direction to the camera), then
+/// it faces the camera (normal within `half_angle_deg` of the direction to the camera, in front of
+/// the limb, as densely as a camera's pixels see it: fewer than n points), then
 /// deeper along the line of sight by an exponential leaf depth of mean `leaf_depth_mm` (the
 /// gaps one sees into; a share `clipped_share` of the leaves lies on the envelope, cut flush by the
 /// shears), then noise of `sigma_mm` along the ray, as stereo gives it.
@@ -61,16 +62,25 @@ inline std::vector<Eigen::Vector3d> LeafyCap(const Eigen::Vector3d& center, doub
   std::vector<Eigen::Vector3d> normals = Cap(Eigen::Vector3d::Zero(), 1.0, half_angle_deg, to_camera, n, 0.0, rng);
   std::exponential_distribution<double> depth(1.0 / leaf_depth_mm);
   std::normal_distribution<double> noise(0.0, sigma_mm);
-  std::uniform_real_distribution<double> clip(0.0, 1.0);
+  std::uniform_real_distribution<double> clip(0.0, 1.0), keep(0.0, 1.0);
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(n);
   for (const Eigen::Vector3d& nrm : normals) {
     const Eigen::Vector3d hit = center + radius * nrm;
     const Eigen::Vector3d ray = hit.normalized();
-    // Leaves stop where the ray leaves the ball again (the chord).
-    const double chord = 2.0 * std::max(0.0, -ray.dot(nrm)) * radius;
+    // Beyond the limb the envelope faces away: the camera does not see it (a wide cap of a near
+    // ball, e.g. r 920 mm at 2 m, whose limb is 63 degrees from the view axis).
+    if (ray.dot(nrm) >= 0) continue;
+    // A camera samples the surface per pixel, so a patch seen at incidence i gets cos(i) as many
+    // points as one seen face-on: kept with that probability (uniform by area, a 70 degree cap of
+    // a near ball put a tenth of its points beyond 84 degrees, where the envelope fit clamps
+    // cos(i) at 0.1 and reads their depth too shallow).
+    if (keep(rng) > -ray.dot(nrm)) continue;
     // A clipped hedge: the shears leave a share of the leaves cut flush with the envelope.
-    const double u = clipped_share > 0 && clip(rng) < clipped_share ? 0.0 : std::min(depth(rng), chord);
+    const double u = clipped_share > 0 && clip(rng) < clipped_share ? 0.0 : depth(rng);
+    // A grazing ray that meets no leaf before it leaves the ball again (the chord) sees past it:
+    // no point of this ball.
+    if (u > 2.0 * -ray.dot(nrm) * radius) continue;
     pts.push_back(hit + (u + noise(rng)) * ray);
   }
   return pts;
