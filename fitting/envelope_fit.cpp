@@ -25,6 +25,7 @@ constexpr int kParams = 7;
 constexpr double kStartLogitShare = -1.0;
 // The second start: almost none on the envelope (logit -6: w 0.0025), the exponential alone.
 constexpr double kNoShareLogit = -6.0;
+// ... unless the first search ended with less than this share: that start's basin already.
 constexpr double kNoShareSkip = 0.01;
 
 // log(erfc(z)) and its derivative, accurate where erfc underflows (z > 5: the asymptotic series).
@@ -246,9 +247,16 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   }
   ShellLikelihood model{&centred, options.viewpoint_mm - mean, std::log(options.outlier_share / width),
                         std::log(1 - options.outlier_share)};
-  double p[kParams] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
-                 start.sphere.center_mm.z() - mean.z(), start.sphere.radius_mm + spread, std::log(spread),
-                 std::log(0.5 * spread), kStartLogitShare};
+  // A start: the geometric sphere, the envelope a spread outside it, leaves and noise of that
+  // spread's scale, and the given share on the envelope (as a logit).
+  auto start_at = [&](double logit_share, double* x) {
+    const Eigen::Vector3d c = start.sphere.center_mm - mean;
+    const double values[kParams] = {c.x(), c.y(), c.z(), start.sphere.radius_mm + spread, std::log(spread),
+                                    std::log(0.5 * spread), logit_share};
+    std::copy(values, values + kParams, x);
+  };
+  double p[kParams];
+  start_at(kStartLogitShare, p);
   const double unit = spread;  // lengths in the residuals' spread (ScaledShellCost)
   ceres::GradientProblem problem(new ScaledShellCost(model, unit));
   ceres::GradientProblemSolver::Options so;
@@ -272,9 +280,8 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   // the likelier end is kept (when the first search ended with next to no share it is that start's
   // basin already, and the second is skipped).
   if (1 / (1 + std::exp(-p[6])) > kNoShareSkip) {
-    double q[kParams] = {start.sphere.center_mm.x() - mean.x(), start.sphere.center_mm.y() - mean.y(),
-                         start.sphere.center_mm.z() - mean.z(), start.sphere.radius_mm + spread, std::log(spread),
-                         std::log(0.5 * spread), kNoShareLogit};
+    double q[kParams];
+    start_at(kNoShareLogit, q);
     ceres::GradientProblemSolver::Summary again;
     scaled_solve(q, &again);
     r.iterations += static_cast<int>(again.iterations.size());
