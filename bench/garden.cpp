@@ -1,6 +1,7 @@
 #include "bench/garden.hpp"
 
 #include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -25,6 +26,64 @@ double Ms(std::chrono::steady_clock::time_point t0) {
 }
 
 }  // namespace
+
+void LeafLayerErrors::Add(const LeafLayerErrors& o) {
+  if (bins.empty()) {
+    *this = o;
+    return;
+  }
+  const double n = double(points), m = double(o.points);
+  if (n + m > 0) {
+    true_outer_share = (true_outer_share * n + o.true_outer_share * m) / (n + m);
+    measured_outer_share = (measured_outer_share * n + o.measured_outer_share * m) / (n + m);
+  }
+  points += o.points;
+  for (std::size_t b = 0; b < bins.size() && b < o.bins.size(); ++b) {
+    const double k = double(bins[b].points), l = double(o.bins[b].points);
+    if (k + l > 0) bins[b].mean_error_mm = (bins[b].mean_error_mm * k + o.bins[b].mean_error_mm * l) / (k + l);
+    bins[b].points += o.bins[b].points;
+  }
+}
+
+LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, const cv::Mat& surface,
+                                 const stereo::SimCamera& camera, const fitting::Sphere& truth) {
+  LeafLayerErrors out;
+  const double edges[] = {0, 2, 5, 10, 15, 20, 30, 60};
+  for (std::size_t b = 0; b + 1 < std::size(edges); ++b) out.bins.push_back({edges[b], edges[b + 1], 0, 0.0});
+  if (points_mm.empty()) return out;
+  std::vector<cv::Point3d> obj;
+  obj.reserve(points_mm.size());
+  for (const auto& p : points_mm) obj.emplace_back(p.x(), p.y(), p.z());
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(camera.K), cv::Mat(camera.dist), px);
+  std::vector<double> sum(out.bins.size(), 0.0);
+  std::size_t outer_true = 0, outer_measured = 0;
+  const double R = truth.radius_mm;
+  for (std::size_t i = 0; i < obj.size(); ++i) {
+    const int u = static_cast<int>(std::lround(px[i].x)), v = static_cast<int>(std::lround(px[i].y));
+    if (u < 0 || v < 0 || u >= surface.cols || v >= surface.rows) continue;
+    const cv::Vec3f t = surface.at<cv::Vec3f>(v, u);
+    if (!std::isfinite(t[2])) continue;
+    const double s_true = (Eigen::Vector3d(t[0], t[1], t[2]) - truth.center_mm).norm();
+    const double depth = R - s_true;
+    if (depth < -5 || depth >= edges[std::size(edges) - 1]) continue;  // not this hedge's leaf
+    std::size_t b = 0;
+    while (b + 1 < out.bins.size() && depth >= out.bins[b].to_mm) ++b;
+    sum[b] += (points_mm[i] - truth.center_mm).norm() - s_true;
+    ++out.bins[b].points;
+    ++out.points;
+    outer_true += depth < 2 ? 1 : 0;
+    outer_measured += R - (points_mm[i] - truth.center_mm).norm() < 2 ? 1 : 0;
+  }
+  for (std::size_t b = 0; b < out.bins.size(); ++b) {
+    out.bins[b].mean_error_mm = out.bins[b].points > 0 ? sum[b] / double(out.bins[b].points) : 0.0;
+  }
+  if (out.points > 0) {
+    out.true_outer_share = double(outer_true) / double(out.points);
+    out.measured_outer_share = double(outer_measured) / double(out.points);
+  }
+  return out;
+}
 
 GardenResult RunGarden(const GardenOptions& a) {
   namespace fs = std::filesystem;
@@ -64,6 +123,9 @@ GardenResult RunGarden(const GardenOptions& a) {
     const std::vector<cloud::SphereTruth> truths = cloud::ReadSphereTruths(base.string() + ".truth.json");
     GardenScene scene;
     scene.name = name;
+    // hedgefit's renderer: every pixel's true leaf, to hold the matcher to (MeasureLeafLayer).
+    const stereo::SimRig sim = stereo::PaperRig(a.scale);
+    const cv::Mat surface = pov ? cv::Mat() : stereo::RenderGardenSurface(sim, stereo::GardenPreset(name));
     scene.hedges_true = truths.size();
     auto tc = std::chrono::steady_clock::now();
     const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, garden);
@@ -91,6 +153,11 @@ GardenResult RunGarden(const GardenOptions& a) {
         row.id = g.id;
         row.points = pts.size();
         row.span_mm = fitting::PrincipalSpan(pts);
+        if (!surface.empty()) {
+          const LeafLayerErrors layer = MeasureLeafLayer(pts, surface, sim.left, row.truth);
+          if (!out.leaf_layer) out.leaf_layer = layer;
+          else out.leaf_layer->Add(layer);
+        }
         for (const auto& rg : raw_groups) {
           if (rg.id != g.id) continue;
           std::size_t outside = 0;
@@ -217,6 +284,18 @@ void PrintGarden(const GardenResult& r) {
   }
   std::printf("  %-17s %11.2f %11s %10s %9.2f %9s   (published, outdoor, 4 hedges r 880-960 mm)\n", "paper outdoor", 4.02,
               "-", "-", 18.29, "-");
+  if (r.leaf_layer && r.leaf_layer->points > 0) {
+    const LeafLayerErrors& l = *r.leaf_layer;
+    std::printf("the matcher against the renderer's own leaves (%zu points of the found hedges, cleaned)\n"
+                "  true depth below the envelope    share   radial error (measured - true)\n",
+                l.points);
+    for (const LeafDepthBin& b : l.bins) {
+      std::printf("  %5.0f - %-5.0f mm             %6.1f%%   %+7.2f mm\n", b.from_mm, b.to_mm,
+                  100.0 * double(b.points) / double(l.points), b.mean_error_mm);
+    }
+    std::printf("  within 2 mm of the envelope: %.1f%% of the true leaves, %.1f%% of the measured points\n",
+                100 * l.true_outer_share, 100 * l.measured_outer_share);
+  }
   std::printf("whole run %.1f s\n", r.seconds);
 }
 
@@ -267,6 +346,15 @@ std::string GardenJson(const GardenResult& r) {
                        {"max_abs_aer_mm", s.max_abs_aer_mm}, {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm}};
   }
   j["paper_outdoor"] = {{"mean_abs_aer_mm", 4.02}, {"mean_ld_mm", 18.29}};
+  if (r.leaf_layer) {
+    json bins = json::array();
+    for (const LeafDepthBin& b : r.leaf_layer->bins) {
+      bins.push_back({{"from_mm", b.from_mm}, {"to_mm", b.to_mm}, {"points", b.points}, {"mean_error_mm", b.mean_error_mm}});
+    }
+    j["leaf_layer"] = {{"points", r.leaf_layer->points}, {"bins", bins},
+                       {"true_outer_share", r.leaf_layer->true_outer_share},
+                       {"measured_outer_share", r.leaf_layer->measured_outer_share}};
+  }
   return j.dump(2) + "\n";
 }
 

@@ -6,11 +6,15 @@
 /// with the paper's colour mask; every hedge is fitted with every method and scored against
 /// its outer envelope (the truth radius: where the leaves end).
 
+#include <opencv2/core.hpp>
+
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "fitting/evaluation.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/simulator.hpp"
 
 namespace hedgefit::bench {
 
@@ -54,11 +58,37 @@ struct GardenScene {
   double colour_aer_mm = 0, colour_ld_mm = 0, colour_mask_share = 0;
 };
 
+/// The matcher against the renderer's own leaves: for each point of a hedge's cloud, its
+/// distance from the true centre less that of the leaf its pixel truly sees (the first hit
+/// through the pixel, stereo::RenderGardenSurface), grouped by how deep that leaf lies below the
+/// envelope. A matching window that averages the outer leaves with the ones behind reads the
+/// first too deep (negative) and the deep ones too shallow (positive).
+struct LeafDepthBin {
+  double from_mm = 0, to_mm = 0;  ///< the true leaf's depth below the envelope
+  std::size_t points = 0;
+  double mean_error_mm = 0;       ///< radial: measured - true (negative: read deeper than it is)
+};
+struct LeafLayerErrors {
+  std::vector<LeafDepthBin> bins;
+  std::size_t points = 0;          ///< points whose pixel sees this hedge's leaves
+  double true_outer_share = 0;     ///< of those, leaves truly within 2 mm of the envelope
+  double measured_outer_share = 0; ///< and points measured within 2 mm of it
+  void Add(const LeafLayerErrors& other);  ///< pools another hedge's (bins weighted by points)
+};
+/// `points_mm` in the left camera's frame, `surface` its RenderGardenSurface, `camera` its
+/// intrinsics; a point whose pixel sees no leaf of this hedge (lawn, another ball: more than
+/// 60 mm below or 5 mm outside the envelope) is left out.
 struct GardenResult {
   std::vector<GardenScene> scenes;
   std::map<std::string, fitting::MethodSummary> summary;  ///< over every found hedge
+  /// hedgefit's renderer only (POV-Ray's leaves have no per-pixel truth here): the cleaned
+  /// clouds of every found hedge against their true leaves, pooled.
+  std::optional<LeafLayerErrors> leaf_layer;
   double seconds = 0;
 };
+
+LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, const cv::Mat& surface,
+                                 const stereo::SimCamera& camera, const fitting::Sphere& truth);
 
 GardenResult RunGarden(const GardenOptions& options);
 void PrintGarden(const GardenResult& result);

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "bench/garden.hpp"
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "cloud/truth_file.hpp"
@@ -102,6 +103,55 @@ TEST(GardenScene, EnvelopeFitReadsTheRenderedLeavesEnvelope) {
   ASSERT_TRUE(e.fit.converged) << e.fit.message;
   EXPECT_NEAR(e.fit.sphere.radius_mm, R, 0.3);
   EXPECT_LT((e.fit.sphere.center_mm - centre).norm(), 0.5);
+}
+
+// bench garden's table of the matcher against the renderer's leaves (bench::MeasureLeafLayer):
+// the exact first hits read as no error in every depth bin, with as many leaves within 2 mm of
+// the envelope measured as there truly are; the same points moved 3 mm deeper along their rays
+// (what a matcher that reads too far does) read deeper in every bin, by the ray's radial share
+// of 3 mm (cos of the incidence: 1 face-on, above 0.1 but near the rim), and fewer of them
+// within 2 mm of the envelope. Lawn pixels' points are left out.
+TEST(GardenScene, LeafLayerTableHoldsPointsToTheirPixelsTrueLeaf) {
+  const SimRig sim = PaperRig(0.5);
+  const GardenScene scene = GardenPreset("single");
+  RenderOptions lo;
+  lo.labels = true;
+  const cv::Mat labels = RenderGarden(sim, false, scene, lo), surface = RenderGardenSurface(sim, scene);
+  const cv::Vec3d c = GardenHedgeCenter(scene, 0);
+  const fitting::Sphere truth{Eigen::Vector3d(c[0], c[1], c[2]), scene.hedges[0].radius_mm};
+  std::vector<Eigen::Vector3d> exact, deeper;
+  std::size_t lawn = 0;
+  for (int v = 0; v < labels.rows; ++v) {
+    for (int u = 0; u < labels.cols; ++u) {
+      const cv::Vec3f p = surface.at<cv::Vec3f>(v, u);
+      const Eigen::Vector3d q(p[0], p[1], p[2]);
+      if (labels.at<std::uint8_t>(v, u) == kLabelHedge) {
+        exact.push_back(q);
+        deeper.push_back(q + 3.0 * q.normalized());
+      } else if (labels.at<std::uint8_t>(v, u) == kLabelGround && lawn < 500 && (v + u) % 97 == 0) {
+        exact.push_back(q), deeper.push_back(q), ++lawn;
+      }
+    }
+  }
+  ASSERT_EQ(lawn, 500u);
+  const bench::LeafLayerErrors e = bench::MeasureLeafLayer(exact, surface, sim.left, truth);
+  EXPECT_EQ(e.points, exact.size() - lawn);
+  std::size_t binned = 0;
+  for (const bench::LeafDepthBin& b : e.bins) {
+    binned += b.points;
+    EXPECT_NEAR(b.mean_error_mm, 0.0, 0.01) << b.from_mm << "-" << b.to_mm << " mm";  // float32 points
+  }
+  EXPECT_EQ(binned, e.points);
+  EXPECT_GT(e.true_outer_share, 0.1);  // a quarter of this renderer's leaf surface is on the envelope
+  EXPECT_DOUBLE_EQ(e.measured_outer_share, e.true_outer_share);
+  const bench::LeafLayerErrors d = bench::MeasureLeafLayer(deeper, surface, sim.left, truth);
+  EXPECT_EQ(d.points, e.points);
+  for (const bench::LeafDepthBin& b : d.bins) {
+    if (b.points == 0) continue;
+    EXPECT_LT(b.mean_error_mm, -0.3) << b.from_mm << "-" << b.to_mm << " mm";
+    EXPECT_GE(b.mean_error_mm, -3.0) << b.from_mm << "-" << b.to_mm << " mm";
+  }
+  EXPECT_LT(d.measured_outer_share, e.true_outer_share);
 }
 
 TEST(GardenScene, TruthFileListsEveryHedgeAndReadsBack) {
