@@ -68,6 +68,23 @@ TEST(GardenScene, HedgesAreWhereTheTruthSaysAndTheShellIsInsideTheEnvelope) {
   }
 }
 
+// The "single" garden at half scale as the left camera sees it exactly: its labels, every
+// pixel's first hit (RenderGardenSurface) and the ball's truth.
+struct ExactView {
+  SimRig sim = PaperRig(0.5);
+  GardenScene scene = GardenPreset("single");
+  cv::Mat labels, surface;
+  fitting::Sphere truth;
+  ExactView() {
+    RenderOptions lo;
+    lo.labels = true;
+    labels = RenderGarden(sim, false, scene, lo);
+    surface = RenderGardenSurface(sim, scene);
+    const cv::Vec3d c = GardenHedgeCenter(scene, 0);
+    truth = {Eigen::Vector3d(c[0], c[1], c[2]), scene.hedges[0].radius_mm};
+  }
+};
+
 // The envelope fit against the renderer's own leaves, with no matcher in between: the exact
 // first hit of each hedge pixel's ray (RenderGardenSurface). Every hit lies inside the truth's
 // envelope, and the fit reads the envelope where those leaves end and the centre where the
@@ -76,16 +93,12 @@ TEST(GardenScene, HedgesAreWhereTheTruthSaysAndTheShellIsInsideTheEnvelope) {
 // 0.3 mm on R and 0.5 mm on the centre fail a fit that reads the mean leaf (12 mm inside) or
 // lets the leaf layer push the centre back.
 TEST(GardenScene, EnvelopeFitReadsTheRenderedLeavesEnvelope) {
-  const SimRig sim = PaperRig(0.5);
-  const GardenScene scene = GardenPreset("single");
-  RenderOptions lo;
-  lo.labels = true;
-  const cv::Mat labels = RenderGarden(sim, false, scene, lo), surface = RenderGardenSurface(sim, scene);
+  const ExactView view;
+  const cv::Mat &labels = view.labels, &surface = view.surface;
   ASSERT_EQ(surface.type(), CV_32FC3);
   ASSERT_EQ(surface.size(), labels.size());
-  const cv::Vec3d c = GardenHedgeCenter(scene, 0);
-  const Eigen::Vector3d centre(c[0], c[1], c[2]);
-  const double R = scene.hedges[0].radius_mm;
+  const Eigen::Vector3d centre = view.truth.center_mm;
+  const double R = view.truth.radius_mm;
   std::vector<Eigen::Vector3d> pts;
   double farthest = 0;
   for (int v = 0; v < labels.rows; ++v) {
@@ -112,13 +125,10 @@ TEST(GardenScene, EnvelopeFitReadsTheRenderedLeavesEnvelope) {
 // of 3 mm (cos of the incidence: 1 face-on, above 0.1 but near the rim), and fewer of them
 // within 2 mm of the envelope. Lawn pixels' points are left out.
 TEST(GardenScene, LeafLayerTableHoldsPointsToTheirPixelsTrueLeaf) {
-  const SimRig sim = PaperRig(0.5);
-  const GardenScene scene = GardenPreset("single");
-  RenderOptions lo;
-  lo.labels = true;
-  const cv::Mat labels = RenderGarden(sim, false, scene, lo), surface = RenderGardenSurface(sim, scene);
-  const cv::Vec3d c = GardenHedgeCenter(scene, 0);
-  const fitting::Sphere truth{Eigen::Vector3d(c[0], c[1], c[2]), scene.hedges[0].radius_mm};
+  const ExactView view;
+  const cv::Mat &labels = view.labels, &surface = view.surface;
+  const SimRig& sim = view.sim;
+  const fitting::Sphere& truth = view.truth;
   std::vector<Eigen::Vector3d> exact, deeper;
   std::size_t lawn = 0;
   for (int v = 0; v < labels.rows; ++v) {
