@@ -60,8 +60,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   });
   auto* g = bench->add_subcommand(
       "garden", "Leafy hedge balls on a lawn (rows of three, one, the paper's outdoor size): every hedge found, fitted, "
-                "scored against its envelope, beside the paper's colour path; on hedgefit's renderer also the "
-                "matcher's radial error against the leaf each pixel truly sees, by that leaf's depth below the envelope");
+                "scored against its envelope, beside the paper's colour path, with the matcher's radial error against "
+                "the leaf each pixel truly sees, by that leaf's depth below the envelope");
   g->footer(
       "Examples:\n"
       "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"

@@ -124,8 +124,9 @@ GardenResult RunGarden(const GardenOptions& a) {
     GardenScene scene;
     scene.name = name;
     // hedgefit's renderer: every pixel's true leaf, to hold the matcher to (MeasureLeafLayer).
-    const stereo::SimRig sim = stereo::PaperRig(a.scale);
-    const cv::Mat surface = pov ? cv::Mat() : stereo::RenderGardenSurface(sim, stereo::GardenPreset(name));
+    const stereo::SimRig sim = pov ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale);
+    const cv::Mat surface = pov ? stereo::RenderPovrayGardenSurface(sim, stereo::GardenPreset(name), a.dir)
+                                : stereo::RenderGardenSurface(sim, stereo::GardenPreset(name));
     scene.hedges_true = truths.size();
     auto tc = std::chrono::steady_clock::now();
     const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, garden);

@@ -75,14 +75,15 @@ struct LeafLayerErrors {
   double measured_outer_share = 0; ///< and points measured within 2 mm of it
   void Add(const LeafLayerErrors& other);  ///< pools another hedge's (bins weighted by points)
 };
-/// `points_mm` in the left camera's frame, `surface` its RenderGardenSurface, `camera` its
+/// `points_mm` in the left camera's frame, `surface` its RenderGardenSurface (or
+/// RenderPovrayGardenSurface), `camera` its
 /// intrinsics; a point whose pixel sees no leaf of this hedge (lawn, another ball: more than
 /// 60 mm below or 5 mm outside the envelope) is left out.
 struct GardenResult {
   std::vector<GardenScene> scenes;
   std::map<std::string, fitting::MethodSummary> summary;  ///< over every found hedge
-  /// hedgefit's renderer only (POV-Ray's leaves have no per-pixel truth here): the cleaned
-  /// clouds of every found hedge against their true leaves, pooled.
+  /// The cleaned clouds of every found hedge against their true leaves (RenderGardenSurface or
+  /// RenderPovrayGardenSurface), pooled.
   std::optional<LeafLayerErrors> leaf_layer;
   double seconds = 0;
 };

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <unordered_map>
@@ -148,7 +149,7 @@ namespace {
 
 // Renders `scene(canvas)` with POV-Ray in `work_dir` and crops the camera's image from the canvas.
 cv::Mat RenderPovrayText(const SimRig& rig, bool right, const std::function<std::string(cv::Size)>& scene,
-                         const std::string& work_dir) {
+                         const std::string& work_dir, bool depth = false) {
   namespace fs = std::filesystem;
   if (!HavePovray()) throw Error("povray: not found; install Debian's povray package (scripts/setup.sh does)");
   const SimCamera& cam = right ? rig.right : rig.left;
@@ -159,11 +160,12 @@ cv::Mat RenderPovrayText(const SimRig& rig, bool right, const std::function<std:
   std::ostringstream cmd;
   cmd << "cd '" << work_dir << "' && povray +I'" << fs::path(stem).filename().string() << ".pov' +O'"
       << fs::path(stem).filename().string() << ".png' +W" << canvas.size.width << " +H" << canvas.size.height
-      << " +A0.05 +AM2 +R3 +FN8 +Q9 -D -V -GA +WT2 > '" << fs::path(stem).filename().string() << ".log' 2>&1";
+      << (depth ? " -A +FN16 File_Gamma=1.0" : " +A0.05 +AM2 +R3 +FN8") << " +Q9 -D -V -GA +WT2 > '"
+      << fs::path(stem).filename().string() << ".log' 2>&1";
   if (std::system(cmd.str().c_str()) != 0) throw Error(stem + ".log: POV-Ray failed; see its log");
   cv::Mat full;
   try {
-    full = ReadImageFile(stem + ".png", cv::IMREAD_COLOR);
+    full = ReadImageFile(stem + ".png", depth ? cv::IMREAD_UNCHANGED : cv::IMREAD_COLOR);
   } catch (const Error& e) {
     throw Error(std::string(e.what()) + ": POV-Ray wrote no image; see " + stem + ".log");
   }
@@ -331,14 +333,28 @@ double PovLeafSurfaceRadius(const GardenHedge& g, const cv::Vec3d& centre, const
 
 }  // namespace
 
-std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas) {
+namespace {
+
+// The depth render's scale: a grey level is kDepthRangeMm / 65535 (0.12 mm) of distance from the
+// camera's centre; farther (the trees) saturates.
+constexpr double kDepthRangeMm = 8000;
+
+// The garden; with `depth`, every surface's texture is its distance from the camera (no light,
+// no sky) for RenderPovrayGardenSurface.
+std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas, bool depth) {
   const cv::Matx33d level_from_camera = GardenLevelFromCamera(sc);
   const double H = sc.camera_height_mm;  // the lawn: y = H in the level frame
   std::ostringstream o;
   o.setf(std::ios::fixed);
   o.precision(2);
   o << "#version 3.7;\nglobal_settings { assumed_gamma 1.0 max_trace_level 6 }\n" << Camera(rig, right, canvas);
-  o << "sky_sphere { pigment { gradient y color_map { [0.0 rgb <0.80, 0.85, 0.92>] [0.25 rgb <0.50, 0.66, 0.90>]\n"
+  // In the depth render every texture below is this one (the union's rotation about the camera
+  // keeps distances from it).
+  const std::string depth_texture = "texture { pigment { function { sqrt(x * x + y * y + z * z) / " +
+                                    std::to_string(kDepthRangeMm) +
+                                    " } color_map { [0 rgb 0] [1 rgb 1] } } finish { ambient 1 diffuse 0 } }";
+  auto tex = [&](const std::string& texture) { return depth ? depth_texture : texture; };
+  if (!depth) o << "sky_sphere { pigment { gradient y color_map { [0.0 rgb <0.80, 0.85, 0.92>] [0.25 rgb <0.50, 0.66, 0.90>]\n"
        "  [1.0 rgb <0.30, 0.45, 0.82>] } } }\n";
   // Leaf textures: three depth bands (the deeper, the darker) x three greens; boxwood is glossy.
   const double band[3] = {1.0, 0.72, 0.5};
@@ -346,27 +362,32 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
   for (int b = 0; b < 3; ++b)
     for (int h = 0; h < 3; ++h) {
       const cv::Vec3d c = hue[h] * band[b];
-      o << "#declare L" << b * 3 + h << " = texture { pigment { rgb <" << c[2] << ", " << c[1] << ", " << c[0]
-        << "> } normal { wrinkles 0.25 scale 4 } finish { ambient 0.10 diffuse 0.75 specular 0.25 roughness 0.015 } }\n";
+      std::ostringstream leaf;
+      leaf << "texture { pigment { rgb <" << c[2] << ", " << c[1] << ", " << c[0]
+           << "> } normal { wrinkles 0.25 scale 4 } finish { ambient 0.10 diffuse 0.75 specular 0.25 roughness 0.015 } }";
+      o << "#declare L" << b * 3 + h << " = " << tex(leaf.str()) << "\n";
     }
   o.precision(6);
   // Everything below is written in the level frame and turned into the camera's by one matrix.
   o << "union {\n";
   // A low sun from the right and behind (hard shadows), and the sky's fill light.
-  o << "  light_source { " << Pov(cv::normalize(cv::Vec3d(0.65, -0.6, -0.45)) * 1e7)
-    << " color rgb 1.3 parallel point_at <0, 0, 0> }\n";
-  o << "  light_source { " << Pov(cv::Vec3d(-3000, -8000, 1000)) << " color rgb 0.22 shadowless }\n";
+  if (!depth) {
+    o << "  light_source { " << Pov(cv::normalize(cv::Vec3d(0.65, -0.6, -0.45)) * 1e7)
+      << " color rgb 1.3 parallel point_at <0, 0, 0> }\n";
+    o << "  light_source { " << Pov(cv::Vec3d(-3000, -8000, 1000)) << " color rgb 0.22 shadowless }\n";
+  }
   // Mown lawn: blades as a fine bumpy pattern (14 mm), mowing stripes 1 m wide; the stripes'
   // scale of 2000 applies to the inner patterns too, hence their 0.007 and 0.005.
-  o << "  plane { y, " << -H << "\n"
-    << "    texture { gradient x texture_map {\n"
-    << "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.04, 0.13, 0.02>]\n"
-    << "        [0.5 rgb <0.10, 0.27, 0.05>] [1 rgb <0.22, 0.40, 0.09>] } scale 0.007 }\n"
-    << "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ]\n"
-    << "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.05, 0.16, 0.03>]\n"
-    << "        [0.5 rgb <0.13, 0.31, 0.06>] [1 rgb <0.26, 0.46, 0.11>] } scale 0.007 }\n"
-    << "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ] } scale 2000 } }\n";
-  if (sc.background) {
+  o << "  plane { y, " << -H << "\n    "
+    << tex("texture { gradient x texture_map {\n"
+           "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.04, 0.13, 0.02>]\n"
+           "        [0.5 rgb <0.10, 0.27, 0.05>] [1 rgb <0.22, 0.40, 0.09>] } scale 0.007 }\n"
+           "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ]\n"
+           "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.05, 0.16, 0.03>]\n"
+           "        [0.5 rgb <0.13, 0.31, 0.06>] [1 rgb <0.26, 0.46, 0.11>] } scale 0.007 }\n"
+           "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ] } scale 2000 }")
+    << " }\n";
+  if (sc.background && !depth) {  // behind every hedge: left out of the depth render
     // A clipped hedge row at 5.3 m, a wooden fence behind it, two round trees.
     o << "  box { <-9000, " << -H << ", 5300>, <9000, " << -H + 1400 << ", 6100>\n"
       << "    texture { pigment { granite turbulence 0.4 color_map { [0 rgb <0.03, 0.10, 0.02>] [0.6 rgb <0.08, 0.24, 0.05>]\n"
@@ -386,16 +407,17 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
   }
   if (sc.pot) {
     o << "  cylinder { <" << sc.pot_x_mm << ", " << -H << ", " << sc.pot_z_mm << ">, <" << sc.pot_x_mm << ", " << -H + 380
-      << ", " << sc.pot_z_mm << ">, 180\n"
-      << "    texture { pigment { bozo color_map { [0 rgb <0.45, 0.17, 0.07>] [1 rgb <0.60, 0.26, 0.12>] } scale 20 }\n"
-      << "      finish { ambient 0.1 diffuse 0.75 } } }\n";
+      << ", " << sc.pot_z_mm << ">, 180\n    "
+      << tex("texture { pigment { bozo color_map { [0 rgb <0.45, 0.17, 0.07>] [1 rgb <0.60, 0.26, 0.12>] } scale 20 }\n"
+             "      finish { ambient 0.1 diffuse 0.75 } }")
+      << " }\n";
   }
   // Other shrubs: the same leaves, one lobe at a time (GardenScene::shrub_lobes), on a dark body.
   for (std::size_t i = 0; i < sc.shrub_lobes.size(); ++i) {
     const GardenHedge& g = sc.shrub_lobes[i];
     const cv::Vec3d c = GardenLevelCenter(sc, g);
-    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g)
-      << " texture { pigment { rgb <0.03, 0.05, 0.02> } finish { ambient 0.05 diffuse 0.6 } } }\n";
+    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g) << " "
+      << tex("texture { pigment { rgb <0.03, 0.05, 0.02> } finish { ambient 0.05 diffuse 0.6 } }") << " }\n";
     o.precision(2);
     for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + 500 + i)) {
       o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a * 1.4 << " texture { L" << l.texture << " } }\n";
@@ -405,9 +427,10 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
   for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
     const GardenHedge& g = sc.hedges[i];
     const cv::Vec3d c = level_from_camera * GardenHedgeCenter(sc, i);
-    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g)
-      << " texture { pigment { granite color_map { [0 rgb <0.02, 0.03, 0.01>] [1 rgb <0.06, 0.09, 0.03>] } scale 15 }"
-         " finish { ambient 0.05 diffuse 0.6 } } }\n";
+    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g) << " "
+      << tex("texture { pigment { granite color_map { [0 rgb <0.02, 0.03, 0.01>] [1 rgb <0.06, 0.09, 0.03>] } scale 15 }"
+             " finish { ambient 0.05 diffuse 0.6 } }")
+      << " }\n";
     o.precision(2);
     for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + i)) {
       o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a << " texture { L" << l.texture << " } }\n";
@@ -416,6 +439,31 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
   }
   o << "  " << Matrix(level_from_camera.t(), cv::Vec3d(0, 0, 0)) << "\n}\n";
   return o.str();
+}
+
+}  // namespace
+
+std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas) {
+  return GardenSceneText(rig, right, sc, canvas, false);
+}
+
+cv::Mat RenderPovrayGardenSurface(const SimRig& rig, const GardenScene& sc, const std::string& work_dir) {
+  const cv::Mat grey = RenderPovrayText(
+      rig, false, [&](cv::Size canvas) { return GardenSceneText(rig, false, sc, canvas, true); }, work_dir, true);
+  if (grey.depth() != CV_16U) throw Error(work_dir + ": POV-Ray's depth render is not 16-bit");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat out(grey.size(), CV_32FC3, cv::Scalar(nan, nan, nan));
+  const cv::Matx33d K_inv = rig.left.K.inv();
+  for (int v = 0; v < grey.rows; ++v) {
+    for (int u = 0; u < grey.cols; ++u) {
+      const cv::Vec3w g = grey.channels() == 3 ? grey.at<cv::Vec3w>(v, u) : cv::Vec3w::all(grey.at<std::uint16_t>(v, u));
+      if (g[1] == 0 || g[1] == 65535) continue;  // nothing hit, or beyond the range
+      const double d = g[1] * kDepthRangeMm / 65535.0;
+      const cv::Vec3d ray = cv::normalize(K_inv * cv::Vec3d(u, v, 1));
+      out.at<cv::Vec3f>(v, u) = cv::Vec3f(float(d * ray[0]), float(d * ray[1]), float(d * ray[2]));
+    }
+  }
+  return out;
 }
 
 std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale, const CameraModel& camera,

@@ -31,6 +31,12 @@ std::string PovraySphereScene(const SimRig& rig, bool right, const SphereScene& 
 /// dark body (a third clipped to the envelope, gaps one sees into), a lawn with mowing stripes,
 /// a hedge row, a fence and trees, under a low parallel sun from the right (hard shadows).
 std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& scene, cv::Size canvas);
+/// The left camera's exact view of a POV-Ray garden: one ray per pixel (no anti-aliasing) through
+/// the same scene with every texture its distance from the camera (16-bit, 0.12 mm a level, up to
+/// 8 m), as points in the left camera frame (CV_32FC3, mm; NaN where nothing within 8 m is hit).
+/// The per-pixel truth stereo::RenderGardenSurface gives for hedgefit's renderer. Renders in
+/// `work_dir`; throws hedgefit::Error without POV-Ray.
+cv::Mat RenderPovrayGardenSurface(const SimRig& rig, const GardenScene& scene, const std::string& work_dir);
 
 /// Whether `povray` is on PATH.
 bool HavePovray();

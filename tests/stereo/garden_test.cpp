@@ -471,6 +471,50 @@ TEST(GardenPovray, SingleBallIsFoundWhereItsTruthSays) {
   EXPECT_NEAR(fit.fit.sphere.radius_mm, truths[0].radius_mm, 12.0);
 }
 
+// POV-Ray's per-pixel truth (RenderPovrayGardenSurface: a second render with every texture its
+// distance from the camera): on the ball's pixels every first hit lies between the dark body
+// (InnerRadius, 38 mm inside) and the envelope, to the depth's 0.12 mm grey level and the
+// leaves' float rounding (R + 0.11 and R - 38.06 mm at most), and the exact hits' envelope fit
+// reads the ball (it came within 0.34 mm of R and 0.29 mm of the centre; 1 mm on each): a wrong
+// range, a ray through the wrong pixel (a crop off by the principal point's offset) or a flipped
+// axis puts hits mm to m off the ball.
+TEST(GardenPovray, DepthRenderGivesEachPixelsTrueLeaf) {
+  if (!HavePovray()) GTEST_SKIP() << "povray is not installed (scripts/setup.sh installs it)";
+  const auto dir = testing::ScratchDir();
+  const SimRig rig = PovrayRig(0.5);
+  const GardenScene sc = GardenPreset("single");
+  const cv::Mat surface = RenderPovrayGardenSurface(rig, sc, dir.string());
+  ASSERT_EQ(surface.type(), CV_32FC3);
+  ASSERT_EQ(surface.size(), rig.left.size);
+  const cv::Vec3d cv_c = GardenHedgeCenter(sc, 0);
+  const Eigen::Vector3d c(cv_c[0], cv_c[1], cv_c[2]);
+  const double R = sc.hedges[0].radius_mm;
+  // The ball's pixels: those whose ray passes within 0.9 R of its centre.
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(std::vector<cv::Point3d>{cv::Point3d(c.x(), c.y(), c.z())}, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                    cv::Mat(rig.left.K), cv::Mat(rig.left.dist), px);
+  const double r_px = 0.9 * R / c.norm() * rig.left.K(0, 0);
+  std::vector<Eigen::Vector3d> pts;
+  double nearest = 1e9, farthest = 0;
+  for (int v = 0; v < surface.rows; ++v) {
+    for (int u = 0; u < surface.cols; ++u) {
+      if (std::hypot(u - px[0].x, v - px[0].y) > r_px) continue;
+      const cv::Vec3f p = surface.at<cv::Vec3f>(v, u);
+      ASSERT_TRUE(std::isfinite(p[2])) << "pixel (" << u << ", " << v << ") of the ball has no hit";
+      pts.emplace_back(p[0], p[1], p[2]);
+      const double s = (pts.back() - c).norm();
+      nearest = std::min(nearest, s), farthest = std::max(farthest, s);
+    }
+  }
+  ASSERT_GT(pts.size(), 5000u);
+  EXPECT_LE(farthest, R + 0.3);
+  EXPECT_GE(nearest, R - sc.hedges[0].leaf_depth_mm - 8 - 0.3);
+  const fitting::EnvelopeFit e = fitting::FitEnvelope(pts);
+  ASSERT_TRUE(e.fit.converged) << e.fit.message;
+  EXPECT_NEAR(e.fit.sphere.radius_mm, R, 1.0);
+  EXPECT_LT((e.fit.sphere.center_mm - c).norm(), 1.0);
+}
+
 TEST(GardenSegment, BadOptionsAreNamed) {
   GardenSegmentOptions o;
   o.min_radius_mm = 900;
