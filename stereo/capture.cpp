@@ -30,7 +30,12 @@ const cloud::OptionTable<MatchOptions>& MatchOptions::Table() {
           .Range(0, 1e9)
           .Add("coarse_range", &O::coarse_range,
                "a hedge without a depth range from its segmentation is matched coarsely first, and finely over "
-               "the disparities it took there");
+               "the disparities it took there")
+          .Add("garden_refine_max_radius", &O::garden_refine_max_radius,
+               "for hedges found by depth (leafy shells), the refinement's retry window instead of "
+               "refine_max_radius; at most refine_radius = no retry",
+               "px")
+          .Range(0, 15);
   return table;
 }
 
@@ -169,6 +174,7 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
         own.min_z_mm = std::max(options.min_z_mm, h.min_z_mm);
         own.max_z_mm = std::min(options.max_z_mm, h.max_z_mm);
         own.coarse_range = false;  // the segmentation's own coarse match gave the range
+        own.sgbm.refine_max_radius = options.garden_refine_max_radius;  // a leafy shell: see the option
         if (!(own.max_z_mm > own.min_z_mm)) own = options;
       }
     }

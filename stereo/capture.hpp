@@ -37,6 +37,12 @@ struct MatchOptions {
   /// by 8 px and 5 %), as the garden path's hedges do with theirs: the working range from 1 m is 96
   /// disparities at the paper's rig where the lab sphere takes about 25.
   bool coarse_range = true;
+  /// For hedges found by depth (the garden segmentation: a leafy shell), the refinement's retry
+  /// window in place of sgbm.refine_max_radius; 2 (= the refine_radius window) is no retry. On a
+  /// leafy hedge a 9 x 9 window (23 mm at 2.4 m) spans leaves at different depths and reads the
+  /// outermost ones too deep: without it the envelope's error fell on all six garden sets of
+  /// both renderers (README, `bench garden`).
+  int garden_refine_max_radius = 2;
   void Check() const;
   static const cloud::OptionTable<MatchOptions>& Table();  ///< the options, declared once
 };

@@ -322,6 +322,38 @@ TEST(GardenCapture, PaperOutdoorBallIsMeasuredWithTheDefaults) {
 }
 
 // The lab keeps working: the paper's sphere before a wall is one hedge in garden mode too.
+// garden_refine_max_radius reaches the hedges the garden segmentation found by depth, and only
+// them: on a leafy ball the 9 x 9 retry (4) settles pixels the 5 x 5 window leaves (so the two
+// settings give clouds of different sizes), while the lab sphere, found by colour, is matched
+// with refine_max_radius whatever garden_refine_max_radius says (the same number of points, and
+// a different one when refine_max_radius itself changes).
+TEST(GardenCapture, TheGardenRetryWindowAppliesToHedgesFoundByDepthOnly) {
+  const Rendered r = Render("single", 0.5);
+  const StereoRig rig = RigFromSimulation(r.sim);
+  auto points = [&](const cv::Mat& left, const cv::Mat& right, SegmentMode mode, int garden_retry, int retry = 4) {
+    ConvertOptions o;
+    o.mode = mode;
+    o.match.garden_refine_max_radius = garden_retry;
+    o.match.sgbm.refine_max_radius = retry;
+    std::size_t n = 0;
+    for (const auto& p : ConvertCapture(left, right, rig, o).cloud.points_mm) n += cloud::IsFinite(p) ? 1 : 0;
+    return n;
+  };
+  const std::size_t leafy_small = points(r.left, r.right, SegmentMode::kGarden, 2),
+                    leafy_retry = points(r.left, r.right, SegmentMode::kGarden, 4);
+  EXPECT_GT(leafy_small, 1000u);
+  EXPECT_GT(leafy_retry, leafy_small);  // the retry settles some pixels the small window drops
+  SphereScene sc;
+  sc.center = cv::Vec3d(70, 50, 2300);
+  RenderOptions ro;
+  ro.supersample = 2;
+  ro.noise_sigma = 1.0;
+  const cv::Mat l = RenderSphere(r.sim, false, sc, ro), rt = RenderSphere(r.sim, true, sc, ro);
+  const std::size_t lab = points(l, rt, SegmentMode::kColour, 2);
+  EXPECT_EQ(lab, points(l, rt, SegmentMode::kColour, 4));
+  EXPECT_NE(lab, points(l, rt, SegmentMode::kColour, 2, 2));  // its own retry does change it
+}
+
 TEST(GardenSegment, LabSphereIsOneHedge) {
   const SimRig sim = PaperRig(0.5);
   SphereScene sc;
