@@ -110,8 +110,8 @@ GardenResult RunGarden(const GardenOptions& a) {
   }
   // No boards in a garden: the renderer's exact rig, so the figures are segmentation, matching
   // and fitting (the lab bench measures calibration).
-  const stereo::StereoRig rig =
-      stereo::RigFromSimulation(pov ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale));
+  const stereo::SimRig sim = pov ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale);
+  const stereo::StereoRig rig = stereo::RigFromSimulation(sim);
   GardenResult out;
   fitting::SummaryBuilder summary;
   stereo::ConvertOptions garden = a.convert;
@@ -123,8 +123,7 @@ GardenResult RunGarden(const GardenOptions& a) {
     const std::vector<cloud::SphereTruth> truths = cloud::ReadSphereTruths(base.string() + ".truth.json");
     GardenScene scene;
     scene.name = name;
-    // hedgefit's renderer: every pixel's true leaf, to hold the matcher to (MeasureLeafLayer).
-    const stereo::SimRig sim = pov ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale);
+    // Every pixel's true leaf, to hold the matcher to (MeasureLeafLayer).
     const cv::Mat surface = pov ? stereo::RenderPovrayGardenSurface(sim, stereo::GardenPreset(name), a.dir)
                                 : stereo::RenderGardenSurface(sim, stereo::GardenPreset(name));
     scene.hedges_true = truths.size();
