@@ -35,7 +35,13 @@ const cloud::OptionTable<MatchOptions>& MatchOptions::Table() {
                "for hedges found by depth (leafy shells), the refinement's retry window instead of "
                "refine_max_radius; at most refine_radius = no retry",
                "px")
-          .Range(0, 15);
+          .Range(0, 15)
+          .Add("garden_sigma_ratio", &O::garden_sigma_ratio,
+               "for hedges found by depth, a refined pixel less certain than this times its tile's median is left "
+               "out of the cloud (windows across leaves at different depths); 0 = keep all")
+          .Min(0)
+          .Add("garden_sigma_tile", &O::garden_sigma_tile_px, "the garden_sigma_ratio median's square", "px")
+          .Range(4, 4096);
   return table;
 }
 
@@ -169,16 +175,22 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
     if (cv::countNonZero(mask) == 0) continue;
     // Each hedge's own depth range, when the segmentation measured one: fewer disparities.
     MatchOptions own = options;
+    bool leafy = false;  // found by depth: a leafy shell
     for (const HedgeRegion& h : hedges) {
       if (h.id == id && h.max_z_mm > h.min_z_mm) {
         own.min_z_mm = std::max(options.min_z_mm, h.min_z_mm);
         own.max_z_mm = std::min(options.max_z_mm, h.max_z_mm);
         own.coarse_range = false;  // the segmentation's own coarse match gave the range
         own.sgbm.refine_max_radius = options.garden_refine_max_radius;  // a leafy shell: see the option
-        if (!(own.max_z_mm > own.min_z_mm)) own = options;
+        leafy = own.max_z_mm > own.min_z_mm;
+        if (!leafy) own = options;
       }
     }
-    const MatchResult m = MatchHedge(rig, raw_left, raw_right, left_rect, right_rect, mask, own);
+    MatchResult m = MatchHedge(rig, raw_left, raw_right, left_rect, right_rect, mask, own);
+    if (leafy && options.garden_sigma_ratio > 0) {
+      all.less_certain_dropped += DropLessCertain(mask, m.disparity_sigma, m.filled, options.garden_sigma_ratio,
+                                                  options.garden_sigma_tile_px, &m.disparity);
+    }
     m.disparity.copyTo(all.disparity, mask);
     m.filled.copyTo(all.filled, mask);
     m.disparity_sigma.copyTo(all.disparity_sigma, mask);
@@ -198,6 +210,45 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
   }
   all.matched_area = matched_area;
   return all;
+}
+
+int DropLessCertain(const cv::Mat& mask, const cv::Mat& sigma, const cv::Mat& filled, double ratio, int tile_px,
+                    cv::Mat* disparity) {
+  if (!(ratio > 0) || sigma.empty() || mask.empty()) return 0;
+  const cv::Rect box = cv::boundingRect(mask);
+  if (box.empty()) return 0;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  int dropped = 0;
+  std::vector<float> values;
+  auto measured = [&](int x, int y) {
+    return mask.at<std::uint8_t>(y, x) != 0 && (filled.empty() || filled.at<std::uint8_t>(y, x) == 0) &&
+           std::isfinite(disparity->at<float>(y, x)) && std::isfinite(sigma.at<float>(y, x));
+  };
+  const int x0 = (box.x / tile_px) * tile_px, y0 = (box.y / tile_px) * tile_px;
+  for (int ty = y0; ty < box.y + box.height; ty += tile_px) {
+    for (int tx = x0; tx < box.x + box.width; tx += tile_px) {
+      const cv::Rect tile = cv::Rect(tx, ty, tile_px, tile_px) & box;
+      values.clear();
+      for (int y = tile.y; y < tile.y + tile.height; ++y) {
+        for (int x = tile.x; x < tile.x + tile.width; ++x) {
+          if (measured(x, y)) values.push_back(sigma.at<float>(y, x));
+        }
+      }
+      if (values.size() < 8) continue;
+      const auto mid = values.begin() + std::ptrdiff_t(values.size() / 2);
+      std::nth_element(values.begin(), mid, values.end());
+      const double limit = ratio * double(*mid);
+      for (int y = tile.y; y < tile.y + tile.height; ++y) {
+        for (int x = tile.x; x < tile.x + tile.width; ++x) {
+          if (measured(x, y) && sigma.at<float>(y, x) > limit) {
+            disparity->at<float>(y, x) = nan;
+            ++dropped;
+          }
+        }
+      }
+    }
+  }
+  return dropped;
 }
 
 VerticalDisparity MeasureRowAgreement(const StereoRig& rig, const cv::Mat& left_bgr, const cv::Mat& right_bgr,

@@ -43,6 +43,18 @@ struct MatchOptions {
   /// outermost ones too deep: without it the envelope's error fell on all six garden sets of
   /// both renderers (README, `bench garden`).
   int garden_refine_max_radius = 2;
+  /// For hedges found by depth: a refined pixel whose disparity standard deviation exceeds this
+  /// multiple of the median over its garden_sigma_tile square (its own hedge's pixels) is left out
+  /// of the cloud; 0 = keep all. On a leafy shell the refinement's window fits worst where it
+  /// straddles leaves at different depths or looks into a dim gap between them, and reads those
+  /// pixels towards the window's average depth: the outer leaves too deep, the deep ones too
+  /// shallow. Keeping each tile's better-pinned half cut the envelope radius's error on all six
+  /// garden sets of both renderers (README, `bench garden`). A median, not a fixed threshold, so
+  /// the cut follows the camera's noise and the light (the sunlit and the shaded side of a ball).
+  double garden_sigma_ratio = 1.0;
+  /// ... the square's side, px: several leaves at the garden's distances (32 px is ~80 mm at 2.4 m
+  /// on the paper's rig), small against the light's change across a ball.
+  int garden_sigma_tile_px = 32;
   void Check() const;
   static const cloud::OptionTable<MatchOptions>& Table();  ///< the options, declared once
 };
@@ -60,7 +72,15 @@ struct MatchResult {
   /// furthest), and the largest |value| it reaches over the matched region, px (0 = none).
   VerticalDisparity vertical;
   double vertical_max_px = 0;
+  int less_certain_dropped = 0;  ///< measured pixels left out by garden_sigma_ratio
 };
+
+/// Leaves out of `disparity` (sets NaN) each measured pixel of `mask` (not `filled`, finite
+/// `sigma`) whose `sigma` exceeds `ratio` times the median of the measured pixels of `mask` in
+/// its `tile_px` square of the image (squares from the origin); squares with fewer than 8 such
+/// pixels are left alone. Returns how many were left out. See MatchOptions::garden_sigma_ratio.
+int DropLessCertain(const cv::Mat& mask, const cv::Mat& sigma, const cv::Mat& filled, double ratio, int tile_px,
+                    cv::Mat* disparity);
 
 /// MatchHedge for each hedge of `hedge_labels` (CV_32S, id per pixel) over its own region and,
 /// when `hedges` gives one, its own depth range, the results merged: a row of hedges costs the

@@ -290,6 +290,7 @@ void RegisterStereoStages(cloud::Registry& r) {
           ctx.Put("matched_area", m.matched_area);
           if (m.stride > 1) ctx.Note("stride", static_cast<std::int64_t>(m.stride));
           ctx.Note("filled", static_cast<std::int64_t>(m.filled_count));
+          if (m.less_certain_dropped > 0) ctx.Note("less_certain_dropped", static_cast<std::int64_t>(m.less_certain_dropped));
           ctx.Note("disparity_range", std::vector<double>{double(m.min_disparity), double(m.min_disparity + m.num_disparities)});
           if (m.vertical.samples > 0) {
             ctx.Note("vertical_disparity_px", m.vertical_max_px);
@@ -305,7 +306,7 @@ void RegisterStereoStages(cloud::Registry& r) {
           if (mask && !mask->empty()) {
             const int hedge = cv::countNonZero(*mask) / (m.stride * m.stride);
             const cv::Mat measured = (m.disparity == m.disparity) & (m.filled == 0) & (*mask != 0);
-            const int matched = cv::countNonZero(measured);
+            const int matched = cv::countNonZero(measured) + m.less_certain_dropped;  // judged before the cut
             if (hedge >= 500 && matched < hedge / 10) {
               char buf[160];
               std::snprintf(buf, sizeof(buf), "only %d of the hedge's %d pixels (%.1f %%) match between the views", matched,

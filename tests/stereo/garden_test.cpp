@@ -15,6 +15,7 @@
 #include "bench/garden.hpp"
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
+#include "cloud/filters.hpp"
 #include "cloud/truth_file.hpp"
 #include "fitting/envelope_fit.hpp"
 #include "stereo/camera_model.hpp"
@@ -222,6 +223,39 @@ TEST(GardenCapture, RowOfThreeBallsGivesThreeHedgesAndTheirEnvelopes) {
   EXPECT_LT(res.matched_fraction, 0.45);
 }
 
+// The less-certain cut (garden_sigma_ratio) is what brings the envelope in: the 5 x 5 window
+// reads the outermost leaves ~1.2 mm too deep where it straddles deeper ones, so with every pixel
+// kept the envelope of each ball is 1-3 mm small (1.2-2.8 mm here); keeping each tile's better-pinned half must
+// bring the row's mean |error| down by at least 0.5 mm (a third of the 1.5 mm leaf-window bias),
+// without moving the centres further than the 6 mm above.
+TEST(GardenCapture, TheLessCertainCutBringsTheEnvelopeOut) {
+  const Rendered r = Render("row", 1.0);
+  const StereoRig rig = RigFromSimulation(r.sim);
+  auto mean_error = [&](double ratio) {
+    ConvertOptions o;
+    o.mode = SegmentMode::kGarden;
+    o.match.garden_sigma_ratio = ratio;
+    // Cleaned as `measure` cleans it (statistical outlier removal, its defaults).
+    const cloud::PointCloud clean =
+        cloud::StatisticalOutlierRemoval(ConvertCapture(r.left, r.right, rig, o).cloud, {}).cloud;
+    const auto groups = cloud::HedgeGroups(clean);
+    EXPECT_EQ(groups.size(), 3u);
+    double sum = 0;
+    for (std::size_t i = 0; i < std::min<std::size_t>(3, groups.size()); ++i) {
+      std::vector<Eigen::Vector3d> pts;
+      for (std::size_t k : groups[i].indices) pts.push_back(clean.points_mm[k].cast<double>());
+      const fitting::EnvelopeFit fit = fitting::FitEnvelope(pts);
+      EXPECT_TRUE(fit.fit.converged) << fit.fit.message;
+      const cv::Vec3d c = GardenHedgeCenter(r.scene, i);
+      EXPECT_LT((fit.fit.sphere.center_mm - Eigen::Vector3d(c[0], c[1], c[2])).norm(), 6.0) << "hedge " << i + 1;
+      sum += std::abs(fit.fit.sphere.radius_mm - r.scene.hedges[i].radius_mm);
+    }
+    return sum / 3;
+  };
+  const double all = mean_error(0), cut = mean_error(MatchOptions().garden_sigma_ratio);
+  EXPECT_LT(cut, all - 0.5) << "every pixel: " << all << " mm, the better-pinned half: " << cut << " mm";
+}
+
 TEST(GardenSegment, PotIsRejectedAsNotGreenAndNamed) {
   const Rendered r = Render("single", 0.5);
   const StereoRig rig = RigFromSimulation(r.sim);
@@ -352,6 +386,75 @@ TEST(GardenCapture, TheGardenRetryWindowAppliesToHedgesFoundByDepthOnly) {
   const std::size_t lab = points(l, rt, SegmentMode::kColour, 2);
   EXPECT_EQ(lab, points(l, rt, SegmentMode::kColour, 4));
   EXPECT_NE(lab, points(l, rt, SegmentMode::kColour, 2, 2));  // its own retry does change it
+}
+
+// The cut keeps the better-pinned half of each tile: the median is the tile's own (a tile of ten
+// times the noise keeps its half too), only measured pixels of the mask count and are cut (filled,
+// unmasked and unrefined ones are left as they are), and a tile with too few pixels is left alone.
+TEST(GardenCapture, DropLessCertainCutsEachTileAboveItsOwnMedian) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat mask = cv::Mat::zeros(64, 96, CV_8U), filled = cv::Mat::zeros(64, 96, CV_8U);
+  cv::Mat sigma(64, 96, CV_32F, cv::Scalar(nan)), disparity(64, 96, CV_32F, cv::Scalar(40.0f));
+  // Tile (0, 0): sigma 1..256 px/1000 in a shuffled order; tile (32, 0): ten times that.
+  for (int k = 0; k < 256; ++k) {
+    const int x = (k * 37) % 16, y = ((k * 37) / 16) % 16;  // a permutation of the 16 x 16 block
+    mask.at<std::uint8_t>(y, x) = mask.at<std::uint8_t>(y, x + 32) = 255;
+    sigma.at<float>(y, x) = 0.001f * float(k + 1);
+    sigma.at<float>(y, x + 32) = 0.01f * float(k + 1);
+  }
+  // Tile (64, 0): 5 pixels, too few for a median.
+  for (int k = 0; k < 5; ++k) mask.at<std::uint8_t>(40, 64 + k) = 255, sigma.at<float>(40, 64 + k) = 1.0f + float(k);
+  // In tile (0, 0): a filled pixel with a large sigma (not measured: not counted, not cut), an
+  // unrefined one (sigma NaN) and an unmasked one with a large sigma.
+  mask.at<std::uint8_t>(20, 3) = 255, filled.at<std::uint8_t>(20, 3) = 255, sigma.at<float>(20, 3) = 9.0f;
+  mask.at<std::uint8_t>(21, 3) = 255;
+  sigma.at<float>(22, 3) = 9.0f;
+  const int dropped = DropLessCertain(mask, sigma, filled, 1.0, 32, &disparity);
+  // 256 values: the median is the 129th (index 128), so the 127 above it go in each tile.
+  EXPECT_EQ(dropped, 2 * 127);
+  for (int y = 0; y < 16; ++y) {
+    for (int x = 0; x < 16; ++x) {
+      for (const int tx : {0, 32}) {
+        const float s = sigma.at<float>(y, x + tx), limit = (tx == 0 ? 0.001f : 0.01f) * 129;
+        EXPECT_EQ(std::isnan(disparity.at<float>(y, x + tx)), s > limit * 1.0001f) << x + tx << ", " << y;
+      }
+    }
+  }
+  for (int k = 0; k < 5; ++k) EXPECT_FALSE(std::isnan(disparity.at<float>(40, 64 + k)));
+  for (const int y : {20, 21, 22}) EXPECT_FALSE(std::isnan(disparity.at<float>(y, 3))) << y;
+  // Ratio 1.5 keeps every pixel up to 1.5 times the median: 0.194-0.256 in the first tile (ten
+  // times that in the second) goes, 63 a tile; 0 keeps all.
+  cv::Mat d2(64, 96, CV_32F, cv::Scalar(40.0f));
+  EXPECT_EQ(DropLessCertain(mask, sigma, filled, 1.5, 32, &d2), 2 * 63);
+  EXPECT_EQ(DropLessCertain(mask, sigma, filled, 0.0, 32, &d2), 0);
+}
+
+// garden_sigma_ratio reaches the hedges the garden segmentation found by depth, and only them:
+// the leafy ball keeps about half its measured pixels (each tile's better-pinned half), the lab
+// sphere, found by colour, all of them.
+TEST(GardenCapture, TheLessCertainCutAppliesToHedgesFoundByDepthOnly) {
+  const Rendered r = Render("single", 0.5);
+  const StereoRig rig = RigFromSimulation(r.sim);
+  auto points = [&](const cv::Mat& left, const cv::Mat& right, SegmentMode mode, double ratio) {
+    ConvertOptions o;
+    o.mode = mode;
+    o.match.garden_sigma_ratio = ratio;
+    std::size_t n = 0;
+    for (const auto& p : ConvertCapture(left, right, rig, o).cloud.points_mm) n += cloud::IsFinite(p) ? 1 : 0;
+    return n;
+  };
+  const double all = double(points(r.left, r.right, SegmentMode::kGarden, 0)),
+               cut = double(points(r.left, r.right, SegmentMode::kGarden, 1));
+  EXPECT_GT(all, 2000);
+  // Half of each tile's pixels, give or take the tiles too small to cut and the outlier removal.
+  EXPECT_NEAR(cut / all, 0.5, 0.1);
+  SphereScene sc;
+  sc.center = cv::Vec3d(70, 50, 2300);
+  RenderOptions ro;
+  ro.supersample = 2;
+  ro.noise_sigma = 1.0;
+  const cv::Mat l = RenderSphere(r.sim, false, sc, ro), rt = RenderSphere(r.sim, true, sc, ro);
+  EXPECT_EQ(points(l, rt, SegmentMode::kColour, 0), points(l, rt, SegmentMode::kColour, 1));
 }
 
 TEST(GardenSegment, LabSphereIsOneHedge) {
