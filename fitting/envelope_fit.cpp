@@ -262,7 +262,11 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   ceres::GradientProblemSolver::Options so;
   so.max_num_iterations = options.max_iterations;
   so.logging_type = ceres::SILENT;
-  so.function_tolerance = 1e-12;
+  // A relative change of 1e-9 in the cost (tens of thousands of nats for 10000 points) is ~1e-5
+  // nats: with the radius's curvature of ~N / noise^2, a few thousandths of a millimetre. 1e-12
+  // took a third more iterations for the same fits (both renderers' standard and hard gardens
+  // within 0.03 mm mean |AER|, the envelope stage 145-153 -> 121-126 ms on POV-Ray's row).
+  so.function_tolerance = 1e-9;
   so.gradient_tolerance = 1e-10;
   auto scaled_solve = [&](double* x, ceres::GradientProblemSolver::Summary* sum) {
     for (int k = 0; k < 4; ++k) x[k] /= unit;
