@@ -8,10 +8,13 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "bench/lab.hpp"
 #include "cloud/filters.hpp"
 #include "cloud/truth_file.hpp"
 #include "fitting/methods.hpp"
+#include "fitting/uncertainty.hpp"
 #include "stereo/povray.hpp"
+#include "stereo/rig_uncertainty.hpp"
 #include "stereo/simulator.hpp"
 #include "stereo/image_io.hpp"
 
@@ -112,6 +115,9 @@ GardenResult RunGarden(const GardenOptions& a) {
   // and fitting (the lab bench measures calibration).
   const stereo::SimRig sim = pov ? stereo::PovrayRig(a.scale) : stereo::PaperRig(a.scale);
   const stereo::StereoRig rig = stereo::RigFromSimulation(sim);
+  // Each fit's stated uncertainty as `measure` states it with this rig: the points' scatter and
+  // the matcher's common offset (the exact rig has no calibration error to carry).
+  const cloud::PointPerturbation matching = stereo::DisparityOffsetPerturbation(rig);
   GardenResult out;
   fitting::SummaryBuilder summary;
   stereo::ConvertOptions garden = a.convert;
@@ -170,6 +176,7 @@ GardenResult RunGarden(const GardenOptions& a) {
         for (const auto& m : fitting::SphereMethodNames()) {
           row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true));
           row.fits.back().hedge_id = g.id;
+          fitting::AddUncertainty(pts, nullptr, &row.fits.back(), &matching);
           row.outside_share.push_back(fitting::OutsideShare(pts, row.fits.back().sphere));
           if (m == "envelope") scene.envelope_ms += row.fits.back().wall_ms;
           summary.Add(m, row.fits.back(), row.truth);
@@ -223,6 +230,27 @@ GardenResult RunGarden(const GardenOptions& a) {
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
+
+namespace {
+
+// IntervalCoverage per method over every found hedge, in table order.
+std::vector<std::pair<std::string, IntervalCoverage>> Coverage(const GardenResult& r) {
+  std::vector<std::pair<std::string, IntervalCoverage>> out;
+  for (const auto& m : fitting::SphereMethodNames()) {
+    IntervalCoverage c;
+    for (const GardenScene& s : r.scenes) {
+      for (const GardenHedgeRow& h : s.rows) {
+        for (const auto& f : h.fits) {
+          if (f.method == m) c.Add(f, h.truth);
+        }
+      }
+    }
+    if (c.cases > 0) out.emplace_back(m, c);
+  }
+  return out;
+}
+
+}  // namespace
 
 void PrintGarden(const GardenResult& r) {
   const auto methods = fitting::SphereMethodNames();
@@ -284,6 +312,14 @@ void PrintGarden(const GardenResult& r) {
   }
   std::printf("  %-17s %11.2f %11s %10s %9.2f %9s   (published, outdoor, 4 hedges r 880-960 mm)\n", "paper outdoor", 4.02,
               "-", "-", 18.29, "-");
+  // Do the stated 95 % intervals hold the truth (found hedges x cx, cy, cz, r)?
+  std::printf("95 %% intervals (points' scatter, matcher's common offset; the exact rig) against the truth\n"
+              "  %-17s %9s %14s %14s %11s\n",
+              "method", "inside", "stated se mm", "actual rms mm", "matching %");
+  for (const auto& [m, c] : Coverage(r)) {
+    std::printf("  %-17s %4d/%-4d %14.2f %14.2f %11.0f\n", m.c_str(), c.inside, c.cases, c.StatedRms(), c.ErrorRms(),
+                c.MatchingPercent());
+  }
   if (r.leaf_layer && r.leaf_layer->points > 0) {
     const LeafLayerErrors& l = *r.leaf_layer;
     std::printf("the matcher against the renderer's own leaves (%zu points of the found hedges, cleaned)\n"
@@ -329,6 +365,9 @@ std::string GardenJson(const GardenResult& r) {
           if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
           jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
           jf["outside_share"] = h.outside_share[fi];
+          if (const auto total = fitting::TotalStdError(f)) {
+            jf["ci95_mm"] = {1.96 * (*total)[0], 1.96 * (*total)[1], 1.96 * (*total)[2], 1.96 * (*total)[3]};
+          }
         }
         jh["fits"].push_back(jf);
       }
@@ -346,6 +385,11 @@ std::string GardenJson(const GardenResult& r) {
                        {"max_abs_aer_mm", s.max_abs_aer_mm}, {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm}};
   }
   j["paper_outdoor"] = {{"mean_abs_aer_mm", 4.02}, {"mean_ld_mm", 18.29}};
+  j["intervals"] = json::object();
+  for (const auto& [m, c] : Coverage(r)) {
+    j["intervals"][m] = {{"inside", c.inside}, {"cases", c.cases}, {"stated_se_rms_mm", c.StatedRms()},
+                         {"actual_rms_mm", c.ErrorRms()}, {"matching_percent", c.MatchingPercent()}};
+  }
   if (r.leaf_layer) {
     json bins = json::array();
     for (const LeafDepthBin& b : r.leaf_layer->bins) {

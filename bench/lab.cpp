@@ -27,6 +27,21 @@ const std::map<std::string, cloud::OptionValue> kLabFitOptions = {
 
 }  // namespace
 
+void IntervalCoverage::Add(const fitting::SphereFitResult& f, const fitting::Sphere& truth) {
+  const auto total = fitting::TotalStdError(f);
+  if (!f.converged || !total) return;
+  const Eigen::Vector4d err(f.sphere.center_mm.x() - truth.center_mm.x(), f.sphere.center_mm.y() - truth.center_mm.y(),
+                            f.sphere.center_mm.z() - truth.center_mm.z(), f.sphere.radius_mm - truth.radius_mm);
+  for (int k = 0; k < 4; ++k) {
+    ++cases;
+    inside += std::abs(err[k]) <= 1.96 * (*total)[k];
+    stated2 += (*total)[k] * (*total)[k];
+    error2 += err[k] * err[k];
+    if (f.rig_std_error_mm) rig2 += (*f.rig_std_error_mm)[k] * (*f.rig_std_error_mm)[k];
+    if (f.matching_std_error_mm) matching2 += (*f.matching_std_error_mm)[k] * (*f.matching_std_error_mm)[k];
+  }
+}
+
 LabResult RunLab(const LabOptions& a) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
@@ -149,27 +164,11 @@ void PrintLab(const LabResult& r) {
               "%14s %14s %9s %11s\n",
               "method", "inside", "stated se mm", "actual rms mm", "rig %", "matching %");
   for (std::size_t k = 0; k < methods.size(); ++k) {
-    int inside = 0, cases = 0;
-    double stated2 = 0, error2 = 0, rig2 = 0, match2 = 0;
-    for (const auto& row : r.rows) {
-      const auto& f = row.fits[k];
-      const auto total = fitting::TotalStdError(f);
-      if (!f.converged || !total) continue;
-      const Eigen::Vector4d err(f.sphere.center_mm.x() - row.truth.center_mm.x(), f.sphere.center_mm.y() - row.truth.center_mm.y(),
-                                f.sphere.center_mm.z() - row.truth.center_mm.z(), f.sphere.radius_mm - row.truth.radius_mm);
-      for (int c = 0; c < 4; ++c) {
-        ++cases;
-        inside += std::abs(err[c]) <= 1.96 * (*total)[c];
-        stated2 += (*total)[c] * (*total)[c];
-        error2 += err[c] * err[c];
-        if (f.rig_std_error_mm) rig2 += (*f.rig_std_error_mm)[c] * (*f.rig_std_error_mm)[c];
-        if (f.matching_std_error_mm) match2 += (*f.matching_std_error_mm)[c] * (*f.matching_std_error_mm)[c];
-      }
-    }
-    if (cases == 0) continue;
-    std::printf("  %-17s %4d/%-4d %14.2f %14.2f %9.0f %11.0f\n", methods[k].c_str(), inside, cases,
-                std::sqrt(stated2 / cases), std::sqrt(error2 / cases), stated2 > 0 ? 100 * rig2 / stated2 : 0.0,
-                stated2 > 0 ? 100 * match2 / stated2 : 0.0);
+    IntervalCoverage c;
+    for (const auto& row : r.rows) c.Add(row.fits[k], row.truth);
+    if (c.cases == 0) continue;
+    std::printf("  %-17s %4d/%-4d %14.2f %14.2f %9.0f %11.0f\n", methods[k].c_str(), c.inside, c.cases, c.StatedRms(),
+                c.ErrorRms(), c.RigPercent(), c.MatchingPercent());
   }
   double ms = 0;
   for (const auto& row : r.rows) ms += row.convert_ms;

@@ -4,6 +4,7 @@
 /// the simulator's truth), convert each sphere capture, fit with every method of the table,
 /// and score like Table 2.
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,20 @@ struct LabResult {
   std::vector<LabRow> rows;  ///< Z = 2000..2600 mm
   std::map<std::string, fitting::MethodSummary> summary;
   double seconds = 0;
+};
+
+/// How well the fits' stated 95 % intervals (fitting::TotalStdError, 1.96 standard errors) hold
+/// the truth, over fits x (cx, cy, cz, r), and the stated standard error against the actual
+/// error: what `bench lab` and `bench garden` print per method.
+struct IntervalCoverage {
+  int inside = 0, cases = 0;
+  double stated2 = 0, error2 = 0, rig2 = 0, matching2 = 0;  ///< sums of squares, mm^2
+  /// Adds a fit's four coordinates; a fit that did not converge or states no error is left out.
+  void Add(const fitting::SphereFitResult& fit, const fitting::Sphere& truth);
+  double StatedRms() const { return cases ? std::sqrt(stated2 / cases) : 0.0; }
+  double ErrorRms() const { return cases ? std::sqrt(error2 / cases) : 0.0; }
+  double RigPercent() const { return stated2 > 0 ? 100 * rig2 / stated2 : 0.0; }
+  double MatchingPercent() const { return stated2 > 0 ? 100 * matching2 / stated2 : 0.0; }
 };
 
 /// Runs the lab test. Throws hedgefit::Error when a capture cannot be converted.

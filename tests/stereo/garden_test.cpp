@@ -13,6 +13,7 @@
 #include <cmath>
 
 #include "bench/garden.hpp"
+#include "bench/lab.hpp"
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "cloud/filters.hpp"
@@ -458,6 +459,32 @@ TEST(GardenCapture, TheLessCertainCutAppliesToHedgesFoundByDepthOnly) {
   EXPECT_NEAR(cut / all, 0.5, 0.1);
   const auto [l, rt] = RenderLabSphere(r.sim);
   EXPECT_EQ(points(l, rt, SegmentMode::kColour, 0), points(l, rt, SegmentMode::kColour, 1));
+}
+
+// bench lab's and bench garden's interval table: a coordinate counts as inside when its error is
+// at most 1.96 stated standard errors (points' and matching terms added in quadrature); fits
+// that did not converge or state no error are left out.
+TEST(BenchIntervals, CoverageCountsEachCoordinateAgainstItsStatedInterval) {
+  const fitting::Sphere truth{Eigen::Vector3d(0, 0, 2000), 500};
+  fitting::SphereFitResult f;
+  f.converged = true;
+  f.sphere = {Eigen::Vector3d(1.9, -2.1, 2000), 503};  // errors 1.9, -2.1, 0, +3 mm
+  f.std_error_mm = Eigen::Vector4d(0.6, 0.6, 1, 1);
+  f.matching_std_error_mm = Eigen::Vector4d(0.8, 0.8, 0, 1);  // totals 1, 1, 1, sqrt(2) mm
+  bench::IntervalCoverage c;
+  c.Add(f, truth);
+  EXPECT_EQ(c.cases, 4);
+  EXPECT_EQ(c.inside, 2);  // 1.9 <= 1.96 and 0 are inside; 2.1 > 1.96 and 3 > 2.77 are not
+  EXPECT_NEAR(c.StatedRms(), std::sqrt((1 + 1 + 1 + 2) / 4.0), 1e-12);
+  EXPECT_NEAR(c.ErrorRms(), std::sqrt((1.9 * 1.9 + 2.1 * 2.1 + 0 + 9) / 4.0), 1e-12);
+  EXPECT_NEAR(c.MatchingPercent(), 100 * (0.64 + 0.64 + 0 + 1) / 5.0, 1e-9);
+  fitting::SphereFitResult failed = f, unstated = f;
+  failed.converged = false;
+  unstated.std_error_mm.reset();
+  unstated.matching_std_error_mm.reset();
+  c.Add(failed, truth);
+  c.Add(unstated, truth);
+  EXPECT_EQ(c.cases, 4);
 }
 
 TEST(GardenSegment, LabSphereIsOneHedge) {
