@@ -365,9 +365,7 @@ std::string GardenJson(const GardenResult& r) {
           if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
           jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
           jf["outside_share"] = h.outside_share[fi];
-          if (const auto total = fitting::TotalStdError(f)) {
-            jf["ci95_mm"] = {1.96 * (*total)[0], 1.96 * (*total)[1], 1.96 * (*total)[2], 1.96 * (*total)[3]};
-          }
+          for (const auto& [key, value] : StatedUncertainty(f)) jf[key] = value;
         }
         jh["fits"].push_back(jf);
       }

@@ -42,6 +42,16 @@ void IntervalCoverage::Add(const fitting::SphereFitResult& f, const fitting::Sph
   }
 }
 
+std::vector<std::pair<std::string, std::vector<double>>> StatedUncertainty(const fitting::SphereFitResult& fit) {
+  std::vector<std::pair<std::string, std::vector<double>>> out;
+  for (const auto& [key, value] : fitting::FitFields(fit)) {
+    if (key.find("std_error_mm") != std::string::npos || key == "ci95_mm") {
+      out.emplace_back(key, std::get<std::vector<double>>(value));
+    }
+  }
+  return out;
+}
+
 LabResult RunLab(const LabOptions& a) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
@@ -191,12 +201,7 @@ std::string LabJson(const LabResult& r) {
                              {"ld_mm", e.ld_mm},
                              {"ml_mm", {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()}},
                              {"al_mm", {row.truth.center_mm.x(), row.truth.center_mm.y(), row.truth.center_mm.z()}}});
-      // The fit's stated uncertainty (fitting::FitFields: std_error_mm, rig_..., matching_..., ci95_mm).
-      for (const auto& [key, value] : fitting::FitFields(f)) {
-        if (key.find("std_error_mm") != std::string::npos || key == "ci95_mm") {
-          out["rows"].back()[key] = std::get<std::vector<double>>(value);
-        }
-      }
+      for (const auto& [key, value] : StatedUncertainty(f)) out["rows"].back()[key] = value;
     }
   }
   for (const auto& m : methods) {

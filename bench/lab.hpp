@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fitting/evaluation.hpp"
@@ -61,6 +62,10 @@ struct IntervalCoverage {
   double RigPercent() const { return stated2 > 0 ? 100 * rig2 / stated2 : 0.0; }
   double MatchingPercent() const { return stated2 > 0 ? 100 * matching2 / stated2 : 0.0; }
 };
+
+/// A fit's stated uncertainty, for the benches' JSON: fitting::FitFields' std_error_mm,
+/// rig_std_error_mm, matching_std_error_mm, total_std_error_mm and ci95_mm, those it has.
+std::vector<std::pair<std::string, std::vector<double>>> StatedUncertainty(const fitting::SphereFitResult& fit);
 
 /// Runs the lab test. Throws hedgefit::Error when a capture cannot be converted.
 LabResult RunLab(const LabOptions& options);
