@@ -229,4 +229,50 @@ SphereFitResult FitSphereGeometric(const std::vector<Eigen::Vector3d>& points_mm
   return r;
 }
 
+std::optional<Sphere> RefitSphereGeometric(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& start,
+                                           int max_iterations) {
+  if (points_mm.size() < 4) return std::nullopt;
+  // Relative to the points' mean, as FitSphereGeometric: better conditioned far from the origin.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points_mm) mean += p;
+  mean /= double(points_mm.size());
+  Eigen::Vector4d x;
+  x << start.center_mm - mean, start.radius_mm;
+  for (int it = 0; it < max_iterations; ++it) {
+    // Residual e = |p - c| - r; de/dc = -(p - c) / |p - c|, de/dr = -1. The normal equations as
+    // sums (Eigen's rank update of a 4 x 4 costs twice as much per point here).
+    const Eigen::Vector3d c = mean + x.head<3>();
+    double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, sx = 0, sy = 0, sz = 0, gx = 0, gy = 0, gz = 0, gr = 0;
+    double count = 0;
+    for (const auto& p : points_mm) {
+      const Eigen::Vector3d d = p - c;
+      const double n = d.norm();
+      if (!(n > 0)) continue;
+      const Eigen::Vector3d u = d / n;  // -J's centre part
+      const double e = n - x[3];
+      xx += u.x() * u.x(), xy += u.x() * u.y(), xz += u.x() * u.z();
+      yy += u.y() * u.y(), yz += u.y() * u.z(), zz += u.z() * u.z();
+      sx += u.x(), sy += u.y(), sz += u.z();
+      gx -= u.x() * e, gy -= u.y() * e, gz -= u.z() * e, gr -= e;
+      count += 1;
+    }
+    Eigen::Matrix4d H;
+    H << xx, xy, xz, sx, xy, yy, yz, sy, xz, yz, zz, sz, sx, sy, sz, count;
+    const Eigen::Vector4d g(gx, gy, gz, gr);
+    const Eigen::LDLT<Eigen::Matrix4d> ldlt(H);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
+    const Eigen::Vector4d step = -ldlt.solve(g);
+    if (!step.allFinite()) return std::nullopt;
+    x += step;
+    // A nanometre: far below any fit's uncertainty, and where FitSphereGeometric's tolerances stop.
+    if (step.cwiseAbs().maxCoeff() < 1e-6) {
+      Sphere s;
+      s.center_mm = x.head<3>() + mean;
+      s.radius_mm = std::abs(x[3]);
+      return s;
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace hedgefit::fitting

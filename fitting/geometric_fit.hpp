@@ -4,6 +4,7 @@
 /// Ceres' Levenberg-Marquardt, started from an algebraic fit. Reports the covariance of
 /// (centre, radius) from Ceres, scaled by the residual variance, as standard errors.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,5 +36,12 @@ struct GeometricFitOptions {
 /// Fits a sphere by orthogonal distance. `initial` (if given) replaces the algebraic start.
 SphereFitResult FitSphereGeometric(const std::vector<Eigen::Vector3d>& points_mm,
                                    const GeometricFitOptions& options = {}, const Sphere* initial = nullptr);
+
+/// The same least squares (no loss, no covariance) by plain Gauss-Newton from `start`, which must
+/// already be close: the refit that the uncertainty's jackknife and perturbations repeat dozens of
+/// times per fit, on the same points less a patch or moved by a millimetre. Single-threaded.
+/// nullopt for fewer than 4 points, a singular system or no settling within `max_iterations`.
+std::optional<Sphere> RefitSphereGeometric(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& start,
+                                           int max_iterations = 20);
 
 }  // namespace hedgefit::fitting

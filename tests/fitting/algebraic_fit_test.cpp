@@ -118,5 +118,35 @@ TEST(Degenerate, InputsGiveDocumentedMessages) {
   expect(plane, "points are coplanar; a sphere is not determined");
 }
 
+// The uncertainty's refit (Gauss-Newton from a close start) minimises the same sum as the Ceres
+// fit: on a noisy cap less a patch, from the whole cap's sphere, both must reach the same sphere.
+// Both stop within ~1e-6 mm of the minimum (their tolerances), far below the 3 mm noise's
+// standard error (~0.1 mm), so 1e-5 mm tells a wrong minimum, or a refit that stopped early, from
+// rounding.
+TEST(Refit, GaussNewtonFromACloseStartReachesTheGeometricFit) {
+  std::mt19937_64 rng(4);
+  const Eigen::Vector3d center(80.0, -40.0, 2300.0);
+  const auto pts = Cap(center, 300.0, 60.0, Eigen::Vector3d(0, 0, -1), 3000, 3.0, rng);
+  GeometricFitOptions go;
+  go.compute_covariance = false;
+  const SphereFitResult whole = FitSphereGeometric(pts, go);
+  ASSERT_TRUE(whole.converged) << whole.message;
+  std::vector<Eigen::Vector3d> rest;
+  for (const auto& p : pts) {
+    if (p.x() < center.x() + 100) rest.push_back(p);  // a patch at one side of the cap left out
+  }
+  const SphereFitResult reference = FitSphereGeometric(rest, go, &whole.sphere);
+  ASSERT_TRUE(reference.converged) << reference.message;
+  // The patch moves the fit: a refit that did not move would not pass the check below.
+  ASSERT_GT((reference.sphere.center_mm - whole.sphere.center_mm).norm(), 0.01);
+  const auto refit = RefitSphereGeometric(rest, whole.sphere);
+  ASSERT_TRUE(refit.has_value());
+  EXPECT_NEAR(refit->radius_mm, reference.sphere.radius_mm, 1e-5);
+  EXPECT_NEAR((refit->center_mm - reference.sphere.center_mm).norm(), 0.0, 1e-5);
+  // Too few points, or all in one place (a singular system): no sphere.
+  EXPECT_FALSE(RefitSphereGeometric({pts[0], pts[1], pts[2]}, whole.sphere).has_value());
+  EXPECT_FALSE(RefitSphereGeometric(std::vector<Eigen::Vector3d>(10, pts[0]), whole.sphere).has_value());
+}
+
 }  // namespace
 }  // namespace hedgefit::fitting
