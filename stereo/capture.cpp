@@ -103,8 +103,12 @@ void NarrowRangeToMask(const cv::Mat& left, const cv::Mat& right, const cv::Mat&
 
 }  // namespace
 
-MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::Mat* raw_right, cv::Mat* left_rect,
-                       cv::Mat* right_rect, const cv::Mat& mask, const MatchOptions& options) {
+namespace {
+
+// MatchHedge's work: its disparity, filled and sigma maps are the matched region's size
+// (`matched_region` says where it lies), so several hedges are merged without full-frame copies.
+MatchResult MatchHedgeRegion(const StereoRig& rig, const cv::Mat* raw_left, const cv::Mat* raw_right, cv::Mat* left_rect,
+                             cv::Mat* right_rect, const cv::Mat& mask, const MatchOptions& options) {
   options.Check();
   MatchResult r;
   SgbmOptions sg = options.sgbm;
@@ -137,15 +141,12 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
       pad_right = std::max(0, sg.num_disparities + sg.block_size - (roi.x + roi.width - box.x - box.width));
     }
   }
-  const DisparityMap d = ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg,
-                                          mask.empty() ? cv::Mat() : mask(roi), r.stride, pad_left, pad_right);
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  r.disparity = cv::Mat(size, CV_32F, cv::Scalar(nan));
-  d.disparity.copyTo(r.disparity(roi));
-  r.filled = cv::Mat::zeros(size, CV_8U);
-  d.rejected.copyTo(r.filled(roi));
-  r.disparity_sigma = cv::Mat(size, CV_32F, cv::Scalar(nan));
-  if (!d.sigma.empty()) d.sigma.copyTo(r.disparity_sigma(roi));
+  DisparityMap d = ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg, mask.empty() ? cv::Mat() : mask(roi),
+                                    r.stride, pad_left, pad_right);
+  r.disparity = d.disparity;
+  r.filled = d.rejected;
+  r.disparity_sigma = d.sigma.empty() ? cv::Mat(roi.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()))
+                                      : d.sigma;
   r.filled_count = d.filled;
   r.vertical = d.vertical;
   r.vertical_max_px = d.vertical.samples > 0 ? d.vertical.MaxAbs(roi.size()) : 0.0;
@@ -153,9 +154,27 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   // value further: no point outside [min_z, max_z] leaves the matcher.
   const double fb = rig.P1.at<double>(0, 0) * rig.baseline_mm;
   const float d_lo = float(fb / options.max_z_mm), d_hi = float(fb / options.min_z_mm);
-  r.disparity(roi).forEach<float>([&](float& v, const int*) {  // outside the region: NaN already
+  r.disparity.forEach<float>([&](float& v, const int*) {
     if (v < d_lo || v > d_hi) v = std::numeric_limits<float>::quiet_NaN();
   });
+  return r;
+}
+
+}  // namespace
+
+MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::Mat* raw_right, cv::Mat* left_rect,
+                       cv::Mat* right_rect, const cv::Mat& mask, const MatchOptions& options) {
+  MatchResult r = MatchHedgeRegion(rig, raw_left, raw_right, left_rect, right_rect, mask, options);
+  // The full rectified size: NaN, not filled and no sigma outside the region.
+  const cv::Size size = left_rect->size();
+  const cv::Rect roi = r.matched_region;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat disparity(size, CV_32F, cv::Scalar(nan)), filled = cv::Mat::zeros(size, CV_8U),
+      sigma(size, CV_32F, cv::Scalar(nan));
+  r.disparity.copyTo(disparity(roi));
+  r.filled.copyTo(filled(roi));
+  r.disparity_sigma.copyTo(sigma(roi));
+  r.disparity = disparity, r.filled = filled, r.disparity_sigma = sigma;
   return r;
 }
 
@@ -186,15 +205,19 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
         if (!leafy) own = options;
       }
     }
-    MatchResult m = MatchHedge(rig, raw_left, raw_right, left_rect, right_rect, mask, own);
+    MatchResult m = MatchHedgeRegion(rig, raw_left, raw_right, left_rect, right_rect, mask, own);
+    // Merged within the hedge's region only: its mask lies inside it.
+    const cv::Rect roi = m.matched_region;
+    const cv::Mat inside = mask(roi);
+    m.disparity.copyTo(all.disparity(roi), inside);
+    m.filled.copyTo(all.filled(roi), inside);
+    m.disparity_sigma.copyTo(all.disparity_sigma(roi), inside);
+    all.filled_count += cv::countNonZero(m.filled & inside);
     if (leafy && options.garden_sigma_ratio > 0) {
-      all.less_certain_dropped += DropLessCertain(mask, m.disparity_sigma, m.filled, options.garden_sigma_ratio,
-                                                  options.garden_sigma_tile_px, &m.disparity);
+      // On the full-frame maps, so the squares stay those of the image (from its origin).
+      all.less_certain_dropped += DropLessCertain(mask, all.disparity_sigma, all.filled, options.garden_sigma_ratio,
+                                                  options.garden_sigma_tile_px, &all.disparity);
     }
-    m.disparity.copyTo(all.disparity, mask);
-    m.filled.copyTo(all.filled, mask);
-    m.disparity_sigma.copyTo(all.disparity_sigma, mask);
-    all.filled_count += cv::countNonZero(m.filled & mask);
     all.matched_region = all.matched_region.empty() ? m.matched_region : (all.matched_region | m.matched_region);
     matched_area += m.matched_region.area();
     if (all.num_disparities == 0) {
