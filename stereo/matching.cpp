@@ -338,14 +338,26 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
         double hs[15] = {0}, g[5] = {0};
         int used = 0;
         double ssr = 0;
+        // The first step has no slope yet, and SGBM's d0 (a float) less a whole column is exact in
+        // double: every sample lies at the same fraction of a pixel, and one set of weights serves
+        // them all (the same values to the bit, without a B-spline evaluation per sample).
+        const bool level = q[1] == 0 && q[2] == 0;
+        double wt_level[4], dt_level[4];
+        const double shift_level = std::floor(-q[0]);
+        if (level) BSplineWeights(-q[0] - shift_level, wt_level, dt_level);
         for (const Sample& sm : window) {
-          const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
-          const int x0 = static_cast<int>(std::floor(xr));
+          double wt_own[4], dt_own[4];
+          const double* wt = wt_level;
+          const double* dt = dt_level;
+          int x0 = x + sm.di + static_cast<int>(shift_level);
+          if (!level) {
+            const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
+            x0 = static_cast<int>(std::floor(xr));
+            BSplineWeights(xr - x0, wt_own, dt_own);
+            wt = wt_own, dt = dt_own;
+          }
           if (x0 < 1 || x0 + 2 >= w) continue;
-          const double t = xr - x0;
           const float* rr = sm.right_row;
-          double wt[4], dt[4];
-          BSplineWeights(t, wt, dt);
           const double rv = wt[0] * rr[x0 - 1] + wt[1] * rr[x0] + wt[2] * rr[x0 + 1] + wt[3] * rr[x0 + 2];
           const double gv = (1 + q[3]) * (dt[0] * rr[x0 - 1] + dt[1] * rr[x0] + dt[2] * rr[x0 + 1] + dt[3] * rr[x0 + 2]);
           const double res = sm.left - (1 + q[3]) * rv - q[4];
