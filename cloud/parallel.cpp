@@ -26,13 +26,19 @@ void ParallelFor(std::size_t n, int threads, std::size_t grain, const std::funct
     run_chunks(0, chunks);
     return;
   }
-  // An arena caps the workers at `threads` without touching the global pool's size.
-  tbb::task_arena arena(workers);
-  arena.execute([&] {
+  auto loop = [&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1),
                       [&](const tbb::blocked_range<std::size_t>& r) { run_chunks(r.begin(), r.end()); },
                       tbb::simple_partitioner());
-  });
+  };
+  // All cores: the caller's own arena (the global pool's, or an enclosing ParallelFor's). Fewer:
+  // an arena caps the workers at `threads` without touching the global pool's size.
+  if (threads <= 0) {
+    loop();
+    return;
+  }
+  tbb::task_arena arena(workers);
+  arena.execute(loop);
 }
 
 }  // namespace hedgefit::cloud

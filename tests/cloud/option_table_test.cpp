@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -155,6 +156,28 @@ TEST(ParallelFor, EachIndexOnceWithinTheThreadLimitAndErrorsReachTheCaller) {
                  if (b == 57) throw Error("stop");
                }),
                Error);
+}
+
+// A loop on all cores (threads 0) inside one capped at 2 workers (fits of several hedges, each
+// summing its likelihood in parallel) stays within the cap: it runs in the enclosing loop's
+// workers rather than in an arena of its own on every core. (On a 2-core machine the pool has no
+// more threads to take, so this can only fail where there are more cores.)
+TEST(ParallelFor, ANestedLoopOnAllCoresStaysWithinTheEnclosingCap) {
+  std::mutex m;
+  std::set<std::thread::id> ids;
+  std::atomic<int> calls{0};
+  ParallelFor(8, 2, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) {
+      ParallelFor(64, 0, 1, [&](std::size_t, std::size_t) {
+        ++calls;
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+        std::lock_guard<std::mutex> lock(m);
+        ids.insert(std::this_thread::get_id());
+      });
+    }
+  });
+  EXPECT_EQ(calls, 8 * 64);
+  EXPECT_LE(int(ids.size()), 2);
 }
 
 }  // namespace
