@@ -533,11 +533,9 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
                (inner & cv::Rect(0, 0, roi.width, roi.height)).size(), 0, 0, cv::INTER_NEAREST);
     part = ErodeMask(FillHoles(part), margin);
     part.setTo(0, out.labels(roi) != 0);  // the nearer hedge keeps a shared pixel
-    cv::Mat full = cv::Mat::zeros(left_rect.size(), CV_8U);
-    part.copyTo(full(roi));
     HedgeRegion r;
     r.id = int(out.hedges.size()) + 1;
-    r.pixels = cv::countNonZero(full);
+    r.pixels = cv::countNonZero(part);
     // A sphere fit on a few hundred points of a hedge's cap says little; such a speck is far
     // away or a fragment.
     if (r.pixels < kMinHedgePixels) {
@@ -545,8 +543,8 @@ GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, co
                              std::to_string(kMinHedgePixels) + " (too far or too small to measure)");
       continue;
     }
-    out.labels.setTo(r.id, full);
-    r.box = cv::boundingRect(full);
+    out.labels(roi).setTo(r.id, part);
+    r.box = cv::boundingRect(part) + roi.tl();
     r.image_box = OriginalBox(rig, r.box);
     r.approx_center_mm = b.sum * (1.0 / double(b.pixels.size()));
     r.approx_radius_mm = kept[n].radius;
