@@ -112,6 +112,30 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
   EXPECT_LE(narrow.min_disparity, 56);
   EXPECT_GE(narrow.min_disparity + narrow.num_disparities, 66);
   EXPECT_LE(narrow.num_disparities, 32);
+  // One hedge given as a label image (as the garden segmentation gives them) is matched as its mask
+  // is: MatchHedges merges within the matched region, the same values on the mask, none off it.
+  {
+    cv::Mat labels;
+    cv::Mat(res.mask != 0).convertTo(labels, CV_32S, 1.0 / 255);
+    const MatchResult merged = MatchHedges(rig, nullptr, nullptr, &lr, &rr, labels, o.match);
+    int compared = 0, differ = 0, off_mask = 0;
+    for (int y = 0; y < labels.rows; ++y) {
+      for (int x = 0; x < labels.cols; ++x) {
+        const float a = narrow.disparity.at<float>(y, x), b = merged.disparity.at<float>(y, x);
+        if (labels.at<int>(y, x) == 0) {
+          off_mask += std::isfinite(b) ? 1 : 0;
+          continue;
+        }
+        ++compared;
+        const bool same = (std::isnan(a) && std::isnan(b)) || a == b;
+        differ += same && narrow.filled.at<std::uint8_t>(y, x) == merged.filled.at<std::uint8_t>(y, x) ? 0 : 1;
+      }
+    }
+    EXPECT_GT(compared, 8000);
+    EXPECT_EQ(differ, 0);
+    EXPECT_EQ(off_mask, 0);
+    EXPECT_EQ(merged.matched_region, narrow.matched_region);
+  }
   MatchOptions whole = o.match;
   whole.coarse_range = false;
   EXPECT_GE(MatchHedge(rig, nullptr, nullptr, &lr, &rr, res.mask, whole).num_disparities, 80);
