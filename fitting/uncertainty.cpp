@@ -38,9 +38,18 @@ Eigen::Vector4d SquaredDeviations(const std::vector<Eigen::Vector4d>& estimates)
 }
 
 // Geometric least squares from `start`: the refit the jackknife and the perturbations repeat
-// (Gauss-Newton from so close a start; Ceres' solver, set up afresh for each, cost ~5x as much).
+// (Gauss-Newton from so close a start; Ceres' solver, set up afresh for each, cost 5x as much,
+// bench_fitters). Where Gauss-Newton does not settle (a cap too small to pin the sphere), Ceres'
+// damped search as before.
 std::optional<Eigen::Vector4d> Refit(const std::vector<Eigen::Vector3d>& points, const Sphere& start) {
-  const std::optional<Sphere> f = RefitSphereGeometric(points, start);
+  std::optional<Sphere> f = RefitSphereGeometric(points, start);
+  if (!f) {
+    GeometricFitOptions go;
+    go.compute_covariance = false;
+    go.num_threads = 1;
+    const SphereFitResult damped = FitSphereGeometric(points, go, &start);
+    if (damped.sphere.center_mm.allFinite()) f = damped.sphere;
+  }
   if (!f) return std::nullopt;
   return Eigen::Vector4d(f->center_mm.x(), f->center_mm.y(), f->center_mm.z(), f->radius_mm);
 }
