@@ -117,12 +117,14 @@ LabResult RunLab(const LabOptions& a) {
                                                              a.convert);
     row.convert_ms = res.wall_ms;
     std::vector<Eigen::Vector3d> pts;
-    for (const auto& p : res.cloud.points_mm) {
-      if (cloud::IsFinite(p)) pts.push_back(p.cast<double>());
+    std::vector<std::size_t> finite;
+    for (std::size_t i = 0; i < res.cloud.size(); ++i) {
+      if (cloud::IsFinite(res.cloud.points_mm[i])) pts.push_back(res.cloud.points_mm[i].cast<double>()), finite.push_back(i);
     }
+    const std::vector<double> pixel_mm = cloud::FieldAt(res.cloud, cloud::kPixelSizeField, finite);
     row.points = pts.size();
     for (const auto& m : fitting::SphereMethodNames()) {
-      row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions));
+      row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions, 42, false, pixel_mm.empty() ? nullptr : &pixel_mm));
       fitting::AddUncertainty(pts, &perturbation, &row.fits.back(), &matching);
       summary.Add(m, row.fits.back(), row.truth);
     }

@@ -26,6 +26,15 @@ void PointCloud::CheckConsistent(const std::string& what) const {
   }
 }
 
+std::vector<double> FieldAt(const PointCloud& cloud, const std::string& name, const std::vector<std::size_t>& indices) {
+  std::vector<double> out;
+  const auto it = cloud.fields.find(name);
+  if (it == cloud.fields.end() || it->second.size() != cloud.size()) return out;
+  out.reserve(indices.size());
+  for (std::size_t i : indices) out.push_back(double(it->second[i]));
+  return out;
+}
+
 PointCloud Select(const PointCloud& cloud, const std::vector<std::size_t>& indices) {
   PointCloud out;
   out.points_mm.reserve(indices.size());

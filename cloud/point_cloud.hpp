@@ -50,6 +50,13 @@ PointCloud MaskOrganized(const PointCloud& cloud, const std::vector<bool>& keep)
 /// written by stereo.segment_garden's captures.
 inline constexpr const char* kHedgeIdField = "hedge_id";
 
+/// The per-point field that says how wide one pixel is at each point of a capture's cloud (Z / f,
+/// mm: the lateral footprint of the matcher's pixel), written by the stereo reprojection.
+inline constexpr const char* kPixelSizeField = "pixel_mm";
+
+/// The values of field `name` at `indices`, as doubles; empty when the cloud has no such field.
+std::vector<double> FieldAt(const PointCloud& cloud, const std::string& name, const std::vector<std::size_t>& indices);
+
 /// One hedge's finite points.
 struct HedgeGroup {
   int id = 0;                        ///< 0 when the cloud has no hedge_id field (one hedge)

@@ -44,6 +44,7 @@ double LogErfc(double z, double* derivative) {
 // log mu, log sigma, logit w. Points are centred on their mean (double precision far from the origin).
 struct ShellLikelihood {
   const std::vector<Eigen::Vector3d>* pts;
+  const std::vector<double>* bias;  // per point: how deep the matcher reads a leaf on the envelope (radial, mm); may be null
   Eigen::Vector3d view;      // viewpoint, in the centred frame
   double log_outlier;        // log(share / width of the uniform outlier density)
   double log_inlier_share;   // log(1 - share)
@@ -80,7 +81,9 @@ struct ShellLikelihood {
       // Leaf depth and stereo noise both lie along the ray: in the radial direction both are
       // scaled by cos(theta), so x / cos(theta) follows the face-on model; log(cos_t) is the
       // Jacobian of that scaling.
-      const double x = (R - s) / cos_t;  // depth below the envelope, along the ray
+      // Depth below the envelope, along the ray (less the matcher's reading of the outermost
+      // leaves too deep: a constant per point, so the derivatives below keep their form).
+      const double x = (R - s - (bias ? (*bias)[i] : 0.0)) / cos_t;
       const double log_cos = std::log(cos_t);
       // The leaves below the envelope: an exponentially modified Gaussian (exponential depth
       // plus N(0, sigma^2)).
@@ -190,15 +193,24 @@ const cloud::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
           .Add("max_iterations", &O::max_iterations, "LBFGS iterations at most", "iterations").Range(1, 10000)
           .Add("max_points", &O::max_points, "the likelihood sums over at most this many points (every n-th); 0 = all",
                "points")
-          .Range(0, 1e9);
+          .Range(0, 1e9)
+          .Add("top_bias", &O::top_bias_px,
+               "the matcher reads the outermost leaves this many pixel footprints too deep; added back where the "
+               "cloud has a pixel_mm field (0 = off)",
+               "px")
+          .Range(0, 5);
   return table;
 }
 
 void EnvelopeFitOptions::Check() const { Table().Validate(*this); }
 
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
-                        const Sphere* initial) {
+                        const Sphere* initial, const std::vector<double>* pixel_mm) {
   options.Check();
+  if (pixel_mm && pixel_mm->size() != points_mm.size()) {
+    throw Error("envelope fit: " + std::to_string(pixel_mm->size()) + " pixel sizes for " +
+                std::to_string(points_mm.size()) + " points");
+  }
   const auto t0 = std::chrono::steady_clock::now();
   EnvelopeFit out;
   SphereFitResult& r = out.fit;
@@ -237,21 +249,38 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   std::nth_element(abs_res.begin(), abs_res.begin() + std::ptrdiff_t(abs_res.size() / 2), abs_res.end());
   const double spread = std::max(0.05, 1.4826 * abs_res[abs_res.size() / 2]);
   const double width = std::max(10 * spread, 0.5 * start.sphere.radius_mm);  // where outliers may fall
+  // The matcher's reading of the outermost leaves below them, per point (top_bias_px footprints).
+  std::vector<double> bias;
+  if (pixel_mm && options.top_bias_px > 0) {
+    bias.resize(points_mm.size());
+    for (std::size_t i = 0; i < bias.size(); ++i) {
+      const double p = (*pixel_mm)[i];
+      bias[i] = std::isfinite(p) && p > 0 ? options.top_bias_px * p : 0.0;
+    }
+  }
   // Every n-th point, n the smallest that keeps at most max_points.
   if (options.max_points > 0 && centred.size() > std::size_t(options.max_points)) {
     const std::size_t n = (centred.size() + std::size_t(options.max_points) - 1) / std::size_t(options.max_points);
     std::vector<Eigen::Vector3d> thinned;
+    std::vector<double> thinned_bias;
     thinned.reserve(centred.size() / n + 1);
-    for (std::size_t i = 0; i < centred.size(); i += n) thinned.push_back(centred[i]);
+    for (std::size_t i = 0; i < centred.size(); i += n) {
+      thinned.push_back(centred[i]);
+      if (!bias.empty()) thinned_bias.push_back(bias[i]);
+    }
     centred.swap(thinned);
+    bias.swap(thinned_bias);
   }
-  ShellLikelihood model{&centred, options.viewpoint_mm - mean, std::log(options.outlier_share / width),
-                        std::log(1 - options.outlier_share)};
+  double mean_bias = 0;
+  for (const double b : bias) mean_bias += b;
+  if (!bias.empty()) mean_bias /= double(bias.size());
+  ShellLikelihood model{&centred, bias.empty() ? nullptr : &bias, options.viewpoint_mm - mean,
+                        std::log(options.outlier_share / width), std::log(1 - options.outlier_share)};
   // A start: the geometric sphere, the envelope a spread outside it, leaves and noise of that
   // spread's scale, and the given share on the envelope (as a logit).
   auto start_at = [&](double logit_share, double* x) {
     const Eigen::Vector3d c = start.sphere.center_mm - mean;
-    const double values[kParams] = {c.x(), c.y(), c.z(), start.sphere.radius_mm + spread, std::log(spread),
+    const double values[kParams] = {c.x(), c.y(), c.z(), start.sphere.radius_mm + spread + mean_bias, std::log(spread),
                                     std::log(0.5 * spread), logit_share};
     std::copy(values, values + kParams, x);
   };
@@ -336,14 +365,15 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   out.leaf_depth_mm = (1 - w) * mu;
   out.noise_mm = sigma;
   out.clipped_share = w;
-  out.surface_radius_mm = p[3] - (1 - w) * mu;
+  out.top_bias_mm = mean_bias;
+  out.surface_radius_mm = p[3] - mean_bias - (1 - w) * mu;
   return out;
 }
 
 namespace detail {
 double ShellCost(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& viewpoint_mm, double outlier_share,
                  double outlier_width_mm, const double* p, double* gradient) {
-  const ShellLikelihood model{&points, viewpoint_mm, std::log(outlier_share / outlier_width_mm),
+  const ShellLikelihood model{&points, nullptr, viewpoint_mm, std::log(outlier_share / outlier_width_mm),
                               std::log(1 - outlier_share)};
   double cost = 0;
   ParallelShellCost(model).Evaluate(p, &cost, gradient);

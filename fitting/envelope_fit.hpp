@@ -32,21 +32,31 @@ struct EnvelopeFitOptions {
   /// The likelihood is summed over at most this many points (every n-th): six parameters are
   /// settled to ~0.1 mm by 10000 points, and the cost grows with every point. 0 = all.
   int max_points = 10000;
+  /// A matching window about one of the outermost leaves also sees the deeper leaves around it,
+  /// so stereo reads the outermost leaves too deep, by about half a pixel's footprint there
+  /// (Z / f): against each renderer's per-pixel truth, 0.45-0.47 footprints on hedgefit's three
+  /// garden sets and 0.47-0.58 on POV-Ray's (bench garden, "the matcher against the renderer's
+  /// own leaves"), 0.5-1.4 mm at 1.3-3 m. The envelope adds this many footprints back, point by
+  /// point, where the cloud says what a pixel spans (its "pixel_mm" field); 0 = off.
+  double top_bias_px = 0.5;
   void Check() const;
   static const cloud::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once
 };
 
 struct EnvelopeFit {
   SphereFitResult fit;            ///< sphere = centre and outer envelope radius (method "envelope")
-  double surface_radius_mm = 0;   ///< mean leaf-surface radius, R - mu
+  double surface_radius_mm = 0;   ///< mean leaf-surface radius, R - top bias - (1 - w) mu
   double leaf_depth_mm = 0;       ///< (1 - w) mu: mean depth of the visible leaves below the envelope, face-on
   double noise_mm = 0;            ///< sigma: measurement noise along the view ray
   double clipped_share = 0;       ///< w: share of the points on the envelope itself (leaves cut flush)
+  double top_bias_mm = 0;         ///< the matcher's mean reading of the outermost leaves below them, added back
 };
 
 /// Fits the envelope, starting from `initial` (e.g. a geometric fit) or a Hyper fit.
+/// `pixel_mm` (optional, one per point): the lateral size of one pixel at each point (Z / f, a
+/// capture cloud's "pixel_mm" field), for options.top_bias_px; without it no bias is added.
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options = {},
-                        const Sphere* initial = nullptr);
+                        const Sphere* initial = nullptr, const std::vector<double>* pixel_mm = nullptr);
 
 namespace detail {
 /// The shell model's mean negative log-likelihood over `points` at the 7 parameters p (centre x,

@@ -71,8 +71,10 @@ void RegisterFittingStages(cloud::Registry& r) {
                   std::vector<Eigen::Vector3d> pts;
                   pts.reserve(g.indices.size());
                   for (std::size_t i : g.indices) pts.push_back(c.points_mm[i].cast<double>());
+                  const std::vector<double> pixel_mm = FieldAt(c, kPixelSizeField, g.indices);
                   FitInputs in;
                   in.points_mm = &pts;
+                  in.pixel_mm = pixel_mm.empty() ? nullptr : &pixel_mm;
                   in.seed = seed;
                   in.inliers = m.has_inliers ? &inliers[k] : nullptr;
                   in.one_hedge = g.id >= 1;

@@ -178,7 +178,7 @@ std::vector<FitMethod> MakeTable() {
                        failed.message = "no starting sphere: " + start.message;
                        return failed;
                      }
-                     const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere);
+                     const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm);
                      SphereFitResult r = e.fit;
                      r.wall_ms += start.wall_ms;
                      if (r.converged) {
@@ -296,7 +296,7 @@ std::vector<std::string> ParseMethodList(const std::string& text, const std::str
 
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
                              const std::map<std::string, cloud::OptionValue>& given, std::uint64_t seed,
-                             bool one_hedge) {
+                             bool one_hedge, const std::vector<double>* pixel_mm) {
   const FitMethod& m = FindFitMethod(name, "fit");
   std::map<std::string, cloud::OptionValue> mine;
   for (const auto& spec : m.options) {
@@ -309,6 +309,7 @@ SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::V
   in.points_mm = &points_mm;
   in.seed = seed;
   in.one_hedge = one_hedge;
+  in.pixel_mm = pixel_mm;
   return fit(in);
 }
 

@@ -18,6 +18,9 @@ namespace hedgefit::fitting {
 /// What a fit sees besides its own options.
 struct FitInputs {
   const std::vector<Eigen::Vector3d>* points_mm = nullptr;  ///< the points, mm
+  /// Optional, one per point: the lateral size of one pixel there (Z / f, mm), a capture cloud's
+  /// "pixel_mm" field; the envelope fit uses it for the matcher's reading of the outermost leaves.
+  const std::vector<double>* pixel_mm = nullptr;
   std::uint64_t seed = 42;                                  ///< for methods that sample
   const Sphere* previous = nullptr;  ///< an earlier fit, for options such as initial = previous
   std::vector<std::size_t>* inliers = nullptr;  ///< out: inlier indices, for methods that have them
@@ -64,10 +67,11 @@ const FitMethod* MostTrusted(const std::vector<std::string>& names);
 std::vector<std::string> ParseMethodList(const std::string& text, const std::string& where);
 
 /// Runs one method with `given` options (the rest at their defaults; options the method does
-/// not declare are ignored, so one map can serve several methods). `one_hedge`: see FitInputs.
+/// not declare are ignored, so one map can serve several methods). `one_hedge` and `pixel_mm`:
+/// see FitInputs.
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
                              const std::map<std::string, cloud::OptionValue>& given = {}, std::uint64_t seed = 42,
-                             bool one_hedge = false);
+                             bool one_hedge = false, const std::vector<double>* pixel_mm = nullptr);
 
 /// Ceres reports a solver's trouble (e.g. "Linear solver failure" while a geometric refit of
 /// a degenerate sphere steps) through glog, at WARNING, on stderr: dozens of lines before the

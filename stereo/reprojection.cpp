@@ -13,7 +13,7 @@ const cloud::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
   static const auto table =
       cloud::OptionTable<O>()
           .Add("organized", &O::organized, "keep the image grid (NaN where no point)")
-          .Add("extra_fields", &O::extra_fields, "add disparity and sigma_z fields")
+          .Add("extra_fields", &O::extra_fields, "add disparity, sigma_z and pixel_mm fields")
           .Add("sigma_disparity", &O::sigma_disparity_px, "disparity noise for sigma_z where the refinement gave none", "px")
           .Min(0)
           .Add("keep_filled", &O::keep_filled, "also reproject hole-filled (unmeasured) disparities");
@@ -30,7 +30,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
   const cv::Matx33d R1t = cv::Matx33d(rig.R1).t();
   const double f = rig.P1.at<double>(0, 0), b = rig.baseline_mm;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<float> disp_field, sigma_field, hedge_field;
+  std::vector<float> disp_field, sigma_field, pixel_field, hedge_field;
   const bool labelled = !hedge_labels.empty();
   for (int y = 0; y < disparity.rows; ++y) {
     for (int x = 0; x < disparity.cols; ++x) {
@@ -42,6 +42,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
           out.colors.push_back({0, 0, 0});
           disp_field.push_back(nan);
           sigma_field.push_back(nan);
+          pixel_field.push_back(nan);
           if (labelled) hedge_field.push_back(0);
         }
         continue;
@@ -60,6 +61,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
       // own estimate is floored at 0.02 px (the lab's remaining systematic error is ~0.01).
       const double sigma_d = std::isfinite(own) ? std::max(0.02, double(own)) : o.sigma_disparity_px;
       sigma_field.push_back(float(p_rect[2] * p_rect[2] * sigma_d / (f * b)));
+      pixel_field.push_back(float(p_rect[2] / f));  // one pixel's lateral footprint at the point
     }
   }
   if (o.organized) {
@@ -72,6 +74,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
   if (o.extra_fields) {
     out.fields["disparity"] = std::move(disp_field);
     out.fields["sigma_z"] = std::move(sigma_field);
+    out.fields[cloud::kPixelSizeField] = std::move(pixel_field);
   }
   return out;
 }

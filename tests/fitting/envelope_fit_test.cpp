@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 
+#include "cloud/error.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/methods.hpp"
 #include "tests/fitting/synthetic.hpp"
@@ -136,6 +137,46 @@ TEST(EnvelopeFit, BareSphereAgreesWithTheGeometricFit) {
   EXPECT_NEAR(e.fit.sphere.radius_mm, 300, 1.0);
   EXPECT_LT(e.leaf_depth_mm, 1.0);
   EXPECT_LT((e.fit.sphere.center_mm - centre).norm(), 1.5);
+}
+
+// A matcher that reads every point of a bare ball too deep by top_bias_px footprints (Z / f,
+// f = 933 px: 2.1-2.6 mm per pixel here), as stereo reads the outermost leaves: given each
+// point's footprint, the envelope adds it back; without it (a cloud with no pixel_mm field) the
+// radius is that much small. 2 footprints (~4.5 mm) so that the two cases lie far apart against
+// the fit's ~0.1 mm statistical error (8000 points, 1 mm noise); 0.5 mm is the bare-sphere
+// test's allowance for the model (a bare ball is the shell model's edge, w -> 1).
+TEST(EnvelopeFit, AddsBackTheMatchersReadingOfTheOutermostLeaves) {
+  std::mt19937_64 rng(5);
+  const Eigen::Vector3d centre(60, -20, 2300);
+  const double f = 933, R = 450, kappa = 2;
+  auto pts = hedgefit::testing::Cap(centre, R, 60, (-centre).normalized(), 8000, 1.0, rng);
+  std::vector<double> pixel_mm;
+  double mean_bias = 0;
+  for (auto& p : pts) {
+    pixel_mm.push_back(p.z() / f);
+    const Eigen::Vector3d out = (p - centre).normalized();
+    p -= kappa * pixel_mm.back() * out;  // read that much deeper, radially
+    mean_bias += kappa * pixel_mm.back();
+  }
+  mean_bias /= double(pts.size());
+  EnvelopeFitOptions o;
+  o.top_bias_px = kappa;
+  const EnvelopeFit with = FitEnvelope(pts, o, nullptr, &pixel_mm);
+  ASSERT_TRUE(with.fit.converged) << with.fit.message;
+  EXPECT_NEAR(with.fit.sphere.radius_mm, R, 0.5);
+  EXPECT_LT((with.fit.sphere.center_mm - centre).norm(), 1.0);
+  EXPECT_NEAR(with.top_bias_mm, mean_bias, 1e-6);
+  const EnvelopeFit without = FitEnvelope(pts, o);
+  ASSERT_TRUE(without.fit.converged) << without.fit.message;
+  // Without the footprints it is the sphere through the points as read (the deeper reading
+  // grows with Z, so that sphere is not simply R - mean bias), and more than 0.8 mean biases
+  // inside the corrected one.
+  EXPECT_NEAR(without.fit.sphere.radius_mm, FitSphereGeometric(pts).sphere.radius_mm, 0.5);
+  EXPECT_GT(with.fit.sphere.radius_mm - without.fit.sphere.radius_mm, 0.8 * mean_bias);
+  EXPECT_EQ(without.top_bias_mm, 0.0);
+  // The pixel sizes must be one per point.
+  pixel_mm.pop_back();
+  EXPECT_THROW(FitEnvelope(pts, o, nullptr, &pixel_mm), Error);
 }
 
 // Through the method table: the row reports both radii.

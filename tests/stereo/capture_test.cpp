@@ -61,6 +61,10 @@ TEST(Capture, ReprojectedPointsAreInTheUnrectifiedLeftFrame) {
   const double f = rig.P1.at<double>(0, 0);
   EXPECT_NEAR(pc.fields.at("sigma_z")[0], (f * rig.baseline_mm / d) * (f * rig.baseline_mm / d) * 0.2 / (f * rig.baseline_mm),
               0.01);
+  // One pixel's footprint at the point, Z / f = b / d in the rectified frame (2.4 mm here; a
+  // focal length or baseline mixed up is off by orders of magnitude, float storage by 1e-6).
+  ASSERT_EQ(pc.fields.count(cloud::kPixelSizeField), 1u);
+  EXPECT_NEAR(pc.fields.at(cloud::kPixelSizeField)[0], rig.baseline_mm / d, 1e-4);
 }
 
 // A simulated full-size capture of r = 300 mm at 2.3 m, converted with the true rig.
