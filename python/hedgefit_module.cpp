@@ -178,7 +178,7 @@ PYBIND11_MODULE(hedgefit, m) {
   m.def(
       "fit",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::string& method,
-         std::uint64_t seed, const py::kwargs& options) {
+         std::uint64_t seed, const py::object& pixel_mm, const py::kwargs& options) {
         std::map<std::string, cloud::OptionValue> given;
         const fitting::FitMethod& fm = fitting::FindFitMethod(method, "method");
         for (const auto& [key, value] : options) {
@@ -188,17 +188,26 @@ PYBIND11_MODULE(hedgefit, m) {
           given[name] = FromPython(name, value);
         }
         const std::vector<Eigen::Vector3d> pts = Points(xyz);
+        std::vector<double> pixel;
+        if (!pixel_mm.is_none()) {
+          const auto a = pixel_mm.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+          if (a.ndim() != 1 || std::size_t(a.shape(0)) != pts.size()) {
+            throw Error("fit(pixel_mm=...): give one value per point, shape (" + std::to_string(pts.size()) + ",)");
+          }
+          pixel.assign(a.data(), a.data() + a.shape(0));
+        }
         fitting::SphereFitResult r;
         {
           py::gil_scoped_release release;
-          r = fitting::RunFitMethod(method, pts, given, seed);
+          r = fitting::RunFitMethod(method, pts, given, seed, false, pixel.empty() ? nullptr : &pixel);
         }
         return FitDict(r);
       },
-      py::arg("xyz"), py::arg("method") = "ransac_geometric", py::arg("seed") = 42,
+      py::arg("xyz"), py::arg("method") = "ransac_geometric", py::arg("seed") = 42, py::arg("pixel_mm") = py::none(),
       "Fits a sphere to (N, 3) points in mm with any method of hedgefit.methods(); keyword arguments are the "
-      "method's options (as in a pipeline). Returns a dict: converged, center_mm, radius_mm, rms_mm, std_error_mm, "
-      "inliers, ...");
+      "method's options (as in a pipeline). pixel_mm: optional (N,) footprint of one pixel at each point (a capture "
+      "cloud's 'pixel_mm' field), which the envelope fit uses. Returns a dict: converged, center_mm, radius_mm, "
+      "rms_mm, std_error_mm, inliers, ...");
   m.def("read_image",
         [](const std::string& path) {
           const cv::Mat img = stereo::ReadCaptureImage(path, 1 /* cv::IMREAD_COLOR */);

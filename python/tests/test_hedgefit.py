@@ -75,6 +75,23 @@ class Fits(unittest.TestCase):
         with self.assertRaises(hedgefit.Error):
             hedgefit.fit(xyz, "nosuchmethod")
 
+    def test_envelope_adds_back_the_footprints_it_is_given(self):
+        # A cap read 2 pixel footprints (Z / f, f 933 px: ~4 mm at 2 m) too deep, radially, as
+        # stereo reads the outermost leaves: given each point's footprint and top_bias 2 the
+        # envelope adds it back (1 mm: the method test's allowance); without them it stays small.
+        center, radius, f = np.array([10.0, 20.0, 2000.0]), 400.0, 933.0
+        xyz = sphere_cap(center, radius, 3000, 1.0)
+        pixel = xyz[:, 2] / f
+        out = (xyz - center) / np.linalg.norm(xyz - center, axis=1)[:, None]
+        read = xyz - 2.0 * pixel[:, None] * out
+        with_px = hedgefit.fit(read, "envelope", pixel_mm=pixel, top_bias=2.0)
+        without = hedgefit.fit(read, "envelope", top_bias=2.0)
+        self.assertLess(abs(with_px["radius_mm"] - radius), 1.0)
+        self.assertGreater(with_px["radius_mm"] - without["radius_mm"], 0.8 * 2.0 * pixel.mean())
+        with self.assertRaises(hedgefit.Error) as e:
+            hedgefit.fit(read, "envelope", pixel_mm=pixel[:-1])
+        self.assertIn("pixel_mm", str(e.exception))
+
 
 class Trim(unittest.TestCase):
     def test_a_ball_twenty_millimetres_proud(self):
