@@ -145,6 +145,7 @@ std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFi
   }
   if (f.converged && f.surface_radius_mm) out.emplace_back("surface_radius_mm", *f.surface_radius_mm);
   if (f.converged && f.leaf_depth_mm) out.emplace_back("leaf_depth_mm", *f.leaf_depth_mm);
+  if (f.converged && f.top_bias_mm) out.emplace_back("top_bias_mm", *f.top_bias_mm);
   if (f.converged && f.axes_mm) {
     out.emplace_back("axes_mm", std::vector<double>{(*f.axes_mm)[0], (*f.axes_mm)[1], (*f.axes_mm)[2]});
   }

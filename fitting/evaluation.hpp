@@ -54,7 +54,7 @@ inline constexpr const char* kPaperTable2Label = "Table 2, lab, 2.0-2.6 m";
 /// A fit as named values, the one description of a SphereFitResult that JSON, CSV and pipeline
 /// metadata are written from: method, converged, points_used, inliers, iterations, wall_ms,
 /// message, and when converged center_mm, radius_mm, rms_mm; std_error_mm where the method has
-/// it; surface_radius_mm and leaf_depth_mm for the envelope fit.
+/// it; surface_radius_mm, leaf_depth_mm and top_bias_mm for the envelope fit.
 std::vector<std::pair<std::string, cloud::OptionValue>> FitFields(const SphereFitResult& fit);
 
 /// Accumulates per-method statistics over clouds.

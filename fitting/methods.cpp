@@ -184,6 +184,7 @@ std::vector<FitMethod> MakeTable() {
                      if (r.converged) {
                        r.surface_radius_mm = e.surface_radius_mm;
                        r.leaf_depth_mm = e.leaf_depth_mm;
+                       if (e.top_bias_mm > 0) r.top_bias_mm = e.top_bias_mm;
                      }
                      return r;
                    };

@@ -37,6 +37,9 @@ struct SphereFitResult {
   /// leaf-surface radius and the mean leaf depth below the envelope, mm.
   std::optional<double> surface_radius_mm;
   std::optional<double> leaf_depth_mm;
+  /// ... and how far out it moved the envelope for the matcher's reading of the outermost leaves
+  /// (mean over the points, mm; set when the cloud said what a pixel spans: EnvelopeFitOptions).
+  std::optional<double> top_bias_mm;
   /// Ellipsoid fits (method "ellipsoid"): semi-axes (largest first), the vertical one and the
   /// horizontal one across the line of sight, mm; `sphere` holds the centre and the axes'
   /// geometric mean.

@@ -88,6 +88,9 @@ class Fits(unittest.TestCase):
         without = hedgefit.fit(read, "envelope", top_bias=2.0)
         self.assertLess(abs(with_px["radius_mm"] - radius), 1.0)
         self.assertGreater(with_px["radius_mm"] - without["radius_mm"], 0.8 * 2.0 * pixel.mean())
+        # The fit says what it added: the mean over the points (every point kept: 3000 < max_points).
+        self.assertAlmostEqual(with_px["top_bias_mm"], 2.0 * pixel.mean(), places=6)
+        self.assertNotIn("top_bias_mm", without)
         with self.assertRaises(hedgefit.Error) as e:
             hedgefit.fit(read, "envelope", pixel_mm=pixel[:-1])
         self.assertIn("pixel_mm", str(e.exception))
