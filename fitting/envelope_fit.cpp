@@ -17,6 +17,11 @@ namespace hedgefit::fitting {
 namespace {
 
 constexpr double kMinScaleMm = 0.01;
+// top_bias_px was measured where one pixel spans 1.4-3.2 mm (1.3-3 m on the benches' rigs), a
+// fraction of a leaf. Where a pixel spans more, the window averages whole leaves and the reading
+// cannot grow past the layer's mean depth; it is not extrapolated: a larger footprint counts as
+// this one (at 24 m, PCL's real outdoor pair, the footprint is 65 mm and would add 33 mm).
+constexpr double kMaxTopBiasFootprintMm = 4.0;
 // Parameters: centre (3), R, log mu, log sigma, logit w (the share on the envelope).
 constexpr int kParams = 7;
 // The search starts with a quarter of the leaves on the envelope (logit -1: w 0.27), between a
@@ -255,7 +260,7 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
     bias.resize(points_mm.size());
     for (std::size_t i = 0; i < bias.size(); ++i) {
       const double p = (*pixel_mm)[i];
-      bias[i] = std::isfinite(p) && p > 0 ? options.top_bias_px * p : 0.0;
+      bias[i] = std::isfinite(p) && p > 0 ? options.top_bias_px * std::min(p, kMaxTopBiasFootprintMm) : 0.0;
     }
   }
   // Every n-th point, n the smallest that keeps at most max_points.

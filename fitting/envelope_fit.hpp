@@ -37,7 +37,8 @@ struct EnvelopeFitOptions {
   /// (Z / f): against each renderer's per-pixel truth, 0.45-0.47 footprints on hedgefit's three
   /// garden sets and 0.47-0.58 on POV-Ray's (bench garden, "the matcher against the renderer's
   /// own leaves"), 0.5-2 mm at 1.3-3 m. The envelope adds this many footprints back, point by
-  /// point, where the cloud says what a pixel spans (its "pixel_mm" field); 0 = off.
+  /// point, where the cloud says what a pixel spans (its "pixel_mm" field); 0 = off. Footprints
+  /// over 4 mm (beyond those it was measured at) count as 4 mm.
   double top_bias_px = 0.5;
   void Check() const;
   static const cloud::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once

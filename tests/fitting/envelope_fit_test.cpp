@@ -174,6 +174,13 @@ TEST(EnvelopeFit, AddsBackTheMatchersReadingOfTheOutermostLeaves) {
   EXPECT_NEAR(without.fit.sphere.radius_mm, FitSphereGeometric(pts).sphere.radius_mm, 0.5);
   EXPECT_GT(with.fit.sphere.radius_mm - without.fit.sphere.radius_mm, 0.8 * mean_bias);
   EXPECT_EQ(without.top_bias_mm, 0.0);
+  // A footprint far beyond those the reading was measured at (a pixel spanning 65 mm, PCL's
+  // outdoor pair at 24 m) is not extrapolated: it counts as 4 mm, so the reading added is
+  // top_bias x 4 mm, not 130 mm.
+  std::vector<double> far(pixel_mm.size(), 65.0);
+  const EnvelopeFit capped = FitEnvelope(pts, o, nullptr, &far);
+  ASSERT_TRUE(capped.fit.converged) << capped.fit.message;
+  EXPECT_DOUBLE_EQ(capped.top_bias_mm, kappa * 4.0);
   // The pixel sizes must be one per point.
   pixel_mm.pop_back();
   EXPECT_THROW(FitEnvelope(pts, o, nullptr, &pixel_mm), Error);
