@@ -191,8 +191,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
             rep.truth = fitting::TruthForPoints(truths, pts);
             const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
             for (const auto& m : methods) {
-              rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed, g.id >= 1,
-                                                       pixel_mm.empty() ? nullptr : &pixel_mm));
+              rep.fits.push_back(fitting::RunFitMethod(m, pts, fit_options, a->seed, g.id >= 1, &pixel_mm));
               rep.fits.back().hedge_id = g.id;
               fitting::AddUncertainty(pts, a->rig.empty() ? nullptr : &rig_perturbation, &rep.fits.back(),
                                       a->rig.empty() ? nullptr : &matching_perturbation);

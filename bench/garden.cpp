@@ -175,7 +175,7 @@ GardenResult RunGarden(const GardenOptions& a) {
         }
         const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
         for (const auto& m : fitting::SphereMethodNames()) {
-          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, pixel_mm.empty() ? nullptr : &pixel_mm));
+          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, &pixel_mm));
           row.fits.back().hedge_id = g.id;
           fitting::AddUncertainty(pts, nullptr, &row.fits.back(), &matching);
           row.outside_share.push_back(fitting::OutsideShare(pts, row.fits.back().sphere));
@@ -194,8 +194,7 @@ GardenResult RunGarden(const GardenOptions& a) {
       std::vector<Eigen::Vector3d> pts;
       for (std::size_t i : g.indices) pts.push_back(cleaned.points_mm[i].cast<double>());
       const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
-      const fitting::SphereFitResult f =
-          fitting::RunFitMethod("envelope", pts, {}, 42, true, pixel_mm.empty() ? nullptr : &pixel_mm);
+      const fitting::SphereFitResult f = fitting::RunFitMethod("envelope", pts, {}, 42, true, &pixel_mm);
       if (!f.converged) continue;
       scene.others_not_ball += f.not_a_ball ? 1 : 0;
       scene.others_not_ball_default += fitting::RunFitMethod("ransac_geometric", pts, {}, 42, true).not_a_ball ? 1 : 0;

@@ -124,7 +124,7 @@ LabResult RunLab(const LabOptions& a) {
     const std::vector<double> pixel_mm = cloud::FieldAt(res.cloud, cloud::kPixelSizeField, finite);
     row.points = pts.size();
     for (const auto& m : fitting::SphereMethodNames()) {
-      row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions, 42, false, pixel_mm.empty() ? nullptr : &pixel_mm));
+      row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions, 42, false, &pixel_mm));
       fitting::AddUncertainty(pts, &perturbation, &row.fits.back(), &matching);
       summary.Add(m, row.fits.back(), row.truth);
     }

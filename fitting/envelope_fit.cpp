@@ -212,6 +212,7 @@ void EnvelopeFitOptions::Check() const { Table().Validate(*this); }
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
                         const Sphere* initial, const std::vector<double>* pixel_mm) {
   options.Check();
+  if (pixel_mm && pixel_mm->empty()) pixel_mm = nullptr;  // a cloud without the field
   if (pixel_mm && pixel_mm->size() != points_mm.size()) {
     throw Error("envelope fit: " + std::to_string(pixel_mm->size()) + " pixel sizes for " +
                 std::to_string(points_mm.size()) + " points");

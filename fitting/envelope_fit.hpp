@@ -55,7 +55,8 @@ struct EnvelopeFit {
 
 /// Fits the envelope, starting from `initial` (e.g. a geometric fit) or a Hyper fit.
 /// `pixel_mm` (optional, one per point): the lateral size of one pixel at each point (Z / f, a
-/// capture cloud's "pixel_mm" field), for options.top_bias_px; without it no bias is added.
+/// capture cloud's "pixel_mm" field), for options.top_bias_px; without it (null or empty) no bias
+/// is added.
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options = {},
                         const Sphere* initial = nullptr, const std::vector<double>* pixel_mm = nullptr);
 

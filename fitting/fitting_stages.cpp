@@ -74,7 +74,7 @@ void RegisterFittingStages(cloud::Registry& r) {
                   const std::vector<double> pixel_mm = FieldAt(c, kPixelSizeField, g.indices);
                   FitInputs in;
                   in.points_mm = &pts;
-                  in.pixel_mm = pixel_mm.empty() ? nullptr : &pixel_mm;
+                  in.pixel_mm = &pixel_mm;
                   in.seed = seed;
                   in.inliers = m.has_inliers ? &inliers[k] : nullptr;
                   in.one_hedge = g.id >= 1;

@@ -19,7 +19,8 @@ namespace hedgefit::fitting {
 struct FitInputs {
   const std::vector<Eigen::Vector3d>* points_mm = nullptr;  ///< the points, mm
   /// Optional, one per point: the lateral size of one pixel there (Z / f, mm), a capture cloud's
-  /// "pixel_mm" field; the envelope fit uses it for the matcher's reading of the outermost leaves.
+  /// "pixel_mm" field (null or empty: none); the envelope fit uses it for the matcher's reading of
+  /// the outermost leaves.
   const std::vector<double>* pixel_mm = nullptr;
   std::uint64_t seed = 42;                                  ///< for methods that sample
   const Sphere* previous = nullptr;  ///< an earlier fit, for options such as initial = previous
