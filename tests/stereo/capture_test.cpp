@@ -194,7 +194,7 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
   cv::Mat labels = RenderSphere(sim, false, scene, lo), truth_rect, dummy;
   RectifyPair(rig, labels, labels, &truth_rect, &dummy);
   const cv::Mat truth_mask = truth_rect == kLabelSphere;
-  // The mask is eroded by erode_px (5) on purpose: compare with the truth eroded alike.
+  // The mask is eroded by erode_px on purpose: compare with the truth eroded alike.
   const cv::Mat truth_eroded = ErodeMask(truth_mask, o.segment.erode_px);
   const double iou =
       double(cv::countNonZero(truth_eroded & res.mask)) / double(cv::countNonZero(truth_eroded | res.mask));
