@@ -55,7 +55,7 @@ const cloud::OptionTable<DepthSegmentOptions>& DepthSegmentOptions::Table() {
   using O = DepthSegmentOptions;
   static const auto table =
       cloud::OptionTable<O>()
-          .Add("box", &O::box, "[X, Y, W, H] around the hedge in the original left image; required", "px")
+          .Add("box", &O::box, "[X, Y, W, H] around the hedge in the original left image; required (its depth mask is eroded by 5 px unless --erode is given: SGBM's outline is up to 2 px fat)", "px")
           .Min(0)
           .Add("depth_tolerance", &O::tolerance_px, "disparity band around the box middle's median", "px").Min(1e-3)
           .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200)

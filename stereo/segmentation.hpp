@@ -47,7 +47,7 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& options);
 
 struct MaskOptions {
   std::string filename;  ///< mask image (0 = background, > 127 = hedge), drawn on the original left image
-  int erode_px = 5;      ///< drop this many silhouette pixels
+  int erode_px = 3;      ///< drop this many silhouette pixels; as the colour mask's (SegmentOptions)
   void Check() const;
   static const cloud::OptionTable<MaskOptions>& Table();  ///< the options, declared once
 };
@@ -58,7 +58,10 @@ cv::Mat SegmentFromMaskFile(const StereoRig& rig, const MaskOptions& options);
 struct DepthSegmentOptions {
   std::vector<double> box;         ///< [X, Y, W, H] px in the original left image; required
   double tolerance_px = 1.0;       ///< disparity band around the box middle's median
-  int erode_px = 5;                ///< drop this many silhouette pixels
+  /// Drop this many silhouette pixels. 5, not the colour mask's 3: this mask is SGBM's own
+  /// outline, which a depth edge fattens by up to half the coarse match's block (2 px), on top
+  /// of what the colour mask's 3 allow for (the garden's depth mask adds that margin itself).
+  int erode_px = 5;
   double min_z_mm = kDefaultMinZmm;  ///< working range, nearest: sets the coarse match's search
   double max_z_mm = kDefaultMaxZmm;  ///< working range, farthest
   int margin_px = 24;              ///< matched around the box
