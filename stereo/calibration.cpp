@@ -81,7 +81,30 @@ void RefineCorners(const cv::Mat& grey, std::vector<cv::Point2f>* corners, doubl
 // refined on the full image.
 constexpr int kSearchSide = 1024;
 
-bool FindCorners(const cv::Mat& grey, const cv::Size& pattern, std::vector<cv::Point2f>* corners) {
+// A view as the corner search and the sub-pixel refinement read it.
+struct BoardView {
+  cv::Mat grey;    ///< the detectors' input
+  /// The refinement's: a colour image's green channel. A Bayer sensor samples green at every
+  /// other pixel and red and blue at one in four, so demosaicing leaves its smallest errors in
+  /// green, and red and blue also carry the lens's lateral colour. Refined on green, the corners'
+  /// error against the truth fell 0.081 -> 0.064 px on POV-Ray's real-camera lab boards and
+  /// 0.043 -> 0.027 px on hedgefit's (bench_calibrate); on grey images it is the image itself.
+  cv::Mat refine;
+};
+
+BoardView ViewOf(const cv::Mat& image) {
+  BoardView v;
+  if (image.channels() == 3) {
+    cv::cvtColor(image, v.grey, cv::COLOR_BGR2GRAY);
+    cv::extractChannel(image, v.refine, 1);
+  } else {
+    v.grey = v.refine = image;
+  }
+  return v;
+}
+
+bool FindCorners(const BoardView& view, const cv::Size& pattern, std::vector<cv::Point2f>* corners) {
+  const cv::Mat& grey = view.grey;
   const double scale = std::max(1.0, double(std::max(grey.cols, grey.rows)) / kSearchSide);
   cv::Mat small = grey;
   if (scale > 1) cv::resize(grey, small, cv::Size(), 1.0 / scale, 1.0 / scale, cv::INTER_AREA);
@@ -104,7 +127,7 @@ bool FindCorners(const cv::Mat& grey, const cv::Size& pattern, std::vector<cv::P
       spacing = std::min(spacing, double(std::hypot(a.x - b.x, a.y - b.y)));
     }
   }
-  RefineCorners(grey, corners, spacing);
+  RefineCorners(view.refine, corners, spacing);
   return true;
 }
 
@@ -117,17 +140,17 @@ cv::Ptr<cv::aruco::CharucoBoard> MakeCharuco(const BoardSpec& board) {
 
 // ChArUco corners of one image: markers first, then the chessboard corners between them
 // (OpenCV refines those to sub-pixel itself). Returns corners and their ids.
-void FindCharuco(const cv::Mat& grey, const cv::Ptr<cv::aruco::CharucoBoard>& board, std::vector<cv::Point2f>* corners,
+void FindCharuco(const BoardView& view, const cv::Ptr<cv::aruco::CharucoBoard>& board, std::vector<cv::Point2f>* corners,
                  std::vector<int>* ids) {
   std::vector<std::vector<cv::Point2f>> marker_corners;
   std::vector<int> marker_ids;
   auto params = cv::aruco::DetectorParameters::create();
   params->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;  // the chessboard corners are what count
-  cv::aruco::detectMarkers(grey, board->dictionary, marker_corners, marker_ids, params);
+  cv::aruco::detectMarkers(view.grey, board->dictionary, marker_corners, marker_ids, params);
   corners->clear();
   ids->clear();
   if (marker_ids.size() < 2) return;
-  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, grey, board, *corners, *ids);
+  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, view.grey, board, *corners, *ids);
   // OpenCV's corners here carry the marker contours' half-pixel offset (0.5 px on simulated
   // boards, which cost 3-15 % of focal length): refined again as a chessboard's are, with the
   // window kept inside the gap between a corner and its markers.
@@ -140,12 +163,12 @@ void FindCharuco(const cv::Mat& grey, const cv::Ptr<cv::aruco::CharucoBoard>& bo
       spacing = std::min(spacing, double(std::hypot(d.x, d.y)));
     }
   }
-  RefineCorners(grey, corners, spacing, 1.0 - board->getMarkerLength() / board->getSquareLength());
+  RefineCorners(view.refine, corners, spacing, 1.0 - board->getMarkerLength() / board->getSquareLength());
 }
 
 // A ChArUco pair: the corners both images saw, in the same order. Fewer than 8 is too few to
 // constrain a board's pose in both cameras.
-void FindCharucoPair(const cv::Mat& l, const cv::Mat& r, const BoardSpec& spec, PairCorners* pc) {
+void FindCharucoPair(const BoardView& l, const BoardView& r, const BoardSpec& spec, PairCorners* pc) {
   const auto board = MakeCharuco(spec);
   std::vector<cv::Point2f> lc, rc;
   std::vector<int> li, ri;
@@ -216,10 +239,11 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
       PairCorners pc;
       pc.left = left;
       pc.right = right;
-      // Read through the capture loader: only camera formats reach OpenCV's decoders.
+      // Read through the capture loader: only camera formats reach OpenCV's decoders. In colour:
+      // the corners are refined on the green channel (BoardView).
       auto read = [](const std::string& file) {
         try {
-          return ReadCaptureImage(file, cv::IMREAD_GRAYSCALE);
+          return ReadCaptureImage(file, cv::IMREAD_COLOR);
         } catch (const Error&) {
           return cv::Mat();
         }
@@ -235,10 +259,10 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
       } else {
         sizes[index] = l.size();
         if (board.type == BoardType::kCharuco) {
-          FindCharucoPair(l, r, board, &pc);
+          FindCharucoPair(ViewOf(l), ViewOf(r), board, &pc);
         } else {
-          const bool found_l = FindCorners(l, board.inner_corners, &pc.left_px);
-          const bool found_r = found_l && FindCorners(r, board.inner_corners, &pc.right_px);
+          const bool found_l = FindCorners(ViewOf(l), board.inner_corners, &pc.left_px);
+          const bool found_r = found_l && FindCorners(ViewOf(r), board.inner_corners, &pc.right_px);
           if (found_l && found_r) {
             // The detector may start from either end of the board, independently per image; a
             // stereo pair needs the same corner at the same index. The cameras look roughly the
