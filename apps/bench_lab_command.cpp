@@ -29,6 +29,10 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                   "sub-pixel refinement window half-size, px (0 = off)")
       ->check(CLI::Range(0, 15))
       ->capture_default_str();
+  cmd->add_option("--refine-curvature", a->lab.convert.match.sgbm.refine_curvature,
+                  "curvature correction grid half-size, steps of 2 px (0 = off)")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
   cmd->add_option("--alpha", a->lab.alpha,
                   "rectification scaling (0 = only valid pixels, -1 = OpenCV's default): a rectified focal length "
                   "that differs from the camera's varies the resampling phase over the hedge")
@@ -93,6 +97,10 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                 "side, a camera 0.9-1.4 m up, sometimes a shrub")
       ->check(CLI::Range(0, 200))
       ->excludes(hard);
+  g->add_option("--refine-curvature", ga->garden.convert.match.sgbm.refine_curvature,
+                "curvature correction grid half-size, steps of 2 px (0 = off)")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
   g->add_option("--json", ga->json, "also write the tables as JSON here");
   g->callback([=]() {
     *run = [=]() {
