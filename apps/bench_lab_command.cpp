@@ -97,8 +97,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                 "side, a camera 0.9-1.4 m up, sometimes a shrub")
       ->check(CLI::Range(0, 200))
       ->excludes(hard);
-  g->add_option("--refine-curvature", ga->garden.convert.match.sgbm.refine_curvature,
-                "curvature correction grid half-size, steps of 2 px (0 = off)")
+  g->add_option("--garden-refine-curvature", ga->garden.convert.match.garden_refine_curvature,
+                "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
       ->check(CLI::Range(0, 10))
       ->capture_default_str();
   g->add_option("--json", ga->json, "also write the tables as JSON here");

@@ -36,6 +36,10 @@ const cloud::OptionTable<MatchOptions>& MatchOptions::Table() {
                "refine_max_radius; at most refine_radius = no retry",
                "px")
           .Range(0, 15)
+          .Add("garden_refine_curvature", &O::garden_refine_curvature,
+               "for hedges found by depth (leafy shells), the curvature correction's grid instead of "
+               "refine_curvature; 0 = off")
+          .Range(0, 10)
           .Add("garden_sigma_ratio", &O::garden_sigma_ratio,
                "for hedges found by depth, a refined pixel less certain than this times its tile's median is left "
                "out of the cloud (windows across leaves at different depths); 0 = keep all")
@@ -201,6 +205,7 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
         own.max_z_mm = std::min(options.max_z_mm, h.max_z_mm);
         own.coarse_range = false;  // the segmentation's own coarse match gave the range
         own.sgbm.refine_max_radius = options.garden_refine_max_radius;  // a leafy shell: see the option
+        own.sgbm.refine_curvature = options.garden_refine_curvature;    // likewise
         leafy = own.max_z_mm > own.min_z_mm;
         if (!leafy) own = options;
       }

@@ -43,6 +43,14 @@ struct MatchOptions {
   /// outermost ones too deep: without it the envelope's error fell on all six garden sets of
   /// both renderers (README, `bench garden`).
   int garden_refine_max_radius = 2;
+  /// For hedges found by depth: the curvature correction's grid (sgbm.refine_curvature) in its
+  /// place; 0 = off. Within its +-6 px a leafy shell's disparity is leaf relief more than the
+  /// dome's curvature, and the envelope fit's allowance for the outermost leaves' reading (half a
+  /// pixel's footprint) was measured without the correction: with it (3) the envelope's radius
+  /// error rose on all four garden sets tried, of both renderers (0.85 -> 0.93, 0.90 -> 1.08,
+  /// 0.90 -> 0.96 and 1.02 -> 1.08 mm; README, `bench garden`), and the row of three took ~40 ms
+  /// more per frame.
+  int garden_refine_curvature = 0;
   /// For hedges found by depth: a refined pixel whose disparity standard deviation exceeds this
   /// multiple of the median over its garden_sigma_tile square (its own hedge's pixels) is left out
   /// of the cloud; 0 = keep all. On a leafy shell the refinement's window fits worst where it

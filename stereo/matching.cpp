@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -312,7 +313,16 @@ constexpr float kCurvatureSameSurfacePx = 3.0f;
 // of `step_px` about the pixel. Their own curvature biases agree to first order with the pixel's
 // and go into the quadratic's constant, so the curvature is read without that bias.
 void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparity) {
-  const cv::Mat before = disparity->clone();
+  // The refined disparities alone (NaN elsewhere), so a neighbour costs one load.
+  cv::Mat before(disparity->size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (int y = 0; y < before.rows; ++y) {
+    const float* d = disparity->ptr<float>(y);
+    const cv::Vec3f* g = gain.ptr<cv::Vec3f>(y);
+    float* b = before.ptr<float>(y);
+    for (int x = 0; x < before.cols; ++x) {
+      if (std::isfinite(g[x][0])) b[x] = d[x];
+    }
+  }
   const int side = 2 * c + 1, w = before.cols, h = before.rows;
   using Basis = Eigen::Matrix<double, 6, 1>;
   auto basis = [&](int i, int j) {
@@ -328,9 +338,25 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
     for (int i = -c; i <= c; ++i) full += basis(i, j) * basis(i, j).transpose();
   }
   const Eigen::Matrix<double, 6, 6> full_inverse = full.inverse();
-  std::vector<Eigen::Vector3d> kernel(std::size_t(side * side));
+  std::vector<std::array<float, 3>> kernel(std::size_t(side * side));
+  // Per grid point its basis and the upper triangle of its outer product (21 terms), so a pixel
+  // whose neighbourhood has gaps sums its normal equations without a multiplication.
+  std::vector<Basis> bases(std::size_t(side * side));
+  std::vector<std::array<double, 21>> outer(std::size_t(side * side));
   for (int j = -c, k = 0; j <= c; ++j) {
-    for (int i = -c; i <= c; ++i, ++k) kernel[std::size_t(k)] = (full_inverse * basis(i, j)).tail<3>();
+    for (int i = -c; i <= c; ++i, ++k) {
+      const Basis b = basis(i, j);
+      const Eigen::Vector3d kk = (full_inverse * b).tail<3>();
+      kernel[std::size_t(k)] = {float(kk[0]), float(kk[1]), float(kk[2])};
+      bases[std::size_t(k)] = b;
+      for (int a = 0, t = 0; a < 6; ++a) {
+        for (int e = a; e < 6; ++e, ++t) outer[std::size_t(k)][std::size_t(t)] = b[a] * b[e];
+      }
+    }
+  }
+  std::array<double, 21> full_upper{};
+  for (const auto& o : outer) {
+    for (std::size_t t = 0; t < 21; ++t) full_upper[t] += o[t];
   }
   const int min_neighbours = std::max(12, side * side / 2);
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
@@ -339,7 +365,9 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
       float diff;  // the neighbour's disparity less the pixel's, px
     };
     std::vector<Known> known;
+    std::vector<int> missing;
     known.reserve(std::size_t(side * side));
+    missing.reserve(std::size_t(side * side));
     for (int y = rows.start; y < rows.end; ++y) {
       const cv::Vec3f* grow = gain.ptr<cv::Vec3f>(y);
       for (int x = 0; x < w; ++x) {
@@ -347,34 +375,43 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
         if (!std::isfinite(g[0])) continue;
         const float dc = before.at<float>(y, x);
         known.clear();
+        missing.clear();
+        float q0 = 0, q1 = 0, q2 = 0;  // the full grid's curvature terms, summed as we go
         for (int j = -c, k = 0; j <= c; ++j) {
           const int yy = y + j * step_px;
           if (yy < 0 || yy >= h) {
-            k += side;
+            for (int i = 0; i < side; ++i, ++k) missing.push_back(k);
             continue;
           }
           const float* brow = before.ptr<float>(yy);
-          const cv::Vec3f* nrow = gain.ptr<cv::Vec3f>(yy);
           for (int i = -c; i <= c; ++i, ++k) {
             const int xx = x + i * step_px;
-            if (xx < 0 || xx >= w || !std::isfinite(nrow[xx][0])) continue;
-            const float diff = brow[xx] - dc;
-            if (std::abs(diff) <= kCurvatureSameSurfacePx) known.push_back({k, diff});
+            const float diff = xx >= 0 && xx < w ? brow[xx] - dc : std::numeric_limits<float>::quiet_NaN();
+            if (std::abs(diff) <= kCurvatureSameSurfacePx) {  // NaN (not refined) fails the test
+              known.push_back({k, diff});
+              const auto& kk = kernel[std::size_t(k)];
+              q0 += kk[0] * diff, q1 += kk[1] * diff, q2 += kk[2] * diff;
+            } else {
+              missing.push_back(k);
+            }
           }
         }
         if (int(known.size()) < min_neighbours) continue;
-        Eigen::Vector3d p = Eigen::Vector3d::Zero();
-        if (int(known.size()) == side * side) {
-          for (const Known& n : known) p += kernel[std::size_t(n.k)] * double(n.diff);
-        } else {
-          Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-          Basis rhs = Basis::Zero();
-          for (const Known& n : known) {
-            const Basis b = basis(n.k % side - c, n.k / side - c);
-            A.selfadjointView<Eigen::Lower>().rankUpdate(b);
-            rhs += b * double(n.diff);
+        Eigen::Vector3d p(q0, q1, q2);
+        if (!missing.empty()) {
+          // The normal equations of the grid less its missing points (fewer to remove than to add).
+          std::array<double, 21> upper = full_upper;
+          for (const int k : missing) {
+            const auto& o = outer[std::size_t(k)];
+            for (std::size_t t = 0; t < 21; ++t) upper[t] -= o[t];
           }
-          const Eigen::LDLT<Eigen::Matrix<double, 6, 6>, Eigen::Lower> ldlt(A);
+          Basis rhs = Basis::Zero();
+          for (const Known& n : known) rhs += bases[std::size_t(n.k)] * double(n.diff);
+          Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+          for (int a = 0, t = 0; a < 6; ++a) {
+            for (int e = a; e < 6; ++e, ++t) A(a, e) = upper[std::size_t(t)];
+          }
+          const Eigen::LDLT<Eigen::Matrix<double, 6, 6>, Eigen::Upper> ldlt(A);
           if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) continue;
           p = ldlt.solve(rhs).tail<3>();
         }
@@ -437,6 +474,10 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
       q << d0, 0, 0, 0, 0;
       double sigma = 0;
       for (int it = 0; it < iterations; ++it) {
+        // The window's response to curvature is wanted at the estimate it ends on: with the
+        // correction on, every pixel takes all its steps (one that settles within 1e-3 px early,
+        // ~1 % of them, would otherwise end before the last), and the response is summed there only.
+        const bool respond = curvature && it + 1 == iterations;
         // The normal equations by hand (the upper triangle of J J^T, 15 sums, and J res): the
         // window's samples are this function's whole cost, and Eigen's generic rank update of a
         // 5 x 5 view costs about twice as much here.
@@ -474,7 +515,7 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
             g[a] -= J[a] * res;
             for (int c = a; c < 5; ++c, ++k) hs[k] += J[a] * J[c];
           }
-          if (curvature) {
+          if (respond) {
             const double m[3] = {double(sm.di * sm.di), double(sm.di * sm.dj), double(sm.dj * sm.dj)};
             for (int t = 0; t < 3; ++t) {
               for (int a = 0; a < 5; ++a) vq[t][a] += J[a] * gv * m[t];
@@ -493,11 +534,11 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
         const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
         if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
         const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
-        const bool last = std::abs(step[0]) < 1e-3 || it + 1 == iterations;
+        const bool last = (!curvature && std::abs(step[0]) < 1e-3) || it + 1 == iterations;
         // The estimate's standard deviation from the window's residuals and H^-1, of the
         // iteration that ends the search.
         if (last) sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
-        if (last && curvature) {
+        if (respond) {
           for (int t = 0; t < 3; ++t) (*gain_out)[t] = float(ldlt.solve(Eigen::Map<const Eigen::Matrix<double, 5, 1>>(vq[t]))[0]);
         }
         q += step;
