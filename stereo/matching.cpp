@@ -474,9 +474,10 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
       q << d0, 0, 0, 0, 0;
       double sigma = 0;
       for (int it = 0; it < iterations; ++it) {
-        // The window's response to curvature is wanted at the estimate it ends on: with the
-        // correction on, every pixel takes all its steps (one that settles within 1e-3 px early,
-        // ~1 % of them, would otherwise end before the last), and the response is summed there only.
+        // The window's response to curvature is wanted where the search ends, linearised as its
+        // last step is: with the correction on, every pixel takes all its steps (one that settles
+        // within 1e-3 px early would otherwise stop before the last), and the response is summed
+        // in the last step only.
         const bool respond = curvature && it + 1 == iterations;
         // The normal equations by hand (the upper triangle of J J^T, 15 sums, and J res): the
         // window's samples are this function's whole cost, and Eigen's generic rank update of a
