@@ -358,7 +358,8 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
   for (const auto& o : outer) {
     for (std::size_t t = 0; t < 21; ++t) full_upper[t] += o[t];
   }
-  const int min_neighbours = std::max(12, side * side / 2);
+  // Half the grid, and at least the whole 3 x 3 grid: 6 unknowns need some redundancy.
+  const int min_neighbours = std::max(9, side * side / 2);
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
     struct Known {
       int k;       // grid index
