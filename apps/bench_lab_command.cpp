@@ -14,7 +14,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "Examples:\n"
       "  hedgefit bench lab                        # renders into build/lab-bench, about a minute\n"
       "  hedgefit bench lab --reuse --json lab.json\n"
-      "  hedgefit bench lab --renderer povray --camera real --dir build/lab-povray   # POV-Ray, ~20 minutes\n");
+      "  hedgefit bench lab --renderer povray --camera real --dir build/lab-povray   # POV-Ray, ~20 minutes\n"
+      "  hedgefit bench lab --camera real --noise-draws 7 --dir build/lab-real   # 7 x 7 captures, ~2 minutes\n");
   struct Args {
     bench::LabOptions lab;
     std::string json;
@@ -52,6 +53,12 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--camera", a->lab.camera,
                   "ideal (as rendered) or real (gains, white balance, vignetting, Bayer, shot and read noise per camera)")
       ->check(CLI::IsMember({"ideal", "real"}))
+      ->capture_default_str();
+  cmd->add_option("--noise-draws", a->lab.noise_draws,
+                  "with --camera real: record each sphere N times, each with its own draw of the cameras' noise (the "
+                  "same render and calibration), and summarise over all of them with the spread of one draw's 7 "
+                  "captures; the as-rendered spheres are kept in --dir/as_rendered")
+      ->check(CLI::Range(1, 100))
       ->capture_default_str();
   cmd->add_option("--json", a->json, "also write the table as JSON here");
   cmd->callback([=]() {

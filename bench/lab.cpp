@@ -2,7 +2,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -24,6 +26,43 @@ namespace {
 // RANSAC for the lab: ~3 sigma of depth noise at 2.6 m on this rig, radii of lab spheres.
 const std::map<std::string, cloud::OptionValue> kLabFitOptions = {
     {"distance_threshold", 15.0}, {"min_radius", 100.0}, {"max_radius", 1000.0}};
+
+struct Spread {
+  double mean = 0, sd = 0, min = 0, max = 0;
+};
+
+Spread SpreadOf(const std::vector<fitting::MethodSummary>& draws, double fitting::MethodSummary::*field) {
+  Spread s;
+  if (draws.empty()) return s;
+  s.min = s.max = draws.front().*field;
+  for (const auto& d : draws) s.mean += d.*field, s.min = std::min(s.min, d.*field), s.max = std::max(s.max, d.*field);
+  s.mean /= double(draws.size());
+  for (const auto& d : draws) s.sd += (d.*field - s.mean) * (d.*field - s.mean);
+  s.sd = draws.size() > 1 ? std::sqrt(s.sd / double(draws.size() - 1)) : 0.0;
+  return s;
+}
+
+std::string AsRenderedDir(const LabOptions& a) { return (std::filesystem::path(a.dir) / "as_rendered").string(); }
+
+// The sphere `sc` as the renderer drew it, before any camera: from `dir`/as_rendered, or rendered
+// (and kept there) when missing.
+cv::Mat AsRenderedSphere(const LabOptions& a, const stereo::SphereScene& sc, bool right, const std::string& name) {
+  namespace fs = std::filesystem;
+  const fs::path path = fs::path(AsRenderedDir(a)) / (name + (right ? "_right.png" : "_left.png"));
+  if (fs::exists(path)) return stereo::ReadImageFile(path.string());
+  fs::create_directories(path.parent_path());
+  cv::Mat img;
+  if (a.renderer == "povray") {
+    img = stereo::RenderPovray(stereo::PovrayRig(a.scale), right, "sphere", {}, sc, AsRenderedDir(a));
+  } else {
+    stereo::RenderOptions ro;
+    ro.supersample = 3;
+    ro.blur_sigma_px = 0.5;
+    img = stereo::RenderSphere(stereo::PaperRig(a.scale), right, sc, ro);
+  }
+  stereo::WriteImageAtomic(path.string(), img);
+  return img;
+}
 
 }  // namespace
 
@@ -57,6 +96,10 @@ LabResult RunLab(const LabOptions& a) {
   const auto t0 = std::chrono::steady_clock::now();
   if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
   if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
+  if (a.noise_draws < 1) throw Error("--noise-draws: give at least 1");
+  if (a.noise_draws > 1 && a.camera != "real") {
+    throw Error("--noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1");
+  }
   const stereo::CameraModel camera = a.camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal();
   if (!(a.reuse && fs::exists(fs::path(a.dir) / "sphere_2600_right.png"))) {
     if (a.renderer == "povray") {
@@ -71,6 +114,11 @@ LabResult RunLab(const LabOptions& a) {
         for (const auto& f : files) {
           if (f.size() < 4 || f.compare(f.size() - 4, 4, ".png") != 0) continue;
           const bool right = f.find("_right.png") != std::string::npos;
+          // The as-rendered spheres are the other noise draws' source.
+          if (fs::path(f).filename().string().rfind("sphere_", 0) == 0) {
+            fs::create_directories(AsRenderedDir(a));
+            fs::copy_file(f, fs::path(AsRenderedDir(a)) / fs::path(f).filename(), fs::copy_options::overwrite_existing);
+          }
           stereo::WriteImageAtomic(f, stereo::ApplyCameraModel(stereo::ReadImageFile(f), camera, right, 1 + view++ / 2));
         }
       }
@@ -105,31 +153,50 @@ LabResult RunLab(const LabOptions& a) {
   // The rig's calibration uncertainty, carried into every fit (none for the exact rig).
   const cloud::PointPerturbation perturbation = stereo::RigPerturbation(rig);
   const cloud::PointPerturbation matching = stereo::DisparityOffsetPerturbation(rig);
-  for (int z = 2000; z <= 2600; z += 100) {
-    char name[32];
-    std::snprintf(name, sizeof(name), "sphere_%04d", z);
-    const fs::path base = fs::path(a.dir) / name;
-    LabRow row;
-    row.z_mm = z;
-    row.truth = fitting::ReadTruthFile(base.string() + ".truth.json");
-    const stereo::ConvertResult res = stereo::ConvertCapture(stereo::ReadImageFile(base.string() + "_left.png"),
-                                                             stereo::ReadImageFile(base.string() + "_right.png"), rig,
-                                                             a.convert);
-    row.convert_ms = res.wall_ms;
-    std::vector<Eigen::Vector3d> pts;
-    std::vector<std::size_t> finite;
-    for (std::size_t i = 0; i < res.cloud.size(); ++i) {
-      if (cloud::IsFinite(res.cloud.points_mm[i])) pts.push_back(res.cloud.points_mm[i].cast<double>()), finite.push_back(i);
+  const std::vector<stereo::SphereScene> spheres = stereo::PaperLabSpheres();
+  for (int draw = 1; draw <= a.noise_draws; ++draw) {
+    fitting::SummaryBuilder draw_summary;
+    for (std::size_t k = 0; k < spheres.size(); ++k) {
+      const int z = static_cast<int>(std::lround(spheres[k].center[2]));
+      char name[32];
+      std::snprintf(name, sizeof(name), "sphere_%04d", z);
+      const fs::path base = fs::path(a.dir) / name;
+      LabRow row;
+      row.z_mm = z;
+      row.draw = draw;
+      row.truth = fitting::ReadTruthFile(base.string() + ".truth.json");
+      cv::Mat left, right;
+      if (draw == 1) {
+        left = stereo::ReadImageFile(base.string() + "_left.png");
+        right = stereo::ReadImageFile(base.string() + "_right.png");
+      } else {
+        // Seeds no other image of the lab draws (the renderers' own stay below 10^6).
+        const std::uint64_t seed = 1000000 + 1000 * std::uint64_t(draw) + k;
+        left = stereo::ApplyCameraModel(AsRenderedSphere(a, spheres[k], false, name), camera, false, seed);
+        right = stereo::ApplyCameraModel(AsRenderedSphere(a, spheres[k], true, name), camera, true, seed);
+      }
+      const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, a.convert);
+      row.convert_ms = res.wall_ms;
+      std::vector<Eigen::Vector3d> pts;
+      std::vector<std::size_t> finite;
+      for (std::size_t i = 0; i < res.cloud.size(); ++i) {
+        if (cloud::IsFinite(res.cloud.points_mm[i])) pts.push_back(res.cloud.points_mm[i].cast<double>()), finite.push_back(i);
+      }
+      const std::vector<double> pixel_mm = cloud::FieldAt(res.cloud, cloud::kPixelSizeField, finite);
+      row.points = pts.size();
+      for (const auto& m : fitting::SphereMethodNames()) {
+        row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions, 42, false, &pixel_mm));
+        fitting::AddUncertainty(pts, &perturbation, &row.fits.back(), &matching);
+        summary.Add(m, row.fits.back(), row.truth);
+        draw_summary.Add(m, row.fits.back(), row.truth);
+      }
+      out.rows.push_back(std::move(row));
     }
-    const std::vector<double> pixel_mm = cloud::FieldAt(res.cloud, cloud::kPixelSizeField, finite);
-    row.points = pts.size();
-    for (const auto& m : fitting::SphereMethodNames()) {
-      row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions, 42, false, &pixel_mm));
-      fitting::AddUncertainty(pts, &perturbation, &row.fits.back(), &matching);
-      summary.Add(m, row.fits.back(), row.truth);
+    if (a.noise_draws > 1) {
+      for (const auto& [m, s] : draw_summary.Finish()) out.per_draw[m].push_back(s);
     }
-    out.rows.push_back(std::move(row));
   }
+  out.noise_draws = a.noise_draws;
   out.summary = summary.Finish();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
@@ -147,6 +214,7 @@ void PrintLab(const LabResult& r) {
     std::printf("\n%s\n  %6s %8s %8s %8s %7s %26s %26s %7s\n", methods[k].c_str(), "Z mm", "AR mm", "MR mm", "AER mm",
                 "RER %", "AL (x, y, z) mm", "ML (x, y, z) mm", "LD mm");
     for (const auto& row : r.rows) {
+      if (row.draw != 1) continue;  // the pairs on disk; the other draws are in the summaries
       const auto& f = row.fits[k];
       if (!f.converged) {
         std::printf("  %6.0f failed: %s\n", row.z_mm, f.message.c_str());
@@ -159,7 +227,12 @@ void PrintLab(const LabResult& r) {
                   f.sphere.center_mm.z(), e.ld_mm);
     }
   }
-  std::printf("\nsummary over Z = 2000..2600 mm (7 positions)\n  %-17s %10s %10s %9s %9s %9s %9s\n", "method",
+  if (r.noise_draws > 1) {
+    std::printf("\n(the tables above are draw 1, the pairs in the directory; the summary is over all %d draws)\n",
+                r.noise_draws);
+  }
+  std::printf("\nsummary over Z = 2000..2600 mm (7 positions x %d noise draw%s)\n  %-17s %10s %10s %9s %9s %9s %9s\n",
+              r.noise_draws, r.noise_draws > 1 ? "s" : "", "method",
               "mean|AER|", "max|AER|", "mean RER%", "RMSE", "mean LD", "max LD");
   for (const auto& m : methods) {
     const auto& s = r.summary.at(m);
@@ -170,6 +243,20 @@ void PrintLab(const LabResult& r) {
   std::printf("  %-17s %10.2f %10.2f %9.3f %9.2f %9.2f %9.2f   (published, %s)\n", "paper", p.mean_abs_aer_mm,
               p.max_abs_aer_mm, p.mean_rer_percent, p.rmse_radius_mm, p.mean_ld_mm, p.max_ld_mm,
               fitting::kPaperTable2Label);
+  if (!r.per_draw.empty()) {
+    // How far one draw of seven captures - what a single run reports - strays from the mean.
+    std::printf("\nper noise draw (7 captures each): mean|AER| and mean LD, their mean, sd and range over %d draws\n"
+                "  %-17s %8s %6s %15s %9s %6s %15s\n",
+                r.noise_draws, "method", "|AER|", "sd", "min - max", "LD", "sd", "min - max");
+    for (const auto& m : methods) {
+      const auto it = r.per_draw.find(m);
+      if (it == r.per_draw.end()) continue;
+      const Spread aer = SpreadOf(it->second, &fitting::MethodSummary::mean_abs_aer_mm);
+      const Spread ld = SpreadOf(it->second, &fitting::MethodSummary::mean_ld_mm);
+      std::printf("  %-17s %8.2f %6.2f %7.2f - %5.2f %9.2f %6.2f %7.2f - %5.2f\n", m.c_str(), aer.mean, aer.sd, aer.min,
+                  aer.max, ld.mean, ld.sd, ld.min, ld.max);
+    }
+  }
   // Do the stated 95 % intervals (points + rig) hold the truth? Per method, over the 7
   // captures x (cx, cy, cz, r); and the stated standard error against the actual error.
   std::printf("\n95 %% intervals (points' scatter, rig calibration, matcher's common offset) against the truth\n  %-17s %9s "
@@ -198,7 +285,7 @@ std::string LabJson(const LabResult& r) {
       const auto& f = row.fits[k];
       if (!f.converged) continue;
       const auto e = fitting::Evaluate(f.sphere, row.truth);
-      out["rows"].push_back({{"method", methods[k]}, {"z_mm", row.z_mm}, {"ar_mm", row.truth.radius_mm},
+      out["rows"].push_back({{"method", methods[k]}, {"z_mm", row.z_mm}, {"draw", row.draw}, {"ar_mm", row.truth.radius_mm},
                              {"mr_mm", f.sphere.radius_mm}, {"aer_mm", e.aer_mm}, {"rer_percent", e.rer_percent},
                              {"ld_mm", e.ld_mm},
                              {"ml_mm", {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()}},
@@ -211,6 +298,12 @@ std::string LabJson(const LabResult& r) {
     out["summary"][m] = {{"mean_abs_aer_mm", s.mean_abs_aer_mm}, {"max_abs_aer_mm", s.max_abs_aer_mm},
                          {"mean_rer_percent", s.mean_rer_percent}, {"rmse_radius_mm", s.rmse_radius_mm},
                          {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm}, {"failures", s.failures}};
+  }
+  out["noise_draws"] = r.noise_draws;
+  for (const auto& [m, draws] : r.per_draw) {
+    for (const auto& d : draws) {
+      out["per_draw"][m].push_back({{"mean_abs_aer_mm", d.mean_abs_aer_mm}, {"mean_ld_mm", d.mean_ld_mm}});
+    }
   }
   const fitting::MethodSummary p = fitting::PaperTable2();
   out["paper"] = {{"mean_abs_aer_mm", p.mean_abs_aer_mm}, {"mean_rer_percent", p.mean_rer_percent},

@@ -28,12 +28,19 @@ struct LabOptions {
   /// "ideal" (as rendered) or "real": every image through stereo::CameraModel's defaults
   /// (gains, white balance, vignetting, Bayer, shot and read noise, independent per camera).
   std::string camera = "ideal";
+  /// With camera "real": each sphere is recorded this many times, each time with its own draw of
+  /// the cameras' noise (the same render, the same calibration). Draw 1 is the pair in `dir`; the
+  /// others go through the camera model in memory from the as-rendered pair (kept in
+  /// `dir`/as_rendered, rendered when missing). One draw of seven captures scatters by as much as
+  /// the targets, so a setting is judged on several.
+  int noise_draws = 1;
   stereo::ConvertOptions convert;       ///< the capture path's options
   LabOptions();
 };
 
 struct LabRow {
   double z_mm = 0;
+  int draw = 1;  ///< the noise draw (1 = the pair on disk)
   fitting::Sphere truth;
   std::vector<fitting::SphereFitResult> fits;  ///< one per method, in table order
   double convert_ms = 0;
@@ -44,8 +51,11 @@ struct LabResult {
   double rms_stereo_px = 0;  ///< calibration's stereo RMS (0 with the exact rig)
   double baseline_mm = 0;
   bool exact_rig = false;
-  std::vector<LabRow> rows;  ///< Z = 2000..2600 mm
-  std::map<std::string, fitting::MethodSummary> summary;
+  std::vector<LabRow> rows;  ///< Z = 2000..2600 mm, draw by draw
+  int noise_draws = 1;
+  std::map<std::string, fitting::MethodSummary> summary;  ///< over every row (all draws)
+  /// Per method, the summary of each noise draw's seven captures (empty with one draw).
+  std::map<std::string, std::vector<fitting::MethodSummary>> per_draw;
   double seconds = 0;
 };
 

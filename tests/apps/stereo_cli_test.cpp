@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "cloud/cloud_io.hpp"
@@ -136,6 +137,52 @@ TEST(BenchLabCli, PaperLabMeetsTheTargets) {
   // The paper's own algebraic fit (Kasa) must at least match its published 1.58 mm here.
   EXPECT_LT(j["summary"]["kasa"]["mean_abs_aer_mm"].get<double>(), 1.58);
   EXPECT_FALSE(j["rig"]["exact"].get<bool>());  // calibrated, not the simulator's rig
+}
+
+// --noise-draws records each sphere again with new draws of the real camera's noise, from the
+// render kept in as_rendered/: every draw has all seven positions, draws differ only by noise (so
+// their fits differ, but not wildly), and the summary is the mean over all draws' captures. At half
+// scale, about 20 s. Without a real camera there is no noise to draw: one line, nothing written.
+TEST(BenchLabCli, NoiseDrawsRecordTheSameRenderAgain) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  Result r = RunHedgefit("bench lab --noise-draws 2 --dir lab", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1\n");
+  EXPECT_FALSE(fs::exists(dir / "lab"));
+  r = RunHedgefit("bench lab --camera real --scale 0.5 --noise-draws 2 --dir lab --json lab.json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(Slurp(dir / "lab.json"));
+  EXPECT_EQ(j["noise_draws"].get<int>(), 2);
+  for (int z = 2000; z <= 2600; z += 100) {
+    const std::string name = "sphere_" + std::to_string(z);
+    EXPECT_TRUE(fs::exists(dir / "lab" / "as_rendered" / (name + "_left.png"))) << name;
+    EXPECT_TRUE(fs::exists(dir / "lab" / "as_rendered" / (name + "_right.png"))) << name;
+  }
+  // (draw, z) -> ransac_geometric's radius and its stated standard error from the points' scatter
+  std::map<std::pair<int, int>, std::pair<double, double>> radius;
+  for (const auto& row : j["rows"]) {
+    if (row["method"] != "ransac_geometric") continue;
+    radius[{row["draw"].get<int>(), int(row["z_mm"].get<double>())}] = {row["mr_mm"].get<double>(),
+                                                                         row["std_error_mm"][3].get<double>()};
+  }
+  ASSERT_EQ(radius.size(), 14u);
+  int differ = 0;
+  for (int z = 2000; z <= 2600; z += 100) {
+    const auto [a, sa] = radius.at({1, z});
+    const auto [b, sb] = radius.at({2, z});
+    differ += a != b;
+    // Two draws of the same capture differ by noise alone, which each fit states (1-3 mm at half
+    // scale): more than 4 standard deviations of the difference apart would be another capture.
+    EXPECT_LT(std::abs(a - b), 4 * std::hypot(sa, sb)) << z;
+  }
+  EXPECT_GE(differ, 6);  // independent noise moves (almost) every fit
+  for (const auto& [method, s] : j["summary"].items()) {
+    const auto& draws = j["per_draw"][method];
+    ASSERT_EQ(draws.size(), 2u) << method;
+    // Every draw has the same seven positions, so the mean over all 14 is the draws' mean.
+    const double mean = (draws[0]["mean_abs_aer_mm"].get<double>() + draws[1]["mean_abs_aer_mm"].get<double>()) / 2;
+    EXPECT_NEAR(s["mean_abs_aer_mm"].get<double>(), mean, 1e-9) << method;
+  }
 }
 
 }  // namespace
