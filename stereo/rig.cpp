@@ -248,7 +248,9 @@ StereoRig ReadRig(const std::string& path) {
     static const std::string list = number + "(?:, *" + number + ")*(?:,| *\\])?";
     static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
     static const std::regex data_row("^" + list + " *$");  // a matrix's data continued on the next line
-    static const std::regex plain_value("^( +(!!opencv-matrix|" + number + R"(|"[^"]*"|[A-Za-z0-9][A-Za-z0-9_.]*|\[ *\]|\[ *)" +
+    // Words include the few-word notes OpenCV leaves unquoted, as calibrate's status of a pair it
+    // could not use ("board (9x6 inner corners) not found in left image").
+    static const std::regex plain_value("^( +(!!opencv-matrix|" + number + R"(|"[^"]*"|[A-Za-z0-9][A-Za-z0-9_.]*(?: [A-Za-z0-9(][^#:"\[\]{}]*)?|\[ *\]|\[ *)" +
                                         list + "))? *$");
     while (std::getline(in, line)) {
       ++line_no;

@@ -272,10 +272,21 @@ TEST(RealCalibration, OpenCvChessboardPairs) {
   for (const auto& p : rig.pairs) used += p.used;
   EXPECT_GE(used, 10);
 
-  // The rig survives a YAML round trip, readable by plain cv::FileStorage too.
+  // The rig survives a YAML round trip, readable by plain cv::FileStorage too, whatever the
+  // calibration said about a pair it did not use (OpenCV writes most of these unquoted).
+  StereoRig with_reports = rig;
+  for (const std::string status :
+       {"board (9x6 inner corners) not found in left image", "cannot read right image /data/b 1.png",
+        "left is 640x480 but right is 120x100", "images are 320x240, the first pair's are 640x480",
+        "rejected: RMS 0.912 px > 3.0 x median 0.201 px",
+        "ChArUco board: 5 corners seen in both images (left 7, right 6); need 8"}) {
+    PairReport rep;
+    rep.left = "a.png", rep.right = "b.png", rep.status = status;
+    with_reports.pairs.push_back(rep);
+  }
   const auto dir = hedgefit::testing::ScratchDir();
   const std::string path = (dir / "rig.yaml").string();
-  WriteRig(path, rig);
+  WriteRig(path, with_reports);
   const StereoRig back = ReadRig(path);
   EXPECT_LT(cv::norm(back.K1 - rig.K1), 1e-9);
   EXPECT_LT(cv::norm(back.T - rig.T), 1e-9);
