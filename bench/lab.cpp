@@ -103,7 +103,7 @@ LabResult RunLab(const LabOptions& a) {
   const stereo::CameraModel camera = a.camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal();
   if (!(a.reuse && fs::exists(fs::path(a.dir) / "sphere_2600_right.png"))) {
     if (a.renderer == "povray") {
-      stereo::WritePovrayLab(a.dir, a.scale, camera);
+      stereo::WritePovrayLab(a.dir, a.scale, camera, 1, a.camera == "real" ? AsRenderedDir(a) : std::string());
     } else {
       stereo::RenderOptions ro;
       ro.supersample = 3;

@@ -187,14 +187,19 @@ cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& kind, con
 }
 
 std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
-                                        std::uint64_t seed) {
+                                        std::uint64_t seed, const std::string& as_rendered_dir) {
   namespace fs = std::filesystem;
   const SimRig rig = PovrayRig(scale);
   std::vector<std::string> written = StartSimulationDir(dir, rig);
   std::uint64_t view = seed * 1000;
   auto save = [&](const std::string& name, bool right, const std::string& kind, const BoardScene& b,
                   const SphereScene& s) {
-    const cv::Mat img = ApplyCameraModel(RenderPovray(rig, right, kind, b, s, dir), camera, right, view++ / 2);
+    const cv::Mat rendered = RenderPovray(rig, right, kind, b, s, dir);
+    if (kind == "sphere" && !as_rendered_dir.empty()) {
+      fs::create_directories(as_rendered_dir);
+      WriteImageAtomic((fs::path(as_rendered_dir) / name).string(), rendered);
+    }
+    const cv::Mat img = ApplyCameraModel(rendered, camera, right, view++ / 2);
     const std::string path = (fs::path(dir) / name).string();
     WriteImageAtomic(path, img);
     written.push_back(path);

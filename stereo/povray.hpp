@@ -47,9 +47,11 @@ cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& scene_kin
                      const BoardScene& board, const SphereScene& sphere, const std::string& work_dir);
 
 /// WritePaperLab's files (board_NN_*, sphere_ZZZZ_*, truths, rig_truth.json, and rig.yaml, the
-/// exact rig) rendered by POV-Ray and recorded through `camera` (noise drawn from `seed`).
+/// exact rig) rendered by POV-Ray and recorded through `camera` (noise drawn from `seed`). With
+/// `as_rendered_dir`, the spheres are also written there as POV-Ray drew them, before the camera
+/// (the source of `bench lab --noise-draws`).
 std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
-                                        std::uint64_t seed = 1);
+                                        std::uint64_t seed = 1, const std::string& as_rendered_dir = "");
 
 /// WriteGarden's files (garden_NAME_left/right.png, garden_NAME.truth.json with each hedge's
 /// envelope and mean leaf-surface radius, rig_truth.json, rig.yaml: the exact rig) rendered by
