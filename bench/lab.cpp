@@ -42,6 +42,14 @@ Spread SpreadOf(const std::vector<fitting::MethodSummary>& draws, double fitting
   return s;
 }
 
+// How hedgefit's renderer draws every image of the lab: 3 x 3 rays per pixel, 0.5 px of blur.
+stereo::RenderOptions LabRenderOptions() {
+  stereo::RenderOptions ro;
+  ro.supersample = 3;
+  ro.blur_sigma_px = 0.5;
+  return ro;
+}
+
 std::string AsRenderedDir(const LabOptions& a) { return (std::filesystem::path(a.dir) / "as_rendered").string(); }
 
 // The sphere `sc` as the renderer drew it, before any camera: from `dir`/as_rendered, or rendered
@@ -55,10 +63,7 @@ cv::Mat AsRenderedSphere(const LabOptions& a, const stereo::SphereScene& sc, boo
   if (a.renderer == "povray") {
     img = stereo::RenderPovray(stereo::PovrayRig(a.scale), right, "sphere", {}, sc, AsRenderedDir(a));
   } else {
-    stereo::RenderOptions ro;
-    ro.supersample = 3;
-    ro.blur_sigma_px = 0.5;
-    img = stereo::RenderSphere(stereo::PaperRig(a.scale), right, sc, ro);
+    img = stereo::RenderSphere(stereo::PaperRig(a.scale), right, sc, LabRenderOptions());
   }
   stereo::WriteImageAtomic(path.string(), img);
   return img;
@@ -105,10 +110,7 @@ LabResult RunLab(const LabOptions& a) {
     if (a.renderer == "povray") {
       stereo::WritePovrayLab(a.dir, a.scale, camera, 1, a.camera == "real" ? AsRenderedDir(a) : std::string());
     } else {
-      stereo::RenderOptions ro;
-      ro.supersample = 3;
-      ro.blur_sigma_px = 0.5;
-      const auto files = stereo::WritePaperLab(a.dir, a.scale, ro);
+      const auto files = stereo::WritePaperLab(a.dir, a.scale, LabRenderOptions());
       if (a.camera == "real") {
         std::uint64_t view = 0;
         for (const auto& f : files) {
@@ -125,10 +127,7 @@ LabResult RunLab(const LabOptions& a) {
     }
   }
   if (a.wide_boards && !a.true_rig && !fs::exists(fs::path(a.dir) / "board_28_right.png")) {
-    stereo::RenderOptions ro;
-    ro.supersample = 3;
-    ro.blur_sigma_px = 0.5;
-    stereo::WriteWideBoards(a.dir, a.renderer, a.scale, ro, camera);
+    stereo::WriteWideBoards(a.dir, a.renderer, a.scale, LabRenderOptions(), camera);
   }
   std::vector<std::pair<std::string, std::string>> boards;
   for (int i = 1; i <= (a.wide_boards ? 28 : 16); ++i) {
