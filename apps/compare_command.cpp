@@ -54,7 +54,7 @@ struct CloudReport {
   std::vector<SphereFitResult> fits;
 };
 
-// The cleaning stages as JSON: the user's pipeline file, or NaN removal + statistical outliers.
+// The cleaning stages as JSON: the user's pipeline file, or cloud::DefaultCleaningJson().
 json CleaningStages(const CompareArgs& a) {
   if (a.pipeline.empty()) {
     return DefaultCleaning();
@@ -116,7 +116,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
   auto a = std::make_shared<CompareArgs>();
   cmd->add_option("CLOUD", a->clouds, "cloud files (" + cloud::CloudExtensionList() + ")")->required();
   cmd->add_option("--truth", a->truth, "ground-truth JSON for every cloud (default: CLOUD.truth.json if present)");
-  cmd->add_option("--pipeline", a->pipeline, "JSON array of cleaning stages replacing the default (nonfinite + statistical_outlier)");
+  cmd->add_option("--pipeline", a->pipeline, "JSON array of cleaning stages replacing the default (nonfinite + hedge_outlier)");
   std::string method_list;
   for (const auto& m : fitting::FitMethodNames()) method_list += m + ",";
   cmd->add_option("--methods", a->methods,

@@ -51,7 +51,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
                   "fit method(s), comma-separated (see `hedgefit compare --help`); envelope for leafy hedges")
       ->capture_default_str();
   cmd->add_option("--overlay", a->overlay, "also write the left image with each fitted hedge drawn on it (PNG)");
-  cmd->add_flag("--no-clean", a->no_clean, "fit the raw cloud (no statistical outlier removal)");
+  cmd->add_flag("--no-clean", a->no_clean, "fit the raw cloud (no outlier removal: filters.hedge_outlier)");
   cmd->add_flag("--pretty", a->pretty, "indented JSON instead of one line per object");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
   a->capture.Add(cmd);

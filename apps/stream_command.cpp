@@ -298,7 +298,7 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--max-frames", a->max_frames, "stop after this many frames (0 = at the source's end)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--method", a->methods, "fit method(s), comma-separated")->capture_default_str();
-  cmd->add_flag("--no-clean", a->no_clean, "fit the raw cloud (no statistical outlier removal)");
+  cmd->add_flag("--no-clean", a->no_clean, "fit the raw cloud (no outlier removal: filters.hedge_outlier)");
   cmd->add_flag("--no-drop", a->no_drop, "measure every frame of a camera or directory, however far behind");
   a->capture.Add(cmd);
   cmd->callback([=]() {

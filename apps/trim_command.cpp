@@ -86,7 +86,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("-o,--output", a->output, "also write the cloud with a 'cut_depth' field (PCD)");
   cmd->add_option("--render", a->render, "also render the cloud coloured by cut depth with the target drawn (PNG)");
   cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
-  cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and statistical outlier filter before the fit");
+  cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and outlier removal (filters.hedge_outlier) before the fit");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
   cmd->callback([=]() {
     *run = [=]() {

@@ -142,6 +142,37 @@ void RegisterCloudStages(Registry& r) {
                                             [keep](const RadiusOutlierOptions& p, const Options&, Context& ctx) {
                                               keep(ctx, [&](const PointCloud& c) { return RadiusOutlierRemoval(c, p); });
                                             }));
+  filter("filters.local_outlier",
+         "Removes points whose local outlier factor (Breunig 2000: their k neighbours' density over their own) "
+         "exceeds threshold; unlike statistical_outlier it keeps sparse but consistent surfaces",
+         TableOptions<LocalOutlierOptions>(),
+         TableFactory<LocalOutlierOptions>("filters.local_outlier",
+                                           [keep](const LocalOutlierOptions& p, const Options&, Context& ctx) {
+                                             keep(ctx, [&](const PointCloud& c) { return LocalOutlierRemoval(c, p); });
+                                           }));
+  filter("filters.spacing_outlier",
+         "Removes points whose mean distance to their mean_k neighbours, in units of their pixel footprint "
+         "(pixel_mm), exceeds max_ratio times the cloud's median: floating mismatches go, a rounded surface's "
+         "sparse outline stays",
+         TableOptions<SpacingOutlierOptions>(),
+         TableFactory<SpacingOutlierOptions>(
+             "filters.spacing_outlier", [keep](const SpacingOutlierOptions& p, const Options&, Context& ctx) {
+               const FilterResult res = keep(ctx, [&](const PointCloud& c) { return SpacingOutlierRemoval(c, p); });
+               ctx.Note("threshold_mm", res.threshold);
+             }));
+  filter("filters.hedge_outlier",
+         "The default cleaning's outlier removal, by what the cloud is: local_outlier (k 20, threshold 2) then "
+         "spacing_outlier (mean_k 30, max_ratio 8); on hedges found by depth (a hedge_id field: leafy shells) "
+         "statistical_outlier (mean_k 30, stddev_mul 1), unless shells is local",
+         TableOptions<HedgeOutlierOptions>(),
+         TableFactory<HedgeOutlierOptions>("filters.hedge_outlier",
+                                           [keep](const HedgeOutlierOptions& p, const Options&, Context& ctx) {
+                                             const bool shells = ctx.Get<PointCloud>("cloud").fields.count(kHedgeIdField) != 0;
+                                             keep(ctx, [&](const PointCloud& c) { return HedgeOutlierRemoval(c, p); });
+                                             ctx.Note("filter", std::string(shells && p.shells == "statistical"
+                                                                                ? "statistical (hedges found by depth)"
+                                                                                : "local + spacing"));
+                                           }));
   filter("filters.voxel_grid", "Downsamples to one centroid per cubic voxel (colours and fields averaged)",
          TableOptions<VoxelGridOptions>(),
          TableFactory<VoxelGridOptions>("filters.voxel_grid", [keep](const VoxelGridOptions& p, const Options&, Context& ctx) {

@@ -131,6 +131,181 @@ FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOp
   return r;
 }
 
+const OptionTable<LocalOutlierOptions>& LocalOutlierOptions::Table() {
+  using O = LocalOutlierOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("k", &O::k, "neighbours compared with each point", "points").Range(2, 1000)
+          .Add("threshold", &O::threshold, "remove points whose local outlier factor exceeds this", "ratio").Min(1.0)
+          .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024)
+          .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
+  return table;
+}
+
+void LocalOutlierOptions::Check() const { Table().Validate(*this); }
+
+std::vector<float> LocalOutlierFactors(const PointCloud& cloud, int k, int num_threads) {
+  if (k < 1) throw Error("filters.local_outlier: k must be at least 1");
+  const internal::FiniteIndex index(cloud);
+  const auto& finite = index.finite();
+  const std::size_t n = finite.size();
+  std::vector<float> factors(cloud.size(), 0.0f);
+  if (n < 2) {
+    for (std::uint32_t i : finite) factors[i] = 1.0f;
+    return factors;
+  }
+  const std::size_t kk = std::min<std::size_t>(std::size_t(k), n - 1);
+  // Pass 1: each point's k nearest others (by position in `finite`) and their distances.
+  std::vector<std::uint32_t> nbr(n * kk);
+  std::vector<float> dist(n * kk), kdist(n);
+  ParallelFor(n, num_threads, 512, [&](std::size_t begin, std::size_t end) {
+    std::vector<std::uint32_t> pos(kk + 1);
+    std::vector<float> sq(kk + 1);
+    for (std::size_t j = begin; j < end; ++j) {
+      const std::size_t found = index.Nearest(cloud.points_mm[finite[j]].data(), kk + 1, pos.data(), sq.data());
+      // Drop the point itself (by position, so that a duplicate of it counts as a neighbour).
+      std::size_t m = 0;
+      for (std::size_t t = 0; t < found && m < kk; ++t) {
+        if (pos[t] == j) continue;
+        nbr[j * kk + m] = pos[t];
+        dist[j * kk + m] = std::sqrt(sq[t]);
+        ++m;
+      }
+      for (; m < kk; ++m) nbr[j * kk + m] = nbr[j * kk + m - 1], dist[j * kk + m] = dist[j * kk + m - 1];
+      kdist[j] = dist[j * kk + kk - 1];
+    }
+  });
+  // Pass 2: local reachability density, the inverse mean reach distance max(k-distance(o), d(p, o)).
+  // Points stacked on one spot have a zero mean; a floor of 1e-9 mm keeps their density finite.
+  std::vector<double> lrd(n);
+  ParallelFor(n, num_threads, 2048, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = begin; j < end; ++j) {
+      double sum = 0;
+      for (std::size_t t = 0; t < kk; ++t) sum += std::max(kdist[nbr[j * kk + t]], dist[j * kk + t]);
+      lrd[j] = 1.0 / std::max(sum / double(kk), 1e-9);
+    }
+  });
+  // Pass 3: the factor, the neighbours' mean density over the point's own.
+  ParallelFor(n, num_threads, 2048, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = begin; j < end; ++j) {
+      double sum = 0;
+      for (std::size_t t = 0; t < kk; ++t) sum += lrd[nbr[j * kk + t]];
+      factors[finite[j]] = static_cast<float>(sum / double(kk) / lrd[j]);
+    }
+  });
+  return factors;
+}
+
+FilterResult LocalOutlierRemoval(const PointCloud& cloud, const LocalOutlierOptions& options) {
+  options.Check();
+  const std::vector<float> factors = LocalOutlierFactors(cloud, options.k, options.num_threads);
+  std::vector<bool> keep(cloud.size(), false);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    keep[i] = IsFinite(cloud.points_mm[i]) && !(factors[i] > options.threshold);
+  }
+  FilterResult r = Finish(cloud, std::move(keep), options.keep_organized);
+  r.threshold = options.threshold;
+  return r;
+}
+
+const OptionTable<SpacingOutlierOptions>& SpacingOutlierOptions::Table() {
+  using O = SpacingOutlierOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("mean_k", &O::mean_k, "neighbours used for each point's mean distance", "points").Range(1, 10000)
+          .Add("max_ratio", &O::max_ratio,
+               "remove points whose mean neighbour distance, in pixel footprints, exceeds this many times the cloud's median", "ratio")
+          .Min(1.0)
+          .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024)
+          .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
+  return table;
+}
+
+void SpacingOutlierOptions::Check() const { Table().Validate(*this); }
+
+namespace {
+
+// Per-point mean neighbour distance over pixel footprint (unnormalised), and the median of it.
+std::vector<float> FootprintDistances(const PointCloud& cloud, int mean_k, int num_threads, double* median,
+                                      double* median_footprint) {
+  std::vector<float> d = MeanNeighbourDistances(cloud, mean_k, num_threads);
+  const auto field = cloud.fields.find(kPixelSizeField);
+  const bool has = field != cloud.fields.end() && field->second.size() == cloud.size();
+  std::vector<float> ratios, footprints;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!IsFinite(cloud.points_mm[i])) continue;
+    const float px = has ? field->second[i] : 1.0f;
+    const float fp = std::isfinite(px) && px > 0 ? px : 1.0f;
+    d[i] /= fp;
+    ratios.push_back(d[i]);
+    footprints.push_back(fp);
+  }
+  auto median_of = [](std::vector<float>& v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+    return double(v[v.size() / 2]);
+  };
+  *median = median_of(ratios);
+  *median_footprint = median_of(footprints);
+  return d;
+}
+
+}  // namespace
+
+std::vector<float> SpacingRatios(const PointCloud& cloud, int mean_k, int num_threads) {
+  double median = 0, footprint = 0;
+  std::vector<float> d = FootprintDistances(cloud, mean_k, num_threads, &median, &footprint);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    d[i] = IsFinite(cloud.points_mm[i]) && median > 0 ? float(d[i] / median) : 0.0f;
+  }
+  return d;
+}
+
+FilterResult SpacingOutlierRemoval(const PointCloud& cloud, const SpacingOutlierOptions& options) {
+  options.Check();
+  double median = 0, footprint = 0;
+  const std::vector<float> d = FootprintDistances(cloud, options.mean_k, options.num_threads, &median, &footprint);
+  const double limit = options.max_ratio * median;
+  std::vector<bool> keep(cloud.size(), false);
+  for (std::size_t i = 0; i < cloud.size(); ++i) keep[i] = IsFinite(cloud.points_mm[i]) && !(d[i] > limit);
+  FilterResult r = Finish(cloud, std::move(keep), options.keep_organized);
+  r.threshold = limit * footprint;
+  return r;
+}
+
+const OptionTable<HedgeOutlierOptions>& HedgeOutlierOptions::Table() {
+  using O = HedgeOutlierOptions;
+  static const auto table =
+      OptionTable<O>()
+          .Add("shells", &O::shells,
+               "for hedges found by depth (a hedge_id field): statistical (mean_k 30, 1 sigma) or local (as other clouds)")
+          .Choices({"statistical", "local"})
+          .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024);
+  return table;
+}
+
+void HedgeOutlierOptions::Check() const { Table().Validate(*this); }
+
+FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOptions& options) {
+  options.Check();
+  if (options.shells == "statistical" && cloud.fields.count(kHedgeIdField) != 0) {
+    StatisticalOutlierOptions so;
+    so.mean_k = 30;
+    so.stddev_mul = 1.0;
+    so.num_threads = options.num_threads;
+    return StatisticalOutlierRemoval(cloud, so);
+  }
+  LocalOutlierOptions lo;
+  lo.num_threads = options.num_threads;
+  const FilterResult local = LocalOutlierRemoval(cloud, lo);
+  SpacingOutlierOptions sp;
+  sp.num_threads = options.num_threads;
+  FilterResult r = SpacingOutlierRemoval(local.cloud, sp);
+  r.removed += local.removed;
+  r.nonfinite = local.nonfinite;
+  return r;
+}
+
 const OptionTable<VoxelGridOptions>& VoxelGridOptions::Table() {
   using O = VoxelGridOptions;
   static const auto table =

@@ -57,6 +57,70 @@ struct RadiusOutlierOptions {
 /// PCL RadiusOutlierRemoval's decision: keep a point with >= min_neighbours others within radius.
 FilterResult RadiusOutlierRemoval(const PointCloud& cloud, const RadiusOutlierOptions& options);
 
+struct LocalOutlierOptions {
+  int k = 20;               ///< neighbours per point (Breunig's MinPts; scikit-learn's default)
+  double threshold = 2.0;   ///< a point whose local outlier factor exceeds this is removed
+  int num_threads = 0;      ///< 0 = all hardware threads
+  bool keep_organized = false;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<LocalOutlierOptions>& Table();  ///< the options, declared once
+};
+
+/// Each finite point's local outlier factor (Breunig, Kriegel, Ng and Sander 2000, as
+/// scikit-learn's LocalOutlierFactor computes it with exactly k neighbours): the mean local
+/// reachability density of its k nearest neighbours over its own. About 1 wherever the points
+/// are as dense as their neighbours, however dense that is; well above 1 for a point far from a
+/// denser surface. 0 for non-finite points.
+std::vector<float> LocalOutlierFactors(const PointCloud& cloud, int k, int num_threads);
+
+/// Removes points whose local outlier factor exceeds `threshold`. Unlike the statistical filter,
+/// whose one threshold on the neighbour distance trims wherever the cloud is sparse (a stereo
+/// cloud's far side and the outline of a rounded surface, whose point spacing grows as 1 / cos
+/// of the view angle), it compares each point with its own neighbours. `threshold` in the result
+/// holds the threshold.
+FilterResult LocalOutlierRemoval(const PointCloud& cloud, const LocalOutlierOptions& options);
+
+struct SpacingOutlierOptions {
+  int mean_k = 30;          ///< neighbours per point for the mean distance (points)
+  double max_ratio = 8.0;   ///< remove points whose spacing ratio (SpacingRatios) exceeds this
+  int num_threads = 0;      ///< 0 = all hardware threads
+  bool keep_organized = false;
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<SpacingOutlierOptions>& Table();  ///< the options, declared once
+};
+
+/// Each finite point's mean distance to its mean_k nearest neighbours (as MeanNeighbourDistances)
+/// in units of its own pixel footprint (the kPixelSizeField, Z / f, which stereo clouds carry;
+/// 1 mm where the cloud has none or a point's is not positive), over the median of that over the
+/// cloud. About 1 wherever the surface faces the camera, whatever its distance; 1 / sqrt(cos) of
+/// the view angle on a slanted surface (3.2 at cos 0.1); far more for a point floating off the
+/// surface. 0 for non-finite points.
+std::vector<float> SpacingRatios(const PointCloud& cloud, int mean_k, int num_threads);
+
+/// Removes points whose spacing ratio exceeds `max_ratio`: mismatches floating off the surface,
+/// alone or among others, while the sparse outline of a rounded surface and the far side of a
+/// scene stay. `threshold` in the result holds the distance, in mm at a point of median footprint,
+/// that max_ratio stands for.
+FilterResult SpacingOutlierRemoval(const PointCloud& cloud, const SpacingOutlierOptions& options);
+
+struct HedgeOutlierOptions {
+  /// The filter for a cloud of hedges found by depth (leafy shells): "statistical" (30
+  /// neighbours, 1 sigma: what the envelope fit was set with) or "local" (as any other cloud).
+  std::string shells = "statistical";
+  int num_threads = 0;  ///< 0 = all hardware threads
+  void Check() const;  ///< every field against Table(), then the rules between fields
+  static const OptionTable<HedgeOutlierOptions>& Table();  ///< the options, declared once
+};
+
+/// The outlier removal of the default cleaning (DefaultCleaningJson), by what the cloud is.
+/// Any cloud but a garden capture's (one smooth hedge found by colour, a scan, a file): the local
+/// outlier factor (k 20, above 2), then the spacing ratio (mean_k 30, above 8), which keep a
+/// sparse surface and drop what floats off it. A cloud with a hedge_id field (hedges found by
+/// depth: leafy shells), with shells "statistical": the statistical filter (mean_k 30, 1 sigma),
+/// which also trims the sparse leaves seen deep through the shell's gaps; on POV-Ray's
+/// real-camera gardens the envelope's centre is 1.18 mm off with it and 2.31 mm without.
+FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOptions& options);
+
 struct VoxelGridOptions {
   double leaf_mm = 5.0;           ///< cubic voxel edge (mm)
   int min_points_per_voxel = 1;   ///< voxels with fewer points are dropped

@@ -1,5 +1,5 @@
 #pragma once
-// Exact radius counting over the finite points of a cloud (nanoflann k-d tree),
+// Exact k-nearest-neighbour search and radius counting over the finite points of a cloud (nanoflann k-d tree),
 // Private to cloud/.
 
 #include <nanoflann.hpp>
@@ -29,6 +29,12 @@ class FiniteIndex {
 
   /// Cloud index of the i-th finite point.
   const std::vector<std::uint32_t>& finite() const { return finite_; }
+
+  /// The `k` nearest finite points to `query` (positions in finite(), nearest first) and their
+  /// squared distances; fewer when the cloud has fewer. The query point itself is among them.
+  std::size_t Nearest(const float* query, std::size_t k, std::uint32_t* positions, float* sq_distances) const {
+    return tree_->knnSearch(query, k, positions, sq_distances);
+  }
 
   /// Number of points strictly within sqrt(sq_radius), including the query point, up to `cap`.
   std::size_t CountWithin(const float* query, float sq_radius, std::size_t cap) const {

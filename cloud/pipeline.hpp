@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/point_cloud.hpp"
 #include "cloud/registry.hpp"
 
 namespace hedgefit::cloud {
@@ -57,10 +58,23 @@ class Pipeline {
   std::vector<PlannedStage> stages_;
 };
 
-/// The cleaning `compare`, `measure` and `trim` (and the Python module) apply unless told
-/// otherwise, as a JSON array of stages: NaN removal, then a statistical outlier filter (30
-/// neighbours, 1 sigma), which drops the stereo mismatches floating off a silhouette.
+/// The cleaning `compare`, `measure`, `stream`, `trim`, `bench garden` (and the Python module)
+/// apply unless told otherwise, as a JSON array of stages: NaN removal, then filters.hedge_outlier
+/// (HedgeOutlierRemoval): the local outlier factor and the spacing ratio, which between them drop
+/// mismatches floating off the surface, alone or among others, and keep a sparse surface (a
+/// sphere's outline, a far wall); on hedges found by depth (leafy shells) the statistical filter,
+/// as before. (That filter trims wherever a cloud is sparse: the outline of every stereo sphere,
+/// and 55 % of the far wall of PCL's real stereo table scene.)
 std::string DefaultCleaningJson();
+
+/// Runs `stages_json` (a JSON array of filters.* stages, e.g. DefaultCleaningJson()) on `cloud`
+/// with hedgefit's built-in stages and returns what they keep. `source` names the stages in
+/// errors; a reader, writer or fitter among them is refused.
+PointCloud RunFilterStages(const PointCloud& cloud, const std::string& stages_json, const std::string& source);
+
+/// Throws what RunFilterStages would for `stages_json` (bad JSON, a stage that is not a filter,
+/// an unknown stage or option) without running it: check before the expensive part of a run.
+void CheckFilterStages(const std::string& stages_json, const std::string& source);
 
 /// Versions of hedgefit and the libraries it was built with, as "name": "version".
 std::map<std::string, std::string> LibraryVersions();

@@ -8,11 +8,13 @@
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/filters/voxel_grid.h>
 
+#include <numeric>
 #include <random>
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/error.hpp"
 #include "cloud/pcl_adapter.hpp"
+#include "cloud/pipeline.hpp"
 #include "cloud/voxel_neighbours.hpp"
 #include "tests/test_data.hpp"
 
@@ -261,6 +263,243 @@ TEST(NonFinite, DropsAndCounts) {
   EXPECT_EQ(r.nonfinite, 11u);  // every 97th of 1000 points
   EXPECT_EQ(r.cloud.size(), 1000u - 11u);
   EXPECT_EQ(CountNonFinite(r.cloud), 0u);
+}
+
+// The local outlier factor by its definition (Breunig et al. 2000, with exactly k neighbours as
+// scikit-learn takes them), by brute force over every pair.
+std::vector<double> BruteForceLof(const PointCloud& cloud, int k) {
+  std::vector<std::size_t> fin;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (IsFinite(cloud.points_mm[i])) fin.push_back(i);
+  }
+  const std::size_t n = fin.size();
+  std::vector<std::vector<std::pair<double, std::size_t>>> nn(n);
+  std::vector<double> kdist(n), lrd(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = 0; b < n; ++b) {
+      if (a != b) nn[a].push_back({(cloud.points_mm[fin[a]] - cloud.points_mm[fin[b]]).cast<double>().norm(), b});
+    }
+    std::sort(nn[a].begin(), nn[a].end());
+    nn[a].resize(std::size_t(k));
+    kdist[a] = nn[a].back().first;
+  }
+  for (std::size_t a = 0; a < n; ++a) {
+    double reach = 0;
+    for (const auto& [d, b] : nn[a]) reach += std::max(kdist[b], d);
+    lrd[a] = 1.0 / std::max(reach / k, 1e-9);
+  }
+  std::vector<double> lof(cloud.size(), 0.0);
+  for (std::size_t a = 0; a < n; ++a) {
+    double sum = 0;
+    for (const auto& nb : nn[a]) sum += lrd[nb.second];
+    lof[fin[a]] = sum / k / lrd[a];
+  }
+  return lof;
+}
+
+TEST(LocalOutlier, FactorsMatchTheDefinition) {
+  // Sphere cap, plane, scattered outliers, exact duplicates and NaNs (MixedCloud).
+  const PointCloud cloud = MixedCloud(600, 11);
+  for (int k : {5, 20}) {
+    const std::vector<float> ours = LocalOutlierFactors(cloud, k, 2);
+    const std::vector<double> truth = BruteForceLof(cloud, k);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      // Distances are float in the k-d tree and double here: agreement to 1e-4 relative.
+      EXPECT_NEAR(ours[i], truth[i], 1e-4 * std::max(1.0, truth[i])) << "point " << i << " k " << k;
+    }
+  }
+}
+
+TEST(LocalOutlier, UniformGridHasFactorOne) {
+  // On a square grid every point two or more steps inside has its 4 nearest neighbours at one
+  // step, so its density is 1 / step; three or more steps inside, so have all its neighbours:
+  // a factor of exactly 1 whatever the step. (The edge's points reach their 4th at step * sqrt 2.)
+  for (float step : {0.5f, 7.f}) {
+    PointCloud c;
+    for (int r = 0; r < 20; ++r)
+      for (int q = 0; q < 20; ++q) c.points_mm.emplace_back(step * float(q), step * float(r), 1000.f);
+    const std::vector<float> lof = LocalOutlierFactors(c, 4, 1);
+    for (int r = 3; r < 17; ++r)
+      for (int q = 3; q < 17; ++q) EXPECT_NEAR(lof[std::size_t(r * 20 + q)], 1.0, 1e-5);
+  }
+}
+
+// A sphere of radius R centred at depth z as a stereo camera samples it: one point per pixel of
+// a pinhole (focal f px) where its ray meets the sphere, so the spacing grows from z / f at the
+// middle to many times that at the outline (as 1 / cos of the view angle). `cos_view` gets each
+// point's cosine between the ray and the sphere's normal.
+PointCloud StereoSphere(double f, double z, double radius, std::vector<double>* cos_view) {
+  PointCloud c;
+  const Eigen::Vector3d centre(0, 0, z);
+  const int half = int(std::ceil(f * radius / std::sqrt(z * z - radius * radius))) + 1;
+  for (int v = -half; v <= half; ++v) {
+    for (int u = -half; u <= half; ++u) {
+      const Eigen::Vector3d ray = Eigen::Vector3d(u / f, v / f, 1).normalized();
+      const double b = ray.dot(centre), disc = b * b - (centre.squaredNorm() - radius * radius);
+      if (disc <= 0) continue;
+      const Eigen::Vector3d p = ray * (b - std::sqrt(disc));
+      c.points_mm.push_back(p.cast<float>());
+      cos_view->push_back(-ray.dot((p - centre).normalized()));
+    }
+  }
+  return c;
+}
+
+// Which points of `cloud` survive `stages` (a JSON array of filters), by position: the filters
+// keep the input order.
+std::vector<bool> Survivors(const PointCloud& cloud, const std::string& stages) {
+  const PointCloud kept = RunFilterStages(cloud, stages, "test");
+  std::vector<bool> k(cloud.size(), false);
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < cloud.size() && j < kept.size(); ++i) {
+    if (cloud.points_mm[i] == kept.points_mm[j]) k[i] = true, ++j;
+  }
+  EXPECT_EQ(j, kept.size());
+  return k;
+}
+
+TEST(OutlierFilters, StereoSphereKeepsItsOutlineAndLosesItsFloaters) {
+  // The paper's lab sphere (radius 300 mm at 2.3 m) as a 1000 px camera samples it: 2.3 mm
+  // between points facing the camera, growing as 1 / cos of the view angle to the outline.
+  std::vector<double> cos_view;
+  PointCloud c = StereoSphere(1000, 2300, 300, &cos_view);
+  const std::size_t surface = c.size();
+  std::vector<float> px(surface);
+  for (std::size_t i = 0; i < surface; ++i) px[i] = c.points_mm[i].z() / 1000.f;  // Z / f
+  // Mismatched pixels: one in 500 moved along its ray 40-300 mm towards the camera (a wrong
+  // disparity). Near the outline the ray runs along the surface, so some stay within 20 mm of
+  // the sphere: those are no threat to a fit, and are not counted.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> off(40, 300);
+  for (std::size_t i = 0; i < surface; i += 500) {
+    const Eigen::Vector3f p = c.points_mm[i];
+    const Eigen::Vector3f q = p - p.normalized() * float(off(rng));
+    c.points_mm.push_back(q);
+    px.push_back(q.z() / 1000.f);
+  }
+  c.fields[kPixelSizeField] = px;
+  c.Flatten();
+  std::vector<std::size_t> floaters;
+  for (std::size_t i = surface; i < c.size(); ++i) {
+    if (std::abs((c.points_mm[i] - Eigen::Vector3f(0, 0, 2300)).norm() - 300.f) > 20.f) floaters.push_back(i);
+  }
+  ASSERT_GT(floaters.size(), 80u);
+  const std::vector<bool> lof = Survivors(c, R"([{"type": "filters.local_outlier"}])");
+  const std::vector<bool> spacing = Survivors(c, R"([{"type": "filters.spacing_outlier"}])");
+  const std::vector<bool> cleaning = Survivors(c, DefaultCleaningJson());
+  const std::vector<bool> sor = Survivors(c, R"([{"type": "filters.statistical_outlier", "mean_k": 30}])");
+  auto count = [&](const std::vector<bool>& keep, const std::vector<std::size_t>& which) {
+    return std::size_t(std::count_if(which.begin(), which.end(), [&](std::size_t i) { return bool(keep[i]); }));
+  };
+  std::vector<std::size_t> all_surface(surface), band;
+  std::iota(all_surface.begin(), all_surface.end(), std::size_t(0));
+  for (std::size_t i = 0; i < surface; ++i) {
+    if (cos_view[i] < 0.25) band.push_back(i);
+  }
+  ASSERT_GT(band.size(), 1000u);
+  // The surface is a surface however sparse: a point's local outlier factor is about 1 (its
+  // neighbours are as sparse as it is), and its spacing ratio at most about 1 / sqrt(cos) of the
+  // median point's (under 8 down to cos 0.02, the last pixels of the outline). None is lost.
+  EXPECT_EQ(count(lof, all_surface), surface);
+  EXPECT_EQ(count(spacing, all_surface), surface);
+  EXPECT_EQ(count(cleaning, all_surface), surface);
+  // Each filter misses a kind of floater: the local factor those among other floaters (as
+  // sparse as their neighbours), the spacing ratio those 20-40 mm off the surface (their nearest
+  // points are the surface's, at a few times its spacing); the default cleaning, both, misses none.
+  EXPECT_GT(count(lof, floaters), 10u);
+  EXPECT_GT(count(spacing, floaters), 3u);
+  EXPECT_EQ(count(cleaning, floaters), 0u);
+  // The statistical filter's one threshold on the distance takes the sparse outline instead.
+  EXPECT_EQ(count(sor, floaters), 0u);
+  EXPECT_LT(count(sor, band), band.size() / 2);
+}
+
+TEST(SpacingOutlier, RatioIsOneOnAFacingSurfaceAtAnyDistance) {
+  // Two square patches facing the camera, 40 x 40 points at 1 m and 20 x 20 at 4 m, each sampled
+  // at its pixel footprint (1 and 4 mm): in units of footprint they are the same surface, so
+  // every point two or more rings in has the same mean neighbour distance, which is the cloud's
+  // median: a ratio of exactly 1. In millimetres (no pixel_mm field) the far patch is four
+  // times as sparse as the near one, which holds the median.
+  PointCloud c;
+  std::vector<float> px;
+  struct Patch {
+    float z;
+    int side;
+  };
+  const Patch patches[2] = {{1000.f, 40}, {4000.f, 20}};
+  for (const Patch& p : patches) {
+    const float step = p.z / 1000.f;
+    for (int r = 0; r < p.side; ++r)
+      for (int q = 0; q < p.side; ++q) c.points_mm.emplace_back(step * float(q) + p.z, step * float(r), p.z), px.push_back(step);
+  }
+  c.Flatten();
+  PointCloud with = c;
+  with.fields[kPixelSizeField] = px;
+  const std::vector<float> r = SpacingRatios(with, 8, 1);
+  const std::vector<float> mm = SpacingRatios(c, 8, 1);
+  std::size_t first = 0;
+  for (const Patch& p : patches) {
+    for (int row = 3; row < p.side - 3; ++row) {
+      for (int q = 3; q < p.side - 3; ++q) {
+        const std::size_t i = first + std::size_t(row * p.side + q);
+        EXPECT_NEAR(r[i], 1.0, 1e-5);
+        EXPECT_NEAR(mm[i], p.z / 1000.0, 1e-4) << "without footprints the far patch is sparser";
+      }
+    }
+    first += std::size_t(p.side * p.side);
+  }
+  SpacingOutlierOptions o;
+  o.mean_k = 8;
+  o.max_ratio = 3;  // keeps the whole far patch with footprints, removes it without
+  EXPECT_EQ(SpacingOutlierRemoval(with, o).removed, 0u);
+  EXPECT_GE(SpacingOutlierRemoval(c, o).removed, 400u);
+}
+
+TEST(HedgeOutlier, ChoosesByWhatTheCloudIs) {
+  // A stereo sphere with a few floaters: without a hedge_id field it is cleaned by the local
+  // factor then the spacing ratio; with one (hedges found by depth) by the statistical filter
+  // (30 neighbours, 1 sigma), unless shells is "local". Each is checked against the filters run
+  // one by one.
+  std::vector<double> cos_view;
+  PointCloud c = StereoSphere(800, 2300, 300, &cos_view);
+  for (std::size_t i = 0; i < c.size(); i += 400) c.points_mm.push_back(c.points_mm[i] * 0.95f);
+  c.Flatten();
+  const PointCloud local_then_spacing =
+      SpacingOutlierRemoval(LocalOutlierRemoval(c, LocalOutlierOptions{}).cloud, SpacingOutlierOptions{}).cloud;
+  EXPECT_EQ(HedgeOutlierRemoval(c, HedgeOutlierOptions{}).cloud.points_mm, local_then_spacing.points_mm);
+  PointCloud shells = c;
+  shells.fields[kHedgeIdField] = std::vector<float>(c.size(), 1.f);
+  StatisticalOutlierOptions so;
+  so.mean_k = 30;
+  const FilterResult statistical = HedgeOutlierRemoval(shells, HedgeOutlierOptions{});
+  EXPECT_EQ(statistical.cloud.points_mm, StatisticalOutlierRemoval(shells, so).cloud.points_mm);
+  EXPECT_LT(statistical.kept, local_then_spacing.size());  // it trims the outline as well
+  HedgeOutlierOptions o;
+  o.shells = "local";
+  EXPECT_EQ(HedgeOutlierRemoval(shells, o).cloud.points_mm, local_then_spacing.points_mm);
+  o.shells = "lof";
+  EXPECT_THROW(HedgeOutlierRemoval(shells, o), Error);
+}
+
+TEST(LocalOutlier, BadOptionsAreNamed) {
+  SpacingOutlierOptions so;
+  so.max_ratio = 0.9;
+  EXPECT_THROW(SpacingOutlierRemoval(PointCloud{}, so), Error);
+  LocalOutlierOptions o;
+  o.threshold = 0.5;
+  try {
+    LocalOutlierRemoval(PointCloud{}, o);
+    FAIL() << "a threshold below 1 was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("threshold"), std::string::npos) << e.what();
+  }
+  o = LocalOutlierOptions{};
+  o.k = 1;
+  EXPECT_THROW(LocalOutlierRemoval(PointCloud{}, o), Error);
+  // Fewer points than k: each is compared with all the others.
+  PointCloud few;
+  for (int i = 0; i < 5; ++i) few.points_mm.emplace_back(float(i), 0.f, 1000.f);
+  EXPECT_EQ(LocalOutlierRemoval(few, LocalOutlierOptions{}).kept, 5u);
 }
 
 }  // namespace
