@@ -4,8 +4,26 @@
 #include "bench/garden.hpp"
 #include "bench/lab.hpp"
 #include "cloud/cloud_io.hpp"
+#include "cloud/error.hpp"
+#include "cloud/pipeline.hpp"
+
+#include <fstream>
+#include <sstream>
 
 namespace hedgefit::apps {
+
+namespace {
+
+// A --pipeline file's filter stages (checked when the bench starts).
+std::string ReadFilterStagesFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("--pipeline " + path + ": cannot open it; give a JSON array of filter stages");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
 
 void AddBenchCommand(CLI::App& app, CommandFn* run) {
   auto* bench = app.add_subcommand("bench", "End-to-end benchmarks");
@@ -18,6 +36,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench lab --camera real --noise-draws 7 --dir build/lab-real   # 7 x 7 captures, ~2 minutes\n");
   struct Args {
     bench::LabOptions lab;
+    bool clean = false;
+    std::string pipeline;
     std::string json;
   };
   auto a = std::make_shared<Args>();
@@ -60,9 +80,16 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                   "captures; the as-rendered spheres are kept in --dir/as_rendered")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  auto* clean = cmd->add_flag("--clean", a->clean,
+                               "clean each capture's cloud as `measure` and `compare` do by default before the "
+                               "fits; by default they see the matcher's cloud");
+  cmd->add_option("--pipeline", a->pipeline, "clean each capture's cloud with this JSON array of filter stages instead")
+      ->excludes(clean);
   cmd->add_option("--json", a->json, "also write the table as JSON here");
   cmd->callback([=]() {
     *run = [=]() {
+      if (a->clean) a->lab.cleaning = cloud::DefaultCleaningJson();
+      if (!a->pipeline.empty()) a->lab.cleaning = ReadFilterStagesFile(a->pipeline);
       const bench::LabResult result = bench::RunLab(a->lab);
       bench::PrintLab(result);
       if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, bench::LabJson(result));
@@ -82,6 +109,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n");
   struct GardenArgs {
     bench::GardenOptions garden;
+    bool no_clean = false;
+    std::string pipeline;
     std::string json;
   };
   auto ga = std::make_shared<GardenArgs>();
@@ -108,9 +137,15 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                 "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
       ->check(CLI::Range(0, 10))
       ->capture_default_str();
+  auto* no_clean = g->add_flag("--no-clean", ga->no_clean,
+                               "fit each capture's cloud as the matcher gives it (by default cleaned as `compare` does)");
+  g->add_option("--pipeline", ga->pipeline, "clean each capture's cloud with this JSON array of filter stages instead")
+      ->excludes(no_clean);
   g->add_option("--json", ga->json, "also write the tables as JSON here");
   g->callback([=]() {
     *run = [=]() {
+      if (ga->no_clean) ga->garden.cleaning = "[]";
+      if (!ga->pipeline.empty()) ga->garden.cleaning = ReadFilterStagesFile(ga->pipeline);
       const bench::GardenResult result = bench::RunGarden(ga->garden);
       bench::PrintGarden(result);
       if (!ga->json.empty()) cloud::WriteTextFileAtomic(ga->json, bench::GardenJson(result));

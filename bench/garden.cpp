@@ -10,6 +10,7 @@
 
 #include "bench/lab.hpp"
 #include "cloud/filters.hpp"
+#include "cloud/pipeline.hpp"
 #include "cloud/truth_file.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/uncertainty.hpp"
@@ -20,7 +21,7 @@
 
 namespace hedgefit::bench {
 
-GardenOptions::GardenOptions() { convert.mode = stereo::SegmentMode::kGarden; }
+GardenOptions::GardenOptions() : cleaning(cloud::DefaultCleaningJson()) { convert.mode = stereo::SegmentMode::kGarden; }
 
 namespace {
 
@@ -91,6 +92,7 @@ LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, 
 GardenResult RunGarden(const GardenOptions& a) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
+  cloud::CheckFilterStages(a.cleaning, "bench garden's cleaning");
   std::vector<std::string> presets = a.hard ? stereo::GardenHardPresetNames() : stereo::GardenPresetNames();
   if (a.random > 0) {
     presets.clear();
@@ -136,12 +138,7 @@ GardenResult RunGarden(const GardenOptions& a) {
     auto tc = std::chrono::steady_clock::now();
     const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, garden);
     scene.convert_ms = Ms(tc);
-    // The cleaning `compare` applies by default (statistical outliers, mean_k 30, 1 sigma), so
-    // the figures are what a user gets.
-    cloud::StatisticalOutlierOptions so;
-    so.mean_k = 30;
-    so.stddev_mul = 1.0;
-    const cloud::PointCloud cleaned = cloud::StatisticalOutlierRemoval(res.cloud, so).cloud;
+    const cloud::PointCloud cleaned = cloud::RunFilterStages(res.cloud, a.cleaning, "bench garden's cleaning");
     const auto groups = cloud::HedgeGroups(cleaned);
     const auto raw_groups = cloud::HedgeGroups(res.cloud);  // the written clouds, for the 50 mm share
     std::vector<fitting::Sphere> spheres;

@@ -27,6 +27,10 @@ struct GardenOptions {
   bool hard = false;                       ///< stereo::GardenHardPresetNames() instead of the three presets
   int random = 0;                          ///< > 0: gardens random1 ... randomN (stereo::GardenPreset) instead
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
+  /// The filter stages (JSON array) run on each capture's cloud before the fits: by default
+  /// cloud::DefaultCleaningJson(), what `compare` and `measure` apply, so the figures are what a
+  /// user gets; "[]" fits the matcher's cloud as it is.
+  std::string cleaning;
   GardenOptions();
 };
 

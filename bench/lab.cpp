@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "cloud/pipeline.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/uncertainty.hpp"
 #include "stereo/calibration.hpp"
@@ -102,6 +103,7 @@ LabResult RunLab(const LabOptions& a) {
   if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
   if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
   if (a.noise_draws < 1) throw Error("--noise-draws: give at least 1");
+  if (!a.cleaning.empty()) cloud::CheckFilterStages(a.cleaning, "bench lab's cleaning");
   if (a.noise_draws > 1 && a.camera != "real") {
     throw Error("--noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1");
   }
@@ -176,12 +178,14 @@ LabResult RunLab(const LabOptions& a) {
       }
       const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, a.convert);
       row.convert_ms = res.wall_ms;
+      const cloud::PointCloud cleaned =
+          a.cleaning.empty() ? res.cloud : cloud::RunFilterStages(res.cloud, a.cleaning, "bench lab's cleaning");
       std::vector<Eigen::Vector3d> pts;
       std::vector<std::size_t> finite;
-      for (std::size_t i = 0; i < res.cloud.size(); ++i) {
-        if (cloud::IsFinite(res.cloud.points_mm[i])) pts.push_back(res.cloud.points_mm[i].cast<double>()), finite.push_back(i);
+      for (std::size_t i = 0; i < cleaned.size(); ++i) {
+        if (cloud::IsFinite(cleaned.points_mm[i])) pts.push_back(cleaned.points_mm[i].cast<double>()), finite.push_back(i);
       }
-      const std::vector<double> pixel_mm = cloud::FieldAt(res.cloud, cloud::kPixelSizeField, finite);
+      const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, finite);
       row.points = pts.size();
       for (const auto& m : fitting::SphereMethodNames()) {
         row.fits.push_back(fitting::RunFitMethod(m, pts, kLabFitOptions, 42, false, &pixel_mm));

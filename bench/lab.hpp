@@ -35,6 +35,9 @@ struct LabOptions {
   /// the targets, so a setting is judged on several.
   int noise_draws = 1;
   stereo::ConvertOptions convert;       ///< the capture path's options
+  /// The filter stages (JSON array) run on each capture's cloud before the fits; empty (the
+  /// default) fits the matcher's cloud as it is, cloud::DefaultCleaningJson() what `measure` does.
+  std::string cleaning;
   LabOptions();
 };
 

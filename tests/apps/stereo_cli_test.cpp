@@ -142,13 +142,28 @@ TEST(BenchLabCli, PaperLabMeetsTheTargets) {
 // --noise-draws records each sphere again with new draws of the real camera's noise, from the
 // render kept in as_rendered/: every draw has all seven positions, draws differ only by noise (so
 // their fits differ, but not wildly), and the summary is the mean over all draws' captures. At half
-// scale, about 20 s. Without a real camera there is no noise to draw: one line, nothing written.
+// scale, about 20 s. Without a real camera there is no noise to draw: one line, nothing written;
+// so too for a --pipeline that is not filter stages.
 TEST(BenchLabCli, NoiseDrawsRecordTheSameRenderAgain) {
   const auto dir = hedgefit::testing::ScratchDir();
   Result r = RunHedgefit("bench lab --noise-draws 2 --dir lab", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "hedgefit: --noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1\n");
   EXPECT_FALSE(fs::exists(dir / "lab"));
+  // A cleaning pipeline the benches cannot run is refused before anything is rendered.
+  r = RunHedgefit("bench lab --pipeline missing.json --dir lab", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --pipeline missing.json: cannot open it; give a JSON array of filter stages\n");
+  std::ofstream(dir / "writer.json") << R"([{"type": "writers.pcd", "filename": "x.pcd"}])";
+  r = RunHedgefit("bench lab --pipeline writer.json --dir lab", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: bench lab's cleaning: give filters.* stages only ({\"filename\":\"x.pcd\",\"type\":\"writers.pcd\"} is not one)\n");
+  std::ofstream(dir / "typo.json") << R"([{"type": "filters.local_outlier", "treshold": 3}])";
+  r = RunHedgefit("bench garden --pipeline typo.json --dir garden", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("unknown option 'treshold' (did you mean 'threshold'?)"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "lab"));
+  EXPECT_FALSE(fs::exists(dir / "garden"));
   r = RunHedgefit("bench lab --camera real --scale 0.5 --noise-draws 2 --dir lab --json lab.json", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(Slurp(dir / "lab.json"));
