@@ -128,5 +128,29 @@ TEST(Pipeline, RunFailureNamesTheStageAndLeavesNoOutput) {
   EXPECT_FALSE(fs::exists(dir / "out.pcd"));
 }
 
+// Filter stages run on a cloud in memory (what the benches clean with): the grid's one far point
+// goes, the default cleaning's stages among them; anything but an array of filters.* stages is
+// refused with the source named, before anything runs; "[]" returns the cloud as it is.
+TEST(Pipeline, FilterStagesRunOnACloudInMemory) {
+  const PointCloud grid = Grid(20);
+  EXPECT_EQ(RunFilterStages(grid, DefaultCleaningJson(), "cleaning").size(), 400u);
+  EXPECT_EQ(RunFilterStages(grid, "[]", "cleaning").size(), 401u);
+  auto error = [&](const std::string& stages) {
+    try {
+      CheckFilterStages(stages, "my.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error("[{"), "my.json: invalid JSON; give an array of filter stages, e.g. [{\"type\": \"filters.nonfinite\"}]");
+  EXPECT_EQ(error("{\"type\": \"filters.nonfinite\"}"),
+            "my.json: filter stages are a JSON array, e.g. [{\"type\": \"filters.nonfinite\"}]");
+  EXPECT_EQ(error("[\"in.pcd\"]"), "my.json: give filters.* stages only (\"in.pcd\" is not one)");
+  EXPECT_EQ(error("[{\"type\": \"fitters.kasa\"}]"), "my.json: give filters.* stages only ({\"type\":\"fitters.kasa\"} is not one)");
+  EXPECT_NE(error("[{\"type\": \"filters.spacing_outlier\", \"max_ratio\": 0.5}]").find("max_ratio"), std::string::npos);
+  EXPECT_EQ(error(DefaultCleaningJson()), "");
+}
+
 }  // namespace
 }  // namespace hedgefit::cloud
