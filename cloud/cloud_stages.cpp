@@ -161,17 +161,16 @@ void RegisterCloudStages(Registry& r) {
                ctx.Note("threshold_mm", res.threshold);
              }));
   filter("filters.hedge_outlier",
-         "The default cleaning's outlier removal, by what the cloud is: local_outlier (k 20, threshold 2) then "
-         "spacing_outlier (mean_k 30, max_ratio 8); on hedges found by depth (a hedge_id field: leafy shells) "
-         "statistical_outlier (mean_k 30, stddev_mul 1), unless shells is local",
+         "The default cleaning's outlier removal, by what the cloud is: on a stereo capture's cloud (pixel_mm) "
+         "local_outlier (k 20, threshold 2) then spacing_outlier (mean_k 30, max_ratio 8); on hedges found by "
+         "depth (hedge_id: leafy shells, unless shells is local) and clouds without pixel_mm statistical_outlier "
+         "(mean_k 30, stddev_mul 1)",
          TableOptions<HedgeOutlierOptions>(),
          TableFactory<HedgeOutlierOptions>("filters.hedge_outlier",
                                            [keep](const HedgeOutlierOptions& p, const Options&, Context& ctx) {
-                                             const bool shells = ctx.Get<PointCloud>("cloud").fields.count(kHedgeIdField) != 0;
+                                             const bool local = HedgeOutlierIsLocal(ctx.Get<PointCloud>("cloud"), p);
                                              keep(ctx, [&](const PointCloud& c) { return HedgeOutlierRemoval(c, p); });
-                                             ctx.Note("filter", std::string(shells && p.shells == "statistical"
-                                                                                ? "statistical (hedges found by depth)"
-                                                                                : "local + spacing"));
+                                             ctx.Note("filter", std::string(local ? "local + spacing" : "statistical"));
                                            }));
   filter("filters.voxel_grid", "Downsamples to one centroid per cubic voxel (colours and fields averaged)",
          TableOptions<VoxelGridOptions>(),

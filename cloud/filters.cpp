@@ -278,7 +278,8 @@ const OptionTable<HedgeOutlierOptions>& HedgeOutlierOptions::Table() {
   static const auto table =
       OptionTable<O>()
           .Add("shells", &O::shells,
-               "for hedges found by depth (a hedge_id field): statistical (mean_k 30, 1 sigma) or local (as other clouds)")
+               "for hedges found by depth (a hedge_id field): statistical (mean_k 30, 1 sigma) or local (as a stereo "
+               "capture of one hedge)")
           .Choices({"statistical", "local"})
           .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024);
   return table;
@@ -286,9 +287,15 @@ const OptionTable<HedgeOutlierOptions>& HedgeOutlierOptions::Table() {
 
 void HedgeOutlierOptions::Check() const { Table().Validate(*this); }
 
+bool HedgeOutlierIsLocal(const PointCloud& cloud, const HedgeOutlierOptions& options) {
+  const bool footprints = cloud.fields.count(kPixelSizeField) != 0;
+  const bool shells = cloud.fields.count(kHedgeIdField) != 0;
+  return footprints && (!shells || options.shells == "local");
+}
+
 FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOptions& options) {
   options.Check();
-  if (options.shells == "statistical" && cloud.fields.count(kHedgeIdField) != 0) {
+  if (!HedgeOutlierIsLocal(cloud, options)) {
     StatisticalOutlierOptions so;
     so.mean_k = 30;
     so.stddev_mul = 1.0;

@@ -112,13 +112,21 @@ struct HedgeOutlierOptions {
   static const OptionTable<HedgeOutlierOptions>& Table();  ///< the options, declared once
 };
 
+/// Whether HedgeOutlierRemoval takes the local outlier factor and the spacing ratio for `cloud`
+/// (else the statistical filter): a stereo capture's cloud (a pixel_mm field, as `convert`
+/// writes) of one hedge found by colour, or of hedges found by depth with shells "local".
+bool HedgeOutlierIsLocal(const PointCloud& cloud, const HedgeOutlierOptions& options);
+
 /// The outlier removal of the default cleaning (DefaultCleaningJson), by what the cloud is.
-/// Any cloud but a garden capture's (one smooth hedge found by colour, a scan, a file): the local
+/// A stereo capture's cloud (pixel_mm field) of one smooth hedge found by colour: the local
 /// outlier factor (k 20, above 2), then the spacing ratio (mean_k 30, above 8), which keep a
-/// sparse surface and drop what floats off it. A cloud with a hedge_id field (hedges found by
-/// depth: leafy shells), with shells "statistical": the statistical filter (mean_k 30, 1 sigma),
-/// which also trims the sparse leaves seen deep through the shell's gaps; on POV-Ray's
-/// real-camera gardens the envelope's centre is 1.18 mm off with it and 2.31 mm without.
+/// sparse surface (the outline the statistical filter trims) and drop what floats off it. Any
+/// other cloud: the statistical filter (mean_k 30, 1 sigma). Hedges found by depth (a hedge_id
+/// field: leafy shells), because it also trims the sparse leaves seen deep through the shell's
+/// gaps (on POV-Ray's real-camera gardens the envelope's centre is 1.18 mm off with it and 2.31
+/// mm without); shells "local" gives them the local filters. A cloud without footprints (a
+/// file from elsewhere, a scan), because without them the spacing ratio cannot tell a sparse
+/// surface from mismatches scattered among each other, which the local factor misses.
 FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOptions& options);
 
 struct VoxelGridOptions {

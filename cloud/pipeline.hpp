@@ -60,11 +60,12 @@ class Pipeline {
 
 /// The cleaning `compare`, `measure`, `stream`, `trim`, `bench garden` (and the Python module)
 /// apply unless told otherwise, as a JSON array of stages: NaN removal, then filters.hedge_outlier
-/// (HedgeOutlierRemoval): the local outlier factor and the spacing ratio, which between them drop
-/// mismatches floating off the surface, alone or among others, and keep a sparse surface (a
-/// sphere's outline, a far wall); on hedges found by depth (leafy shells) the statistical filter,
-/// as before. (That filter trims wherever a cloud is sparse: the outline of every stereo sphere,
-/// and 55 % of the far wall of PCL's real stereo table scene.)
+/// (HedgeOutlierRemoval). On a stereo capture's cloud of one hedge (a pixel_mm field, no hedge_id)
+/// that is the local outlier factor and the spacing ratio, which between them drop mismatches
+/// floating off the surface, alone or among others, and keep the sphere's sparse outline; on any
+/// other cloud the statistical filter (30 neighbours, 1 sigma), as before. (That filter trims
+/// wherever a cloud is sparse: the outline of every stereo sphere, and 55 % of the far wall of
+/// PCL's real stereo table scene.)
 std::string DefaultCleaningJson();
 
 /// Runs `stages_json` (a JSON array of filters.* stages, e.g. DefaultCleaningJson()) on `cloud`

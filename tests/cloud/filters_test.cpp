@@ -456,21 +456,27 @@ TEST(SpacingOutlier, RatioIsOneOnAFacingSurfaceAtAnyDistance) {
 }
 
 TEST(HedgeOutlier, ChoosesByWhatTheCloudIs) {
-  // A stereo sphere with a few floaters: without a hedge_id field it is cleaned by the local
-  // factor then the spacing ratio; with one (hedges found by depth) by the statistical filter
-  // (30 neighbours, 1 sigma), unless shells is "local". Each is checked against the filters run
-  // one by one.
+  // A stereo sphere with a few floaters: with footprints (pixel_mm) and no hedge_id field it is
+  // cleaned by the local factor then the spacing ratio; with hedge_id (hedges found by depth) or
+  // without footprints, by the statistical filter (30 neighbours, 1 sigma); shells "local" gives
+  // hedges found by depth the local filters. Each is checked against the filters run one by one.
   std::vector<double> cos_view;
   PointCloud c = StereoSphere(800, 2300, 300, &cos_view);
   for (std::size_t i = 0; i < c.size(); i += 400) c.points_mm.push_back(c.points_mm[i] * 0.95f);
   c.Flatten();
+  StatisticalOutlierOptions so;
+  so.mean_k = 30;
+  // Without footprints (a cloud from elsewhere) it is the statistical filter.
+  EXPECT_EQ(HedgeOutlierRemoval(c, HedgeOutlierOptions{}).cloud.points_mm, StatisticalOutlierRemoval(c, so).cloud.points_mm);
+  EXPECT_FALSE(HedgeOutlierIsLocal(c, HedgeOutlierOptions{}));
+  std::vector<float> px(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) px[i] = c.points_mm[i].z() / 800.f;
+  c.fields[kPixelSizeField] = px;
   const PointCloud local_then_spacing =
       SpacingOutlierRemoval(LocalOutlierRemoval(c, LocalOutlierOptions{}).cloud, SpacingOutlierOptions{}).cloud;
   EXPECT_EQ(HedgeOutlierRemoval(c, HedgeOutlierOptions{}).cloud.points_mm, local_then_spacing.points_mm);
   PointCloud shells = c;
   shells.fields[kHedgeIdField] = std::vector<float>(c.size(), 1.f);
-  StatisticalOutlierOptions so;
-  so.mean_k = 30;
   const FilterResult statistical = HedgeOutlierRemoval(shells, HedgeOutlierOptions{});
   EXPECT_EQ(statistical.cloud.points_mm, StatisticalOutlierRemoval(shells, so).cloud.points_mm);
   EXPECT_LT(statistical.kept, local_then_spacing.size());  // it trims the outline as well

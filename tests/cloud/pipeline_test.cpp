@@ -132,7 +132,8 @@ TEST(Pipeline, RunFailureNamesTheStageAndLeavesNoOutput) {
 // goes, the default cleaning's stages among them; anything but an array of filters.* stages is
 // refused with the source named, before anything runs; "[]" returns the cloud as it is.
 TEST(Pipeline, FilterStagesRunOnACloudInMemory) {
-  const PointCloud grid = Grid(20);
+  PointCloud grid = Grid(20);
+  grid.fields[kPixelSizeField] = std::vector<float>(grid.size(), 1.f);  // a stereo capture's footprints
   EXPECT_EQ(RunFilterStages(grid, DefaultCleaningJson(), "cleaning").size(), 400u);
   EXPECT_EQ(RunFilterStages(grid, "[]", "cleaning").size(), 401u);
   auto error = [&](const std::string& stages) {
