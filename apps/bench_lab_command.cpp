@@ -33,7 +33,8 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench lab                        # renders into build/lab-bench, about a minute\n"
       "  hedgefit bench lab --reuse --json lab.json\n"
       "  hedgefit bench lab --renderer povray --camera real --dir build/lab-povray   # POV-Ray, ~20 minutes\n"
-      "  hedgefit bench lab --camera real --noise-draws 7 --dir build/lab-real   # 7 x 7 captures, ~2 minutes\n");
+      "  hedgefit bench lab --camera real --noise-draws 7 --dir build/lab-real   # 7 x 7 captures, ~2 minutes\n"
+      "  hedgefit bench lab --reuse --clean        # the fits see the cloud as `measure` cleans it\n");
   struct Args {
     bench::LabOptions lab;
     bool clean = false;
@@ -105,6 +106,7 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"
       "  hedgefit bench garden --reuse --json garden.json\n"
       "  hedgefit bench garden --renderer povray --camera real --dir build/garden-povray   # leaf discs, ~5 minutes\n"
+      "  hedgefit bench garden --reuse --no-clean  # the fits see the clouds as converted\n"
       "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame, shrubs\n"
       "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n");
   struct GardenArgs {

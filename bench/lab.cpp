@@ -178,8 +178,9 @@ LabResult RunLab(const LabOptions& a) {
       }
       const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, a.convert);
       row.convert_ms = res.wall_ms;
-      const cloud::PointCloud cleaned =
-          a.cleaning.empty() ? res.cloud : cloud::RunFilterStages(res.cloud, a.cleaning, "bench lab's cleaning");
+      cloud::PointCloud cleaned_copy;
+      if (!a.cleaning.empty()) cleaned_copy = cloud::RunFilterStages(res.cloud, a.cleaning, "bench lab's cleaning");
+      const cloud::PointCloud& cleaned = a.cleaning.empty() ? res.cloud : cleaned_copy;
       std::vector<Eigen::Vector3d> pts;
       std::vector<std::size_t> finite;
       for (std::size_t i = 0; i < cleaned.size(); ++i) {
