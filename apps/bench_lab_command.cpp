@@ -34,6 +34,7 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench lab --reuse --json lab.json\n"
       "  hedgefit bench lab --renderer povray --camera real --dir build/lab-povray   # POV-Ray, ~20 minutes\n"
       "  hedgefit bench lab --camera real --noise-draws 7 --dir build/lab-real   # 7 x 7 captures, ~2 minutes\n"
+      "  hedgefit bench lab --reuse --camera real --noise-draws 7 --dir build/lab-real --camera-without bayer,noise\n"
       "  hedgefit bench lab --reuse --clean        # the fits see the cloud as `measure` cleans it\n");
   struct Args {
     bench::LabOptions lab;
@@ -81,6 +82,10 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                   "captures; the as-rendered spheres are kept in --dir/as_rendered")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  cmd->add_option("--camera-without", a->lab.camera_without,
+                  "with --camera real: leave these camera effects (gains, vignetting, bayer, noise, jpeg; comma-separated) "
+                  "out of the spheres' pairs to see what each costs; the boards, and so the calibration, keep them all")
+      ->delimiter(',');
   auto* clean = cmd->add_flag("--clean", a->clean,
                                "clean each capture's cloud as `measure` and `compare` do by default before the "
                                "fits; by default they see the matcher's cloud");

@@ -108,6 +108,11 @@ LabResult RunLab(const LabOptions& a) {
     throw Error("--noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1");
   }
   const stereo::CameraModel camera = a.camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal();
+  if (!a.camera_without.empty() && a.camera != "real") {
+    throw Error("--camera-without: only a real camera has effects to leave out; add --camera real");
+  }
+  stereo::CameraModel sphere_camera = camera;
+  for (const auto& e : a.camera_without) sphere_camera = stereo::WithoutEffect(sphere_camera, e, "--camera-without");
   if (!(a.reuse && fs::exists(fs::path(a.dir) / "sphere_2600_right.png"))) {
     if (a.renderer == "povray") {
       stereo::WritePovrayLab(a.dir, a.scale, camera, 1, a.camera == "real" ? AsRenderedDir(a) : std::string());
@@ -167,14 +172,14 @@ LabResult RunLab(const LabOptions& a) {
       row.draw = draw;
       row.truth = fitting::ReadTruthFile(base.string() + ".truth.json");
       cv::Mat left, right;
-      if (draw == 1) {
+      if (draw == 1 && a.camera_without.empty()) {
         left = stereo::ReadImageFile(base.string() + "_left.png");
         right = stereo::ReadImageFile(base.string() + "_right.png");
       } else {
         // Seeds no other image of the lab draws (the renderers' own stay below 10^6).
         const std::uint64_t seed = 1000000 + 1000 * std::uint64_t(draw) + k;
-        left = stereo::ApplyCameraModel(AsRenderedSphere(a, spheres[k], false, name), camera, false, seed);
-        right = stereo::ApplyCameraModel(AsRenderedSphere(a, spheres[k], true, name), camera, true, seed);
+        left = stereo::ApplyCameraModel(AsRenderedSphere(a, spheres[k], false, name), sphere_camera, false, seed);
+        right = stereo::ApplyCameraModel(AsRenderedSphere(a, spheres[k], true, name), sphere_camera, true, seed);
       }
       const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, a.convert);
       row.convert_ms = res.wall_ms;
@@ -201,6 +206,7 @@ LabResult RunLab(const LabOptions& a) {
     }
   }
   out.noise_draws = a.noise_draws;
+  out.camera_without = a.camera_without;
   out.summary = summary.Finish();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
@@ -212,6 +218,12 @@ void PrintLab(const LabResult& r) {
   } else {
     std::printf("calibrated from the simulated boards: stereo RMS %.3f px, baseline %.3f mm\n", r.rms_stereo_px,
                 r.baseline_mm);
+  }
+  if (!r.camera_without.empty()) {
+    std::string effects;
+    for (const auto& e : r.camera_without) effects += (effects.empty() ? "" : ", ") + e;
+    std::printf("spheres recorded without the camera's %s (the boards keep every effect), every draw afresh\n",
+                effects.c_str());
   }
   const std::vector<std::string> methods = fitting::SphereMethodNames();
   for (std::size_t k = 0; k < methods.size(); ++k) {
@@ -232,8 +244,8 @@ void PrintLab(const LabResult& r) {
     }
   }
   if (r.noise_draws > 1) {
-    std::printf("\n(the tables above are draw 1, the pairs in the directory; the summary is over all %d draws)\n",
-                r.noise_draws);
+    std::printf("\n(the tables above are draw 1%s; the summary is over all %d draws)\n",
+                r.camera_without.empty() ? ", the pairs in the directory" : "", r.noise_draws);
   }
   std::printf("\nsummary over Z = 2000..2600 mm (7 positions x %d noise draw%s)\n  %-17s %10s %10s %9s %9s %9s %9s\n",
               r.noise_draws, r.noise_draws > 1 ? "s" : "", "method",
@@ -304,6 +316,7 @@ std::string LabJson(const LabResult& r) {
                          {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm}, {"failures", s.failures}};
   }
   out["noise_draws"] = r.noise_draws;
+  out["camera_without"] = r.camera_without;
   for (const auto& [m, draws] : r.per_draw) {
     for (const auto& d : draws) {
       out["per_draw"][m].push_back({{"mean_abs_aer_mm", d.mean_abs_aer_mm}, {"mean_ld_mm", d.mean_ld_mm}});

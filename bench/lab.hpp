@@ -34,6 +34,10 @@ struct LabOptions {
   /// `dir`/as_rendered, rendered when missing). One draw of seven captures scatters by as much as
   /// the targets, so a setting is judged on several.
   int noise_draws = 1;
+  /// With camera "real": these effects of the camera model (stereo::WithoutEffect's names) are
+  /// left out of the spheres' pairs, to see what each costs; the boards, and so the calibration,
+  /// keep them all. Every draw, the first too, is then recorded afresh from the as-rendered pair.
+  std::vector<std::string> camera_without;
   stereo::ConvertOptions convert;       ///< the capture path's options
   /// The filter stages (JSON array) run on each capture's cloud before the fits; empty (the
   /// default) fits the matcher's cloud as it is, cloud::DefaultCleaningJson() what `measure` does.
@@ -56,6 +60,7 @@ struct LabResult {
   bool exact_rig = false;
   std::vector<LabRow> rows;  ///< Z = 2000..2600 mm, draw by draw
   int noise_draws = 1;
+  std::vector<std::string> camera_without;  ///< the camera effects left out of the spheres' pairs
   std::map<std::string, fitting::MethodSummary> summary;  ///< over every row (all draws)
   /// Per method, the summary of each noise draw's seven captures (empty with one draw).
   std::map<std::string, std::vector<fitting::MethodSummary>> per_draw;

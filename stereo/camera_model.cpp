@@ -21,6 +21,26 @@ CameraModel CameraModel::Ideal() {
   return m;
 }
 
+CameraModel WithoutEffect(CameraModel m, const std::string& effect, const std::string& what) {
+  if (effect == "gains") {
+    m.gain_right = m.gain_left;
+    m.white_right = cv::Vec3d(1, 1, 1);
+  } else if (effect == "vignetting") {
+    m.vignetting = 0;
+  } else if (effect == "bayer") {
+    m.bayer = false;
+  } else if (effect == "noise") {
+    m.read_noise = m.shot_noise = 0;
+  } else if (effect == "jpeg") {
+    m.jpeg_quality = 0;
+  } else {
+    std::string names;
+    for (const char* e : kCameraEffects) names += std::string(names.empty() ? "" : ", ") + e;
+    throw Error(what + ": no camera effect '" + effect + "'; use " + names);
+  }
+  return m;
+}
+
 cv::Mat ApplyCameraModel(const cv::Mat& image, const CameraModel& m, bool right, std::uint64_t seed) {
   if (image.empty() || image.type() != CV_8UC3) throw Error("camera model: give an 8-bit BGR image");
   const int w = image.cols, h = image.rows;

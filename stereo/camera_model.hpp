@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include <cstdint>
+#include <string>
 
 namespace hedgefit::stereo {
 
@@ -26,6 +27,14 @@ struct CameraModel {
   /// A model that changes nothing.
   static CameraModel Ideal();
 };
+
+/// The effects `WithoutEffect` can switch off, by name.
+inline constexpr const char* kCameraEffects[] = {"gains", "vignetting", "bayer", "noise", "jpeg"};
+
+/// `model` with one effect switched off, to see what each costs: "gains" (the same exposure and
+/// white balance in both cameras), "vignetting", "bayer" (every colour at every pixel), "noise"
+/// (no shot or read noise) or "jpeg". Throws hedgefit::Error naming `what` and the valid names.
+CameraModel WithoutEffect(CameraModel model, const std::string& effect, const std::string& what);
 
 /// `image` (8-bit BGR) as camera `right` (false = left) would record it; `seed` draws the
 /// noise (the two cameras use seed * 2 and seed * 2 + 1, so their noise is independent).

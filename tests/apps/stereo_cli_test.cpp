@@ -198,6 +198,22 @@ TEST(BenchLabCli, NoiseDrawsRecordTheSameRenderAgain) {
     const double mean = (draws[0]["mean_abs_aer_mm"].get<double>() + draws[1]["mean_abs_aer_mm"].get<double>()) / 2;
     EXPECT_NEAR(s["mean_abs_aer_mm"].get<double>(), mean, 1e-9) << method;
   }
+  // Without the noise (and the other effects) every draw records the same pair again: the two
+  // draws' fits agree to the bit, where with noise they differed.
+  r = RunHedgefit("bench lab --reuse --camera real --scale 0.5 --noise-draws 2 --dir lab --json quiet.json "
+                  "--camera-without noise,bayer,gains,vignetting", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("spheres recorded without the camera's noise, bayer, gains, vignetting"), std::string::npos);
+  const auto q = nlohmann::json::parse(Slurp(dir / "quiet.json"));
+  std::map<std::pair<int, int>, double> quiet;
+  for (const auto& row : q["rows"]) {
+    if (row["method"] == "ransac_geometric") quiet[{row["draw"].get<int>(), int(row["z_mm"].get<double>())}] = row["mr_mm"];
+  }
+  ASSERT_EQ(quiet.size(), 14u);
+  for (int z = 2000; z <= 2600; z += 100) EXPECT_EQ(quiet.at({1, z}), quiet.at({2, z})) << z;
+  r = RunHedgefit("bench lab --reuse --camera-without noise --dir lab", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --camera-without: only a real camera has effects to leave out; add --camera real\n");
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "cloud/error.hpp"
 #include "stereo/calibration.hpp"
 #include "stereo/camera_model.hpp"
 #include "tests/test_data.hpp"
@@ -148,6 +149,32 @@ TEST(CameraModel, IdealBayerNoiseAndVignetting) {
   const cv::Mat v = ApplyCameraModel(grey, vignette, false, 1);
   EXPECT_NEAR(v.at<cv::Vec3b>(0, 0)[1], 75, 1);       // the corner: 1 - 0.25
   EXPECT_NEAR(v.at<cv::Vec3b>(120, 160)[1], 100, 1);  // the centre
+}
+
+// WithoutEffect switches off exactly the effect it names: the real camera without all of them is
+// the ideal one (the image comes back unchanged), without the noise it is deterministic (two seeds
+// give the same image) but still not ideal, and a name it does not know is refused, naming it.
+TEST(CameraModel, WithoutEffectSwitchesOffOneEffect) {
+  cv::Mat image(120, 160, CV_8UC3);
+  cv::randu(image, cv::Scalar::all(30), cv::Scalar::all(220));
+  CameraModel none;
+  for (const char* e : kCameraEffects) none = WithoutEffect(none, e, "test");
+  EXPECT_EQ(cv::norm(ApplyCameraModel(image, none, true, 5), image, cv::NORM_INF), 0.0);
+  const CameraModel quiet = WithoutEffect(CameraModel(), "noise", "test");
+  const cv::Mat a = ApplyCameraModel(image, quiet, true, 5), b = ApplyCameraModel(image, quiet, true, 6);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(a, image, cv::NORM_INF), 10.0);  // gains, white balance, vignetting and Bayer remain
+  EXPECT_FALSE(WithoutEffect(CameraModel(), "bayer", "test").bayer);
+  EXPECT_EQ(WithoutEffect(CameraModel(), "vignetting", "test").vignetting, 0.0);
+  const CameraModel same = WithoutEffect(CameraModel(), "gains", "test");
+  EXPECT_EQ(same.gain_left, same.gain_right);
+  EXPECT_EQ(same.white_right, cv::Vec3d(1, 1, 1));
+  try {
+    WithoutEffect(CameraModel(), "bayr", "--camera-without");
+    ADD_FAILURE() << "an unknown effect was accepted";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "--camera-without: no camera effect 'bayr'; use gains, vignetting, bayer, noise, jpeg");
+  }
 }
 
 }  // namespace
