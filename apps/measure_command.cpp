@@ -23,7 +23,7 @@ namespace {
 using json = nlohmann::ordered_json;  // keys in the order written: hedge first
 
 struct MeasureArgs {
-  std::string left, right, rig, overlay, methods = "ransac_geometric";
+  std::string left, right, rig, overlay, methods = "ransac_ray";
   bool no_clean = false, print_pipeline = false, pretty = false;
   CaptureFlags capture;
 };

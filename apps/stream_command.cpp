@@ -264,7 +264,7 @@ class Grabber {
 };
 
 struct StreamArgs {
-  std::string rig, left, right, side_by_side, watch, methods = "ransac_geometric";
+  std::string rig, left, right, side_by_side, watch, methods = "ransac_ray";
   double idle_s = 10;
   long max_frames = 0;
   bool no_clean = false, no_drop = false;

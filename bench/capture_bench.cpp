@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
     const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, stereo::ConvertOptions{});
     std::vector<Eigen::Vector3d> pts;
     for (const auto& p : res.cloud.points_mm) pts.push_back(p.cast<double>());
-    radius = fitting::RunFitMethod("ransac_geometric", pts,
+    radius = fitting::RunFitMethod("ransac_ray", pts,
                                    {{"distance_threshold", 15.0}, {"min_radius", 100.0}, {"max_radius", 1000.0}})
                  .sphere.radius_mm;
     points = pts.size();
@@ -52,13 +52,13 @@ int main(int argc, char** argv) {
     stages = res.stage_ms;
   });
   // `hedgefit stream` / `measure`'s path in a warm process: the measure pipeline (capture
-  // stages, default cleaning, ransac_geometric) built once, run per frame.
+  // stages, default cleaning, ransac_ray) built once, run per frame.
   cloud::Registry registry;
   cloud::RegisterCloudStages(registry);
   stereo::RegisterStereoStages(registry);
   fitting::RegisterFittingStages(registry);
   cloud::Pipeline measure =
-      cloud::Pipeline::FromJson(stereo::MeasurePipelineJson(stereo::ConvertOptions{}, {"fitters.ransac_geometric"}, true),
+      cloud::Pipeline::FromJson(stereo::MeasurePipelineJson(stereo::ConvertOptions{}, {"fitters.ransac_ray"}, true),
                                 "measure", registry, {}, {"left_image", "right_image", "rig"});
   std::map<std::string, double> measure_stages;
   double measured_radius = 0;

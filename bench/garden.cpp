@@ -185,7 +185,7 @@ GardenResult RunGarden(const GardenOptions& a) {
     for (const GardenHedgeRow& row : scene.rows) scene.hedges_found += row.id != 0 ? 1 : 0;
     scene.others_found = res.hedges.size() - std::min(res.hedges.size(), scene.hedges_found);
     // What else was taken for a hedge (a shrub): do the envelope fit and the default fit
-    // (ransac_geometric, what measure prints) tell it is not a ball?
+    // (ransac_ray, what measure prints) tell it is not a ball?
     for (const auto& g : groups) {
       if (std::any_of(scene.rows.begin(), scene.rows.end(), [&](const GardenHedgeRow& row) { return row.id == g.id; })) continue;
       std::vector<Eigen::Vector3d> pts;
@@ -194,7 +194,7 @@ GardenResult RunGarden(const GardenOptions& a) {
       const fitting::SphereFitResult f = fitting::RunFitMethod("envelope", pts, {}, 42, true, &pixel_mm);
       if (!f.converged) continue;
       scene.others_not_ball += f.not_a_ball ? 1 : 0;
-      scene.others_not_ball_default += fitting::RunFitMethod("ransac_geometric", pts, {}, 42, true).not_a_ball ? 1 : 0;
+      scene.others_not_ball_default += fitting::RunFitMethod("ransac_ray", pts, {}, 42, true).not_a_ball ? 1 : 0;
       scene.others_span_ratio.push_back(2 * f.sphere.radius_mm / std::max(1e-9, fitting::PrincipalSpan(pts)));
       scene.others_outside_share.push_back(fitting::OutsideShare(pts, f.sphere));
     }
@@ -257,7 +257,7 @@ void PrintGarden(const GardenResult& r) {
     char others[160] = "";
     if (s.others_found > 0) {
       std::snprintf(others, sizeof(others),
-                    " (and %zu not a hedge of the truth, told not a ball: %zu by envelope, %zu by ransac_geometric)",
+                    " (and %zu not a hedge of the truth, told not a ball: %zu by envelope, %zu by ransac_ray)",
                     s.others_found, s.others_not_ball, s.others_not_ball_default);
     }
     std::printf("garden_%s: %zu of %zu hedges found%s; capture to clouds %.0f ms, envelope fits %.0f ms\n", s.name.c_str(),

@@ -11,6 +11,7 @@
 #include "fitting/envelope_fit.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
+#include "fitting/ray_fit.hpp"
 
 namespace hedgefit::fitting {
 
@@ -131,6 +132,44 @@ std::vector<FitMethod> MakeTable() {
                    return r;
                  };
                }});
+  {
+    std::vector<OptionSpec> options = RansacOptions();
+    options.push_back(cloud::ListOption("origin", {0, 0, 0}, 3,
+                                        "where the sensor's rays start, in the cloud's frame (a capture's cloud: "
+                                        "the left camera, 0 0 0)",
+                                        "mm"));
+    t.push_back({"ransac_ray", "fitters.ransac_ray",
+                 "RANSAC's inliers, the geometric fit, then a fit along the sensor's rays (range less the range "
+                 "where the ray meets the sphere), which noise along the rays does not bias",
+                 options, true, [](const Options& o) -> BoundFit {
+                   const RansacFitOptions p = BindRansac(o);
+                   const std::vector<double>& origin = o.GetList("origin");
+                   RayFitOptions ro;
+                   ro.origin_mm = Eigen::Vector3d(origin[0], origin[1], origin[2]);
+                   return [p, o, ro](const FitInputs& in) {
+                     std::vector<std::size_t> inliers;
+                     const SphereFitResult coarse = RunRansac(p, o, in, &inliers);
+                     SphereFitResult r = coarse;
+                     if (coarse.converged) {
+                       std::vector<Eigen::Vector3d> in_pts;
+                       in_pts.reserve(inliers.size());
+                       for (std::size_t i : inliers) in_pts.push_back((*in.points_mm)[i]);
+                       const SphereFitResult geometric = FitSphereGeometric(in_pts, {}, &coarse.sphere);
+                       if (!geometric.converged) {
+                         r = geometric;
+                       } else {
+                         r = FitSphereAlongRays(in_pts, geometric.sphere, ro);
+                         r.wall_ms += geometric.wall_ms;
+                       }
+                       r.wall_ms += coarse.wall_ms;
+                       r.points_used = in.points_mm->size();
+                     }
+                     if (in.inliers) *in.inliers = std::move(inliers);
+                     r.method = "ransac_ray";
+                     return r;
+                   };
+                 }});
+  }
   {
     std::vector<OptionSpec> options = cloud::TableOptions<EnvelopeFitOptions>(
         {cloud::StringOption("initial", "ransac_geometric",

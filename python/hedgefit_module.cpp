@@ -247,7 +247,7 @@ PYBIND11_MODULE(hedgefit, m) {
         py::dict run = RunAndCollect(p, ctx);
         return py::list(run["fits"]);
       },
-      py::arg("left"), py::arg("right"), py::arg("rig"), py::arg("method") = "ransac_geometric",
+      py::arg("left"), py::arg("right"), py::arg("rig"), py::arg("method") = "ransac_ray",
       py::arg("garden") = false, py::arg("clean") = true,
       "Measures every hedge of a stereo pair: left and right as (H, W, 3) uint8 BGR arrays (hedgefit.read_image), "
       "the rig file from `hedgefit calibrate`. Runs what `hedgefit measure` runs; keyword arguments set capture "

@@ -58,7 +58,8 @@ class Fits(unittest.TestCase):
         # on the radius also hold the algebraic fits, whose bias on a cap is ~1 mm.
         center, radius = (10.0, 20.0, 2000.0), 400.0
         xyz = sphere_cap(center, radius, 3000, 1.0)
-        for method in ("kasa", "pratt", "taubin", "hyper", "ransac", "geometric", "ransac_geometric", "envelope"):
+        for method in ("kasa", "pratt", "taubin", "hyper", "ransac", "geometric", "ransac_geometric", "ransac_ray",
+                       "envelope"):
             self.assertIn(method, hedgefit.methods())
             f = hedgefit.fit(xyz, method)
             self.assertTrue(f["converged"], (method, f["message"]))

@@ -338,7 +338,7 @@ TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
 
 // Shrubs beside a ball are taken for hedges by depth (they stand on the lawn, round enough in
 // outline) but their fits say they are not a ball: a four-lobed shrub against the ball and a
-// two-lobed one apart. The default fit (ransac_geometric) and the envelope fit put a sphere on one
+// two-lobed one apart. The default fit (ransac_ray), ransac_geometric and the envelope fit put a sphere on one
 // lobe, with 12-42 % of the shrub's points more than a tenth of its radius outside it
 // (fitting::kMaxOutsideShare: 5 %), or one many times wider than the shrub (kMaxSphereToSpan:
 // 2.5). The ball has at most 0.1 % of its points so far out and its sphere is 1.3-1.6 times its
@@ -349,7 +349,7 @@ TEST(MeasureCli, ShrubsTakenForHedgesAreToldNotABall) {
   WriteHalfScaleGarden(dir / "g", "shrubs");
   const auto truth = nlohmann::json::parse(std::ifstream(dir / "g" / "garden_shrubs.truth.json"))["hedges"];
   ASSERT_EQ(truth.size(), 1u);
-  for (const std::string method : {"ransac_geometric", "envelope"}) {
+  for (const std::string method : {"ransac_ray", "ransac_geometric", "envelope"}) {
     const auto r = RunHedgefit("measure --method " + method +
                                    " --rig g/rig.yaml --left g/garden_shrubs_left.png --right g/garden_shrubs_right.png",
                                dir);

@@ -249,7 +249,7 @@ TEST(MethodTable, EveryMethodIsAStageAndUnknownNamesAreErrors) {
   }
   EXPECT_EQ(FitMethodNames().size(), 10u);
   EXPECT_EQ(ParseMethodList("all", "--methods"), SphereMethodNames());
-  EXPECT_EQ(SphereMethodNames().size(), 8u);  // all but the shape diagnostics, ellipsoid and spheroid
+  EXPECT_EQ(SphereMethodNames().size(), 9u);  // all but the shape diagnostics, ellipsoid and spheroid
   EXPECT_EQ(ParseMethodList("all,ellipsoid", "--methods").back(), "ellipsoid");
   EXPECT_EQ(ParseMethodList("hyper,ransac", "--methods"), (std::vector<std::string>{"hyper", "ransac"}));
   try {
