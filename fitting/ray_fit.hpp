@@ -10,7 +10,11 @@
 /// unbiased to first order whatever the noise. Rays that pass the centre farther out than
 /// sqrt(1 - min_chord^2) r (the last few per cent before the outline, where t0 stops depending
 /// smoothly on the sphere) keep the orthogonal distance, divided by min_chord (the cosine of
-/// incidence at the band's edge) so the sum of squares is continuous across it. Gauss-Newton from a start close to the
+/// incidence at the band's edge) so the two forms meet for points near the sphere. Which form a
+/// point takes is decided where the sphere is and kept while Gauss-Newton settles, then decided
+/// again, until no point changes (a point far off the sphere switching mid-search made the steps
+/// cycle on a LiDAR scan); a ray the sphere moves off keeps a smooth residual (the half-chord
+/// continues along its tangent). Gauss-Newton from a start close to the
 /// answer (RANSAC's sphere, the geometric fit), standard errors from the residual variance.
 
 #include <Eigen/Core>
