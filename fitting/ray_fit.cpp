@@ -23,7 +23,7 @@ struct Normal {
 // `along` says per point which form it takes. Empty: decided here (and stored) by where the ray
 // passes at this sphere. Given: kept, so that a step's sum of squares is compared with the same
 // forms, the problem smooth within one Gauss-Newton iteration (a point switching form mid-search
-// puts a kink in it, where the steps stall); a ray that no longer meets the sphere falls back.
+// puts a kink in it, where the steps stall); a ray the sphere moves off keeps a smooth residual.
 Normal Accumulate(const std::vector<Eigen::Vector3d>& q, const Eigen::Vector3d& c, double r, double min_chord,
                   std::vector<char>* along) {
   Normal out;
