@@ -72,6 +72,33 @@ SphereFitResult RunRansac(const RansacFitOptions& p, const Options& o, const Fit
   return FitSphereRansac(*in.points_mm, run, inliers);
 }
 
+// RANSAC's inliers, refit geometrically from RANSAC's sphere; then, with `refine`, refit again on
+// the same inliers from the geometric sphere (when that converged). Times add up; the result is
+// named `method` and counts every point as used.
+SphereFitResult RansacThenRefine(
+    const RansacFitOptions& p, const Options& o, const FitInputs& in, const std::string& method,
+    const std::function<SphereFitResult(const std::vector<Eigen::Vector3d>&, const Sphere&)>& refine = {}) {
+  std::vector<std::size_t> inliers;
+  const SphereFitResult coarse = RunRansac(p, o, in, &inliers);
+  SphereFitResult r = coarse;
+  if (coarse.converged) {
+    std::vector<Eigen::Vector3d> in_pts;
+    in_pts.reserve(inliers.size());
+    for (std::size_t i : inliers) in_pts.push_back((*in.points_mm)[i]);
+    r = FitSphereGeometric(in_pts, {}, &coarse.sphere);
+    if (refine && r.converged) {
+      const double geometric_ms = r.wall_ms;
+      r = refine(in_pts, r.sphere);
+      r.wall_ms += geometric_ms;
+    }
+    r.wall_ms += coarse.wall_ms;
+    r.points_used = in.points_mm->size();
+  }
+  if (in.inliers) *in.inliers = std::move(inliers);
+  r.method = method;
+  return r;
+}
+
 std::vector<FitMethod> MakeTable() {
   std::vector<FitMethod> t;
   t.push_back(Algebraic(AlgebraicMethod::kKasa, "fitters.algebraic",
@@ -113,24 +140,7 @@ std::vector<FitMethod> MakeTable() {
                "RANSAC finds the inliers, then the geometric fit refines on them from RANSAC's sphere",
                RansacOptions(), true, [](const Options& o) -> BoundFit {
                  const RansacFitOptions p = BindRansac(o);
-                 return [p, o](const FitInputs& in) {
-                   std::vector<std::size_t> inliers;
-                   const SphereFitResult coarse = RunRansac(p, o, in, &inliers);
-                   SphereFitResult r;
-                   if (!coarse.converged) {
-                     r = coarse;
-                   } else {
-                     std::vector<Eigen::Vector3d> in_pts;
-                     in_pts.reserve(inliers.size());
-                     for (std::size_t i : inliers) in_pts.push_back((*in.points_mm)[i]);
-                     r = FitSphereGeometric(in_pts, {}, &coarse.sphere);
-                     r.wall_ms += coarse.wall_ms;
-                     r.points_used = in.points_mm->size();
-                   }
-                   if (in.inliers) *in.inliers = std::move(inliers);
-                   r.method = "ransac_geometric";
-                   return r;
-                 };
+                 return [p, o](const FitInputs& in) { return RansacThenRefine(p, o, in, "ransac_geometric"); };
                }});
   {
     std::vector<OptionSpec> options = RansacOptions();
@@ -147,26 +157,10 @@ std::vector<FitMethod> MakeTable() {
                    RayFitOptions ro;
                    ro.origin_mm = Eigen::Vector3d(origin[0], origin[1], origin[2]);
                    return [p, o, ro](const FitInputs& in) {
-                     std::vector<std::size_t> inliers;
-                     const SphereFitResult coarse = RunRansac(p, o, in, &inliers);
-                     SphereFitResult r = coarse;
-                     if (coarse.converged) {
-                       std::vector<Eigen::Vector3d> in_pts;
-                       in_pts.reserve(inliers.size());
-                       for (std::size_t i : inliers) in_pts.push_back((*in.points_mm)[i]);
-                       const SphereFitResult geometric = FitSphereGeometric(in_pts, {}, &coarse.sphere);
-                       if (!geometric.converged) {
-                         r = geometric;
-                       } else {
-                         r = FitSphereAlongRays(in_pts, geometric.sphere, ro);
-                         r.wall_ms += geometric.wall_ms;
-                       }
-                       r.wall_ms += coarse.wall_ms;
-                       r.points_used = in.points_mm->size();
-                     }
-                     if (in.inliers) *in.inliers = std::move(inliers);
-                     r.method = "ransac_ray";
-                     return r;
+                     return RansacThenRefine(p, o, in, "ransac_ray",
+                                             [&ro](const std::vector<Eigen::Vector3d>& pts, const Sphere& start) {
+                                               return FitSphereAlongRays(pts, start, ro);
+                                             });
                    };
                  }});
   }
