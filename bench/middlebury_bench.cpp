@@ -20,7 +20,13 @@
 //  - bad-0.5 dq: bad-0.5 against the de-quantised truth on the pixels where it exists (a truth
 //    stored in whole pixels, as Aloe's, makes bad-0.5 score its own rounding: an estimate
 //    pixel-locked to the stored integer looks right);
+//  - b0.5 +off: bad-0.5 against the truth as stored plus the pair's truth offset (below);
 //  - measured %: share of the scored pixels with a matched (not filled) disparity.
+// Each pair's truth offset, printed above its table, is how far the truth sits from the
+// disparity its own views agree on, with no matcher involved (TruthOffsetFromViews: the
+// de-quantised truth's surface held fixed, one offset freed). A truth that describes its views
+// reads a few hundredths of a pixel; a shifted one reads its shift, and bad-0.5 against it
+// then favours a matcher that errs by the same shift.
 // The pair's residual vertical disparity, as hedgefit's matcher estimates and removes it before
 // its refinement, is printed under each pair's table.
 // Usage: bench_middlebury [--repeats N] [--pairs motorcycle,aloe,cones] [--refine-radius N]
@@ -121,8 +127,13 @@ int main(int argc, char** argv) {
     const double planar_share = 100.0 * cv::countNonZero(planar & p.mask) / std::max(1, cv::countNonZero(p.mask));
     std::printf("\n%s: %dx%d, %d disparities, truth step %.2f px, %.0f %% of the scored pixels with a planar truth\n",
                 p.name.c_str(), p.left.cols, p.left.rows, p.num_disparities, p.truth_step, planar_share);
-    std::printf("%-44s %7s %7s %7s %7s %7s %8s %7s %7s %7s %9s %6s\n", "matcher", "bad-2.0", "bad-1.0", "bad-0.5",
-                "b0.5 dq", "sub-px", "sub-px*", "bias", "spread", "locking", "measured", "ms");
+    const TruthOffset offset = TruthOffsetFromViews(p.left, p.right, fine, planar);
+    std::printf("truth offset: the views agree best under the truth %+.3f px (photometric rms %.2f -> %.2f grey levels, "
+                "%ld pixels)\n",
+                offset.offset_px, offset.rms_at_zero, offset.rms_at_offset, offset.pixels);
+    const cv::Mat truth_offset = p.truth + offset.offset_px;  // inf stays inf
+    std::printf("%-44s %7s %7s %7s %7s %9s %7s %8s %7s %7s %7s %9s %6s\n", "matcher", "bad-2.0", "bad-1.0", "bad-0.5",
+                "b0.5 dq", "b0.5 +off", "sub-px", "sub-px*", "bias", "spread", "locking", "measured", "ms");
     SgbmOptions ours;
     ours.num_disparities = p.num_disparities;
     ours.refine_radius = refine_radius;
@@ -152,9 +163,11 @@ int main(int argc, char** argv) {
       const BadPixelScore b1 = ScoreDisparity(m.disparity, p.truth, p.mask, 1.0);
       const BadPixelScore b05 = ScoreDisparity(m.disparity, p.truth, p.mask, 0.5);
       const BadPixelScore b05_fine = ScoreDisparity(m.disparity, fine, planar_scored, 0.5);
+      const BadPixelScore b05_offset = ScoreDisparity(m.disparity, truth_offset, p.mask, 0.5);
       const SubpixelScore s = ScoreSubpixel(m, p, fine, planar);
-      std::printf("%-44s %6.1f%% %6.1f%% %6.1f%% %6.1f%% %7.3f %8.3f %+7.3f %7.3f %7.3f %8.1f%% %6.0f\n", label,
-                  b2.bad_percent, b1.bad_percent, b05.bad_percent, b05_fine.bad_percent, s.mean_abs, s.mean_abs_stored,
+      std::printf("%-44s %6.1f%% %6.1f%% %6.1f%% %6.1f%% %8.1f%% %7.3f %8.3f %+7.3f %7.3f %7.3f %8.1f%% %6.0f\n", label,
+                  b2.bad_percent, b1.bad_percent, b05.bad_percent, b05_fine.bad_percent, b05_offset.bad_percent,
+                  s.mean_abs, s.mean_abs_stored,
                   s.bias, s.spread, s.locking, s.measured_percent, ms);
       if (m.vertical.samples > 0) vertical = m.vertical;
     };

@@ -1,15 +1,20 @@
 #include "stereo/middlebury.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags
+#include <opencv2/imgproc.hpp>
 
 #include "cloud/error.hpp"
+#include "stereo/bspline.hpp"
 #include "stereo/image_io.hpp"
 
 namespace hedgefit::stereo {
@@ -178,6 +183,89 @@ cv::Mat DequantiseTruth(const cv::Mat& truth, double step, int radius, cv::Mat* 
     }
   }
   if (planar) *planar = flat;
+  return out;
+}
+
+TruthOffset TruthOffsetFromViews(const cv::Mat& left, const cv::Mat& right, const cv::Mat& truth, const cv::Mat& planar,
+                                 int radius) {
+  if (left.size() != right.size() || truth.size() != left.size() || planar.size() != left.size() || radius < 1) {
+    throw Error("TruthOffsetFromViews: views, truth and planar mask differ in size, or radius < 1");
+  }
+  auto grey = [](const cv::Mat& img) {
+    cv::Mat g, f;
+    if (img.channels() == 3) {
+      cv::cvtColor(img, g, cv::COLOR_BGR2GRAY);
+    } else {
+      g = img;
+    }
+    g.convertTo(f, CV_32F);
+    return f;
+  };
+  const cv::Mat L = grey(left), coeffs = BSplineCoefficientsAlongRows(grey(right));
+  const cv::Size box(2 * radius + 1, 2 * radius + 1);
+  cv::Mat high_left;
+  cv::blur(L, high_left, box, cv::Point(-1, -1), cv::BORDER_REPLICATE);
+  high_left = L - high_left;
+  constexpr double kStep = 0.05;
+  constexpr int kSteps = 20;  // the offsets tried: +-1 px
+  constexpr double kReach = kSteps * kStep;
+  const int w = L.cols;
+  // Judged: pixels whose whole window has a planar truth that reads the right view inside it at
+  // every offset tried, so that every offset is judged on the same pixels.
+  cv::Mat known(L.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < L.rows; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const double xr = x - double(truth.at<float>(y, x));
+      if (planar.at<std::uint8_t>(y, x) && std::isfinite(xr) && std::floor(xr - kReach) >= 1 &&
+          std::floor(xr + kReach) + 2 < w) {
+        known.at<std::uint8_t>(y, x) = 255;
+      }
+    }
+  }
+  cv::Mat judged;
+  cv::erode(known, judged, cv::getStructuringElement(cv::MORPH_RECT, box), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
+            cv::Scalar(0));
+  auto residual = [&](double offset) {
+    cv::Mat warped(L.size(), CV_32F, cv::Scalar(0));
+    for (int y = 0; y < L.rows; ++y) {
+      const float* c = coeffs.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        if (!known.at<std::uint8_t>(y, x)) continue;
+        const double xr = x - truth.at<float>(y, x) - offset;
+        const int ix = static_cast<int>(std::floor(xr));
+        double wt[4];
+        BSplineWeights(xr - ix, wt, nullptr);
+        warped.at<float>(y, x) = float(wt[0] * c[ix - 1] + wt[1] * c[ix] + wt[2] * c[ix + 1] + wt[3] * c[ix + 2]);
+      }
+    }
+    cv::Mat mean;
+    cv::blur(warped, mean, box, cv::Point(-1, -1), cv::BORDER_REPLICATE);
+    double sum = 0;
+    long n = 0;
+    for (int y = 0; y < L.rows; ++y) {
+      for (int x = 0; x < w; ++x) {
+        if (!judged.at<std::uint8_t>(y, x)) continue;
+        const double e = high_left.at<float>(y, x) - (warped.at<float>(y, x) - mean.at<float>(y, x));
+        sum += e * e, ++n;
+      }
+    }
+    return std::make_pair(n > 0 ? sum / double(n) : 0.0, n);
+  };
+  TruthOffset out;
+  const auto [at_zero, n_zero] = residual(0.0);
+  if (n_zero < 1000) return out;
+  out.pixels = n_zero;
+  out.rms_at_zero = std::sqrt(at_zero);
+  std::vector<double> cost(2 * kSteps + 1);
+  for (int k = -kSteps; k <= kSteps; ++k) cost[std::size_t(k + kSteps)] = residual(k * kStep).first;
+  const auto best = std::size_t(std::min_element(cost.begin(), cost.end()) - cost.begin());
+  double offset = (double(best) - kSteps) * kStep;
+  if (best > 0 && best + 1 < cost.size()) {
+    const double a = cost[best - 1], b = cost[best], c = cost[best + 1], curvature = a - 2 * b + c;
+    if (curvature > 0) offset += kStep * 0.5 * (a - c) / curvature;
+  }
+  out.offset_px = offset;
+  out.rms_at_offset = std::sqrt(residual(offset).first);
   return out;
 }
 
