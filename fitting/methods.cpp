@@ -243,10 +243,13 @@ std::vector<FitMethod> MakeTable() {
                    return ShapeResult("spheroid", e, in.points_mm->size());
                  };
                }});
-  // Robust and geometric before algebraic; among algebraic, the least biased first.
-  const std::map<std::string, int> trust = {{"ransac_geometric", 7}, {"envelope", 6}, {"geometric", 5},
-                                            {"ransac", 4},   {"hyper", 3},            {"taubin", 2},
-                                            {"pratt", 1}};
+  // Robust and geometric before algebraic; among algebraic, the least biased first. The fit along
+  // the rays ranks below ransac_geometric: it is the better fit of a capture's cloud, but only when
+  // the cloud's origin is the camera, and the one fit that stands for any cloud (render's distance
+  // colours) must not depend on where the cloud came from.
+  const std::map<std::string, int> trust = {{"ransac_geometric", 8}, {"ransac_ray", 7}, {"envelope", 6},
+                                            {"geometric", 5},        {"ransac", 4},     {"hyper", 3},
+                                            {"taubin", 2},           {"pratt", 1}};
   for (auto& m : t) {
     m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
     m.sphere = m.name != "ellipsoid" && m.name != "spheroid";  // shape diagnostics, run when named

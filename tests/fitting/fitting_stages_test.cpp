@@ -261,6 +261,10 @@ TEST(MethodTable, EveryMethodIsAStageAndUnknownNamesAreErrors) {
         << e.what();
   }
   EXPECT_EQ(MostTrusted({"kasa", "ransac", "hyper"})->name, "ransac");
+  // measure's default outranks every fit but the orthogonal one, which does not assume the camera
+  // at the origin.
+  EXPECT_EQ(MostTrusted({"kasa", "ransac_ray", "envelope"})->name, "ransac_ray");
+  EXPECT_EQ(MostTrusted({"ransac_ray", "ransac_geometric"})->name, "ransac_geometric");
   EXPECT_EQ(MostTrusted({"truth"}), nullptr);
 }
 
