@@ -90,6 +90,7 @@ void CheckCaptureImages(const std::string& left, const std::string& right) {
   namespace fs = std::filesystem;
   std::error_code ec;
   for (const std::string& image : {left, right}) {
+    if (fs::is_directory(image, ec)) throw Error(image + ": is a directory; give the image file in it");
     if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
     unsigned char head[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     std::ifstream(image, std::ios::binary).read(reinterpret_cast<char*>(head), sizeof(head));

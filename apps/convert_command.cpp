@@ -159,6 +159,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
       }
       std::mutex io;
       std::string first_error;
+      bool first_error_is_input = false;  // a damaged image: bad input (exit 1), not a failure
       std::size_t done = 0;
       int failed = 0;
       // Several hedges per capture: one file per hedge, '#' standing for its id.
@@ -227,6 +228,7 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
           ++done;
           if (single) {
             first_error = c.name + ": " + e.what();
+            first_error_is_input = dynamic_cast<const InputError*>(&e) != nullptr;
           } else {
             // Failures go to stderr even with --quiet: quiet hides progress, not problems.
             std::fprintf(stderr, "[%zu/%zu] %s: skipped: %s\n", done, captures.size(), c.name.c_str(), e.what());
@@ -245,7 +247,10 @@ void AddConvertCommand(CLI::App& app, CommandFn* run) {
         for (std::size_t k = b; k < e; ++k) convert_one(captures[k]);
       });
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      if (single && failed) throw ProcessingError(first_error);
+      if (single && failed) {
+        if (first_error_is_input) throw InputError(first_error);
+        throw ProcessingError(first_error);
+      }
       if (!a->quiet) {
         std::printf("converted %zu of %zu captures in %.1f s (%.2f s per capture)%s\n", captures.size() - failed,
                     captures.size(), s, s / double(captures.size()), failed ? "; the skipped ones are listed on stderr" : "");

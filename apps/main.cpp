@@ -53,7 +53,32 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "hedgefit: " << e.what() << "; run 'hedgefit --help'\n";
+    // Name the command the user was in, so the help pointed to is the one with its options, and
+    // say which words it did not take (a file given without its option, say).
+    std::string command = "hedgefit";
+    const CLI::App* at = &app;
+    while (at != nullptr) {
+      const auto subs = at->get_subcommands();
+      at = subs.empty() ? nullptr : subs.front();
+      if (at != nullptr) command += " " + at->get_name();
+    }
+    std::string unexpected;
+    at = &app;
+    while (at != nullptr) {
+      for (const std::string& word : at->remaining()) unexpected += (unexpected.empty() ? "'" : ", '") + word + "'";
+      const auto subs = at->get_subcommands();
+      at = subs.empty() ? nullptr : subs.front();
+    }
+    if (command == "hedgefit") {
+      std::cerr << "hedgefit: " << (unexpected.empty() ? std::string(e.what()) : "unknown command " + unexpected)
+                << "; run 'hedgefit --help'\n";
+      return kExitBadInput;
+    }
+    std::cerr << "hedgefit: " << command.substr(std::string("hedgefit ").size()) << ": " << e.what();
+    if (!unexpected.empty() && std::string(e.what()).find("not expected") == std::string::npos) {
+      std::cerr << " (not taken: " << unexpected << "; files are given with their options)";
+    }
+    std::cerr << "; run '" << command << " --help'\n";
     return kExitBadInput;
   }
   try {

@@ -78,6 +78,8 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       cloud::RunReport report;
       try {
         report = p.Run(ctx);
+      } catch (const InputError&) {
+        throw;  // a damaged image: bad input, and its message names the file
       } catch (const Error& e) {
         // Name the capture, unless the message already names the file it is about.
         const std::string what = e.what();

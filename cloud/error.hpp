@@ -13,6 +13,13 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// An input file that cannot be read (a damaged or cut-short image, say): bad input (exit code 1
+/// in the CLI) even when found while a pipeline runs, where other errors are processing failures.
+class InputError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// Thrown when processing fails on otherwise valid input (exit code 2 in the CLI).
 class ProcessingError : public Error {
  public:

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 
@@ -39,9 +40,7 @@ void PutMask(Context& ctx, const cv::Mat& mask) {
 
 const StereoRig& RigOf(Context& ctx) { return ctx.Get<StereoRig>("rig"); }
 
-}  // namespace
-
-cv::Mat ReadCaptureImage(const std::string& path, int flags) {
+cv::Mat ReadCaptureImageOrThrow(const std::string& path, int flags) {
   const std::vector<unsigned char> bytes = ReadFileBytes(path);
   const std::string format = SniffImageFormat(bytes.data(), bytes.size());
   RequireCaptureFormat(path, format);
@@ -65,6 +64,17 @@ cv::Mat ReadCaptureImage(const std::string& path, int flags) {
   if (m.depth() != CV_8U) throw Error(path + ": not an 8-bit image; give an 8-bit PNG or JPEG file");
   if (flags == cv::IMREAD_COLOR && m.channels() == 1) cv::cvtColor(m, m, cv::COLOR_GRAY2BGR);
   return m;
+}
+
+}  // namespace
+
+cv::Mat ReadCaptureImage(const std::string& path, int flags) {
+  // Whatever is wrong with the file, it is the input's fault, wherever in a pipeline it is read.
+  try {
+    return ReadCaptureImageOrThrow(path, flags);
+  } catch (const Error& e) {
+    throw InputError(e.what());
+  }
 }
 
 void RequireCaptureFormat(const std::string& path, const std::string& format) {
@@ -142,18 +152,18 @@ void RegisterStereoStages(cloud::Registry& r) {
           const StereoRig rig = ReadRig(o.GetString("rig"));
           // The two images decode side by side.
           cv::Mat images[2];
-          std::string errors[2];
+          std::exception_ptr errors[2];
           cloud::ParallelFor(2, 0, 1, [&](std::size_t b, std::size_t e) {
             for (std::size_t i = b; i < e; ++i) {
               try {
                 images[i] = ReadImage(o.GetString(i == 0 ? "left" : "right"), i == 0 ? "left" : "right");
-              } catch (const Error& err) {
-                errors[i] = err.what();
+              } catch (const Error&) {
+                errors[i] = std::current_exception();  // as thrown: a damaged image stays an InputError
               }
             }
           });
-          for (const std::string& err : errors) {
-            if (!err.empty()) throw Error(err);
+          for (const std::exception_ptr& err : errors) {
+            if (err) std::rethrow_exception(err);
           }
           PutCapture(images[0], images[1], rig, &ctx);
         }));

@@ -90,8 +90,13 @@ TEST(Cli, BadInputsGiveOneLineAndExitCodeOne) {
   ExpectOneLineError(RunHedgefit("pipeline typed.json", dir), 1, "option 'leaf': expected number, got string \"big\"");
   ExpectOneLineError(RunHedgefit("pipeline nothere.json", dir), 1, "nothere.json: no such pipeline file");
   ExpectOneLineError(RunHedgefit("pipeline d.pcd", dir), 1, "d.pcd: is a directory");
-  ExpectOneLineError(RunHedgefit("frobnicate", dir), 1, "hedgefit --help");
-  ExpectOneLineError(RunHedgefit("info", dir), 1, "FILE is required");
+  ExpectOneLineError(RunHedgefit("frobnicate", dir), 1, "hedgefit: unknown command 'frobnicate'; run 'hedgefit --help'");
+  ExpectOneLineError(RunHedgefit("info", dir), 1, "hedgefit: info: FILE is required; run 'hedgefit info --help'");
+  // Images given without their options: the command's own help, and the words it did not take.
+  ExpectOneLineError(RunHedgefit("measure l.png r.png --rig rig.yaml", dir), 1,
+                     "hedgefit: measure: --left is required (not taken: 'l.png', 'r.png'; files are given with their "
+                     "options); run 'hedgefit measure --help'");
+  ExpectOneLineError(RunHedgefit("bench lab --nope", dir), 1, "hedgefit: bench lab: ");
 }
 
 TEST(Cli, PluginsListsStagesAndReportsBrokenPlugins) {

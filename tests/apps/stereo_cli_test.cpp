@@ -581,6 +581,19 @@ TEST(RigCli, NonFiniteAndAbsurdNumbersAreRejected) {
   r = RunHedgefit("convert --left missing.png --right notes.png --rig rig.yaml -o x.pcd", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "hedgefit: missing.png: no such image file; check the path\n");
+  // A PNG cut short is found only when the pipeline reads it; it is still the input's fault.
+  std::ofstream(dir / "cut.png", std::ios::binary) << std::string("\x89PNG\r\n\x1a\n", 8) << std::string(100, 'x');
+  for (const std::string& cmd : {std::string("convert --left cut.png --right cut.png --rig rig.yaml -o x.pcd"),
+                                 std::string("measure --left cut.png --right cut.png --rig rig.yaml")}) {
+    r = RunHedgefit(cmd, dir);
+    EXPECT_EQ(r.code, 1) << cmd;
+    EXPECT_NE(r.err.find("cut.png: the PNG file is cut short (no IEND chunk)"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.pcd"));
+  }
+  std::filesystem::create_directories(dir / "shots");
+  r = RunHedgefit("convert --left shots --right notes.png --rig rig.yaml -o x.pcd", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: shots: is a directory; give the image file in it\n");
   r = RunHedgefit("convert --left notes.png --right notes.png --rig rig.yaml -o x.pcd", dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_EQ(r.err, "hedgefit: notes.png: not a PNG, JPEG, TIFF, BMP or PNM image; give the camera's PNG or JPEG file\n");
