@@ -55,19 +55,12 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // Name the command the user was in, so the help pointed to is the one with its options, and
     // say which words it did not take (a file given without its option, say).
-    std::string command = "hedgefit";
-    const CLI::App* at = &app;
-    while (at != nullptr) {
-      const auto subs = at->get_subcommands();
-      at = subs.empty() ? nullptr : subs.front();
-      if (at != nullptr) command += " " + at->get_name();
-    }
-    std::string unexpected;
-    at = &app;
-    while (at != nullptr) {
+    std::string command = "hedgefit", unexpected;
+    for (const CLI::App* at = &app; at != nullptr;) {
       for (const std::string& word : at->remaining()) unexpected += (unexpected.empty() ? "'" : ", '") + word + "'";
       const auto subs = at->get_subcommands();
       at = subs.empty() ? nullptr : subs.front();
+      if (at != nullptr) command += " " + at->get_name();
     }
     if (command == "hedgefit") {
       std::cerr << "hedgefit: " << (unexpected.empty() ? std::string(e.what()) : "unknown command " + unexpected)
