@@ -241,18 +241,21 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
       pc.right = right;
       // Read through the capture loader: only camera formats reach OpenCV's decoders. In colour:
       // the corners are refined on the green channel (BoardView).
-      auto read = [](const std::string& file) {
+      // Unreadable: the status says why (the reader's message starts with the file's name).
+      auto read = [](const std::string& file, std::string* why) {
         try {
           return ReadCaptureImage(file, cv::IMREAD_COLOR);
-        } catch (const Error&) {
+        } catch (const Error& e) {
+          *why = e.what();
           return cv::Mat();
         }
       };
-      const cv::Mat l = read(left), r = read(right);
+      std::string why_left, why_right;
+      const cv::Mat l = read(left, &why_left), r = read(right, &why_right);
       if (l.empty()) {
-        pc.status = "cannot read left image " + left;
+        pc.status = "cannot read left image " + (why_left.empty() ? left : why_left);
       } else if (r.empty()) {
-        pc.status = "cannot read right image " + right;
+        pc.status = "cannot read right image " + (why_right.empty() ? right : why_right);
       } else if (l.size() != r.size()) {
         pc.status = "left is " + std::to_string(l.cols) + "x" + std::to_string(l.rows) +
                     " but right is " + std::to_string(r.cols) + "x" + std::to_string(r.rows);
