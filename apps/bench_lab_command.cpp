@@ -1,11 +1,13 @@
 // hedgefit bench lab: parses its flags and runs bench/lab.hpp.
 
 #include "apps/commands.hpp"
-#include "bench/garden.hpp"
-#include "bench/lab.hpp"
+#include "apps/parse.hpp"
+#include "cloud/cleaning.hpp"
+#include "bench/garden_bench.hpp"
+#include "bench/lab_bench.hpp"
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
-#include "cloud/pipeline.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/pipeline.hpp"
 
 #include <fstream>
 #include <sstream>
@@ -23,10 +25,7 @@ std::string ReadFilterStagesFile(const std::string& path) {
   return text.str();
 }
 
-}  // namespace
-
-void AddBenchCommand(CLI::App& app, CommandFn* run) {
-  auto* bench = app.add_subcommand("bench", "End-to-end benchmarks");
+void AddLabBench(CLI::App* bench, CommandFn* run) {
   auto* cmd = bench->add_subcommand("lab", "The paper's lab test on the simulated rig: Table 2 per method, beside the paper's figures");
   cmd->footer(
       "Examples:\n"
@@ -35,7 +34,9 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench lab --renderer povray --camera real --dir build/lab-povray   # POV-Ray, ~20 minutes\n"
       "  hedgefit bench lab --camera real --noise-draws 7 --dir build/lab-real   # 7 x 7 captures, ~2 minutes\n"
       "  hedgefit bench lab --reuse --camera real --noise-draws 7 --dir build/lab-real --camera-without bayer,noise\n"
-      "  hedgefit bench lab --reuse --clean        # the fits see the cloud as `measure` cleans it\n");
+      "  hedgefit bench lab --reuse --clean        # the fits see the cloud as `measure` cleans it\n"
+      "--clean / --no-clean is the same choice in both benches; the lab's default is --no-clean (the matcher's\n"
+      "cloud, as the paper fits it), the garden's --clean.\n");
   struct Args {
     bench::LabOptions lab;
     bool clean = false;
@@ -86,14 +87,16 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                   "with --camera real: leave these camera effects (gains, vignetting, bayer, noise, jpeg; comma-separated) "
                   "out of the spheres' pairs to see what each costs; the boards, and so the calibration, keep them all")
       ->delimiter(',');
-  auto* clean = cmd->add_flag("--clean", a->clean,
+  auto* clean = cmd->add_flag("--clean,!--no-clean", a->clean,
                                "clean each capture's cloud as `measure` and `compare` do by default before the "
-                               "fits; by default they see the matcher's cloud");
+                               "fits (default --no-clean: they see the matcher's cloud)");
   cmd->add_option("--pipeline", a->pipeline, "clean each capture's cloud with this JSON array of filter stages instead")
       ->excludes(clean);
   cmd->add_option("--json", a->json, "also write the table as JSON here");
+  GroupFlags(cmd, {{"Captures", {"--dir", "--scale", "--reuse", "--wide-boards", "--renderer", "--camera", "--noise-draws", "--camera-without"}}, {"Measuring", {"--erode", "--refine-radius", "--refine-curvature", "--alpha", "--true-rig", "--clean", "--pipeline"}}, {"Output", {"--json"}}});
   cmd->callback([=]() {
     *run = [=]() {
+      PrepareRegistry(true);  // the captures run through the registry a plugin matcher joins
       if (a->clean) a->lab.cleaning = cloud::DefaultCleaningJson();
       if (!a->pipeline.empty()) a->lab.cleaning = ReadFilterStagesFile(a->pipeline);
       const bench::LabResult result = bench::RunLab(a->lab);
@@ -102,6 +105,9 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       return kExitOk;
     };
   });
+}
+
+void AddGardenBench(CLI::App* bench, CommandFn* run) {
   auto* g = bench->add_subcommand(
       "garden", "Leafy hedge balls on a lawn (rows of three, one, the paper's outdoor size): every hedge found, fitted, "
                 "scored against its envelope, beside the paper's colour path, with the matcher's radial error against "
@@ -111,12 +117,12 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit bench garden                     # renders into build/garden-bench, about a minute\n"
       "  hedgefit bench garden --reuse --json garden.json\n"
       "  hedgefit bench garden --renderer povray --camera real --dir build/garden-povray   # leaf discs, ~5 minutes\n"
-      "  hedgefit bench garden --reuse --no-clean  # the fits see the clouds as converted\n"
+      "  hedgefit bench garden --reuse --no-clean  # the fits see the clouds as converted (default --clean)\n"
       "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame, shrubs\n"
       "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n");
   struct GardenArgs {
     bench::GardenOptions garden;
-    bool no_clean = false;
+    bool clean = true;
     std::string pipeline;
     std::string json;
   };
@@ -144,14 +150,17 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
                 "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
       ->check(CLI::Range(0, 10))
       ->capture_default_str();
-  auto* no_clean = g->add_flag("--no-clean", ga->no_clean,
-                               "fit each capture's cloud as the matcher gives it (by default cleaned as `compare` does)");
+  auto* clean = g->add_flag("--clean,!--no-clean", ga->clean,
+                            "clean each capture's cloud as `compare` does (the default), or with --no-clean fit it as "
+                            "the matcher gives it");
   g->add_option("--pipeline", ga->pipeline, "clean each capture's cloud with this JSON array of filter stages instead")
-      ->excludes(no_clean);
+      ->excludes(clean);
   g->add_option("--json", ga->json, "also write the tables as JSON here");
+  GroupFlags(g, {{"Captures", {"--dir", "--scale", "--reuse", "--renderer", "--camera", "--hard", "--random"}}, {"Measuring", {"--garden-refine-curvature", "--clean", "--pipeline"}}, {"Output", {"--json"}}});
   g->callback([=]() {
     *run = [=]() {
-      if (ga->no_clean) ga->garden.cleaning = "[]";
+      PrepareRegistry(true);
+      if (!ga->clean) ga->garden.cleaning = "[]";
       if (!ga->pipeline.empty()) ga->garden.cleaning = ReadFilterStagesFile(ga->pipeline);
       const bench::GardenResult result = bench::RunGarden(ga->garden);
       bench::PrintGarden(result);
@@ -159,6 +168,14 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
       return kExitOk;
     };
   });
+}
+
+}  // namespace
+
+void AddBenchCommand(CLI::App& app, CommandFn* run) {
+  auto* bench = app.add_subcommand("bench", "End-to-end benchmarks");
+  AddLabBench(bench, run);
+  AddGardenBench(bench, run);
 }
 
 }  // namespace hedgefit::apps

@@ -1,4 +1,5 @@
 #include "apps/capture_flags.hpp"
+#include "cloud/cleaning.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -7,34 +8,39 @@
 #include <map>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
-#include "cloud/pipeline.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/pipeline.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
 
 void CaptureFlags::Add(CLI::App* cmd) {
+  const std::string find = "Finding the hedge", match = "Matching (stereo.sgbm)",
+                    garden = "Hedges by depth (stereo.segment_garden)", other = "Capture";
   cmd->add_option("--matcher", matcher_,
                   "the matching stage: stereo.sgbm, or a plugin's stage that makes 'disparity' (default options)")
-      ->capture_default_str();
-  cmd->add_option("--mask", mask_, "segment with this mask image (drawn on the left view) instead of by colour");
+      ->capture_default_str()
+      ->group(match);
+  cmd->add_option("--mask", mask_, "segment with this mask image (drawn on the left view) instead of by colour")
+      ->group(find);
   cmd->add_flag("--garden", garden_,
                 "always find every hedge by depth (lawn, hedge rows, several hedges): stereo.segment_garden; by "
                 "default the colour mask is used where it isolates the hedge and depth where it does not "
-                "(--garden-above)");
+                "(--garden-above)")
+      ->group(find);
   // The stages' own options, declared once in their tables.
-  flags_.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"});
-  flags_.Add(cmd, stereo::MatchOptions::Table().Specs());
-  flags_.Add(cmd, stereo::GardenSegmentOptions::Table().Specs());
-  flags_.Add(cmd, stereo::SegmentOptions::Table().Specs());
-  flags_.Add(cmd, stereo::ReprojectOptions::Table().Specs());
-  flags_.Add(cmd, stereo::AutoSegmentOptions::Table().Specs(), {"garden_above"});
-  cmd->add_flag("--full-frame", full_frame_, "match the whole image, not just the hedge's region");
+  flags_.Add(cmd, stereo::DepthSegmentOptions::Table().Specs(), {"box", "depth_tolerance"}, find);
+  flags_.Add(cmd, stereo::AutoSegmentOptions::Table().Specs(), {"garden_above"}, find);
+  flags_.Add(cmd, stereo::MatchOptions::Table().Specs(), {}, match);
+  flags_.Add(cmd, stereo::GardenSegmentOptions::Table().Specs(), {}, garden);
+  flags_.Add(cmd, stereo::SegmentOptions::Table().Specs(), {}, find);
+  flags_.Add(cmd, stereo::ReprojectOptions::Table().Specs(), {}, other);
+  cmd->add_flag("--full-frame", full_frame_, "match the whole image, not just the hedge's region")->group(match);
 }
 
-stereo::ConvertOptions CaptureFlags::Resolve(const cloud::Registry& registry) const {
-  const cloud::StageDescriptor& matcher = registry.Get(matcher_, "--matcher: ");
+stereo::ConvertOptions CaptureFlags::Resolve(const pipeline::Registry& registry) const {
+  const pipeline::StageDescriptor& matcher = registry.Get(matcher_, "--matcher: ");
   if (std::find(matcher.info.outputs.begin(), matcher.info.outputs.end(), "disparity") == matcher.info.outputs.end()) {
     throw Error("--matcher " + matcher_ + ": this stage makes no 'disparity'; give a matching stage such as stereo.sgbm");
   }
@@ -43,12 +49,12 @@ stereo::ConvertOptions CaptureFlags::Resolve(const cloud::Registry& registry) co
   const auto given = flags_.Given();
   auto bind = [&](const auto& table, auto* out, const char* stage) {
     const auto specs = table.Specs();
-    std::map<std::string, cloud::OptionValue> mine;
+    std::map<std::string, pipeline::OptionValue> mine;
     for (const auto& spec : specs) {
       if (given.count(spec.name)) mine[spec.name] = given.at(spec.name);
     }
-    cloud::StageInfo info{stage, "", specs, {}, {}, {}};
-    *out = table.FromOptions(cloud::ResolveOptions(info, mine, stage));
+    pipeline::StageInfo info{stage, "", specs, {}, {}, {}};
+    *out = table.FromOptions(pipeline::ResolveOptions(info, mine, stage));
   };
   bind(stereo::SegmentOptions::Table(), &o.segment, "stereo.segment");
   bind(stereo::MaskOptions::Table(), &o.mask, "stereo.mask");
@@ -84,62 +90,6 @@ stereo::ConvertOptions CaptureFlags::Resolve(const cloud::Registry& registry) co
 
 nlohmann::json DefaultCleaning() {
   return nlohmann::json::parse(cloud::DefaultCleaningJson());
-}
-
-void CheckCaptureImages(const std::string& left, const std::string& right) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  for (const std::string& image : {left, right}) {
-    if (fs::is_directory(image, ec)) throw Error(image + ": is a directory; give the image file in it");
-    if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
-    unsigned char head[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-    std::ifstream(image, std::ios::binary).read(reinterpret_cast<char*>(head), sizeof(head));
-    stereo::RequireCaptureFormat(image, stereo::SniffImageFormat(head, sizeof(head)));
-  }
-}
-
-void CheckOutputDirectory(const std::string& flag, const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!path.empty() && (path.back() == '/' || fs::is_directory(path, ec))) {
-    throw Error(flag + " " + path + ": is a directory; give a file name in it");
-  }
-  const fs::path dir = fs::path(path).parent_path();
-  if (!dir.empty() && !fs::is_directory(dir, ec)) {
-    throw Error(flag + " " + path + ": directory '" + dir.string() + "' does not exist; create it first");
-  }
-}
-
-void CheckCloudOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs) {
-  CheckOutputDirectory(flag, path);
-  try {
-    cloud::FormatFromPath(path);
-  } catch (const Error&) {
-    throw Error(flag + " " + path + ": not a cloud file name; end it in " + cloud::CloudExtensionList());
-  }
-  CheckNotAnInput(flag, path, inputs);
-}
-
-void CheckImageOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& extensions,
-                      const std::vector<std::string>& inputs) {
-  CheckOutputDirectory(flag, path);
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
-    std::string list;
-    for (const std::string& e : extensions) list += (list.empty() ? "" : " or ") + e;
-    throw Error(flag + " " + path + ": not an image file name this writes; end it in " + list);
-  }
-  CheckNotAnInput(flag, path, inputs);
-}
-
-void CheckNotAnInput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs) {
-  std::error_code ec;
-  for (const std::string& in : inputs) {
-    if (!in.empty() && std::filesystem::equivalent(path, in, ec)) {
-      throw Error(flag + " " + path + ": is the input " + in + "; write it to another file");
-    }
-  }
 }
 
 }  // namespace hedgefit::apps

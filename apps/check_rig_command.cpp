@@ -8,7 +8,9 @@
 
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "apps/parse.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/rig_check.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
 
@@ -18,9 +20,10 @@ void AddCheckRigCommand(CLI::App& app, CommandFn* run) {
   auto* cmd = app.add_subcommand(
       "check-rig", "Check that a rig file still fits a pair: how far apart the rectified rows are (vertical disparity)");
   cmd->footer(
-      "Example (the demo's rig and one of its captures):\n"
+      "Examples (the demo's rig and one of its captures):\n"
       "  hedgefit check-rig --rig build/demo/rig.yaml --left build/demo/lab/sphere_2300_left.png \\\n"
       "      --right build/demo/lab/sphere_2300_right.png\n"
+      "  hedgefit check-rig --rig rig.yaml --left l.png --right r.png --min-z 1500 --max-z 8000 --json\n"
       "Exit 0 when the rows agree within --tolerance, 2 when they do not (recalibrate), 1 on bad input.\n");
   struct Args {
     std::string rig, left, right;
@@ -42,65 +45,39 @@ void AddCheckRigCommand(CLI::App& app, CommandFn* run) {
       ->check(CLI::Range(0.001, 100.0))
       ->capture_default_str();
   cmd->add_flag("--json", a->json, "print one JSON object instead of text");
+  GroupFlags(cmd, {{"Inputs", {"--rig", "--left", "--right"}}, {"Check", {"--min-z", "--max-z", "--tolerance"}}, {"Output format", {"--json"}}});
   cmd->callback([=]() {
     *run = [=]() {
       if (!(a->min_z > 0 && a->max_z > a->min_z)) throw Error("--min-z/--max-z: need 0 < min-z < max-z (mm)");
       const stereo::StereoRig rig = stereo::ReadRig(a->rig);
-      // The nearest depth sets the widest disparity searched: it must fit in the (half-size) image.
-      const double widest_px = rig.P1.at<double>(0, 0) * rig.baseline_mm / a->min_z / 2;
-      if (!(widest_px < rig.image_size.width / 4.0)) {
-        char buf[256];
-        std::snprintf(buf, sizeof(buf),
-                      "--min-z %g: a point that near is %.0f px apart in the half-size views, over a quarter of their "
-                      "width; raise --min-z to the scene's nearest depth",
-                      a->min_z, widest_px);
-        throw Error(buf);
-      }
-      CheckCaptureImages(a->left, a->right);
-      const cv::Mat left = stereo::ReadCaptureImage(a->left), right = stereo::ReadCaptureImage(a->right);
-      stereo::VerticalDisparity v;
-      try {
-        v = stereo::MeasureRowAgreement(rig, left, right, a->min_z, a->max_z);
-      } catch (const ProcessingError&) {
-        throw;
-      } catch (const Error& e) {
-        throw Error(a->left + ", " + a->right + " with " + a->rig + ": " + e.what());
-      }
-      // A plane through fewer windows is not a measurement of the whole frame.
-      constexpr int kMinWindows = 100;
-      if (v.samples < kMinWindows) {
-        char buf[512];
-        std::snprintf(buf, sizeof(buf),
-                      "%s: fewer than %d textured windows matched between %g and %g mm to measure the rows; capture a "
-                      "textured scene there, or set --min-z/--max-z (rows more than 2 px apart cannot be measured: such "
-                      "a rig is not these cameras')",
-                      a->left.c_str(), kMinWindows, a->min_z, a->max_z);
-        throw ProcessingError(buf);
-      }
-      const double worst = v.MaxAbs(rig.image_size);
-      const bool ok = worst <= a->tolerance;
+      stereo::CheckRowSearchRange(rig, a->min_z, a->max_z);
+      stereo::CheckCaptureImages(a->left, a->right);
+      const stereo::RigCheck c =
+          stereo::CheckRigOnPair(rig, stereo::ReadCaptureImage(a->left), stereo::ReadCaptureImage(a->right), a->min_z,
+                                 a->max_z, a->tolerance, a->left + ", " + a->right + " with " + a->rig);
+      const stereo::VerticalDisparity& v = c.rows;
       if (a->json) {
         const nlohmann::ordered_json j{{"offset_px", std::round(v.offset_px * 1e4) / 1e4},
                                        {"slope_x_px", std::round(v.slope_x_px * 1e4) / 1e4},
                                        {"slope_y_px", std::round(v.slope_y_px * 1e4) / 1e4},
-                                       {"max_abs_px", std::round(worst * 1e4) / 1e4},
+                                       {"max_abs_px", std::round(c.max_abs_px * 1e4) / 1e4},
                                        {"windows", v.samples},
                                        {"tolerance_px", a->tolerance},
-                                       {"fits", ok}};
+                                       {"fits", c.fits}};
         std::printf("%s\n", j.dump().c_str());
       } else {
         std::printf("rectified rows (right row - left row): %+.3f px at the centre, %+.3f across, %+.3f down; "
                     "at most %.3f px (%d windows)\n",
-                    v.offset_px, v.slope_x_px, v.slope_y_px, worst, v.samples);
-        if (ok) {
+                    v.offset_px, v.slope_x_px, v.slope_y_px, c.max_abs_px, v.samples);
+        if (c.fits) {
           std::printf("the rig fits this pair (tolerance %.2f px)\n", a->tolerance);
         } else {
           std::printf("the rows disagree by up to %.2f px (tolerance %.2f px): the rig file is not these cameras', or "
                       "they moved since calibration; recalibrate (hedgefit calibrate)\n",
-                      worst, a->tolerance);
+                      c.max_abs_px, a->tolerance);
         }
       }
-      return ok ? kExitOk : kExitProcessing;
+      return c.fits ? kExitOk : kExitProcessing;
     };
   });
 }

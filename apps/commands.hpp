@@ -5,7 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 #include <functional>
 #include <string>

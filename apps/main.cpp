@@ -5,11 +5,38 @@
 #include <opencv2/core/utils/logger.hpp>
 
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "apps/commands.hpp"
-#include "cloud/error.hpp"
-#include "cloud/version.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/version.hpp"
 #include "fitting/methods.hpp"
+#include "pipeline/stage.hpp"
+
+namespace {
+
+std::vector<std::string> CommandNames(const CLI::App& app) {
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+  return names;
+}
+
+std::vector<std::string> FlagNames(const CLI::App& cmd) {
+  std::vector<std::string> names;
+  for (const CLI::Option* o : cmd.get_options()) {
+    for (const std::string& n : o->get_lnames()) names.push_back("--" + n);
+  }
+  return names;
+}
+
+// " (did you mean 'measure'?)", or "" when nothing is close.
+std::string DidYouMeanHint(const std::string& word, const std::vector<std::string>& candidates) {
+  const std::string best = hedgefit::pipeline::DidYouMean(word, candidates);
+  return best.empty() ? "" : " (did you mean '" + best + "'?)";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace hedgefit::apps;
@@ -56,18 +83,28 @@ int main(int argc, char** argv) {
     // Name the command the user was in, so the help pointed to is the one with its options, and
     // say which words it did not take (a file given without its option, say).
     std::string command = "hedgefit", unexpected;
+    std::vector<std::string> words;
+    const CLI::App* deepest = &app;
     for (const CLI::App* at = &app; at != nullptr;) {
-      for (const std::string& word : at->remaining()) unexpected += (unexpected.empty() ? "'" : ", '") + word + "'";
+      for (const std::string& word : at->remaining()) {
+        unexpected += (unexpected.empty() ? "'" : ", '") + word + "'";
+        words.push_back(word);
+      }
+      deepest = at;
       const auto subs = at->get_subcommands();
       at = subs.empty() ? nullptr : subs.front();
       if (at != nullptr) command += " " + at->get_name();
     }
     if (command == "hedgefit") {
       std::cerr << "hedgefit: " << (unexpected.empty() ? std::string(e.what()) : "unknown command " + unexpected)
-                << "; run 'hedgefit --help'\n";
+                << (words.empty() ? "" : DidYouMeanHint(words.front(), CommandNames(app))) << "; run 'hedgefit --help'\n";
       return kExitBadInput;
     }
-    std::cerr << "hedgefit: " << command.substr(std::string("hedgefit ").size()) << ": " << e.what();
+    std::string hint;
+    for (const std::string& word : words) {
+      if (hint.empty() && word.rfind("--", 0) == 0) hint = DidYouMeanHint(word.substr(0, word.find('=')), FlagNames(*deepest));
+    }
+    std::cerr << "hedgefit: " << command.substr(std::string("hedgefit ").size()) << ": " << e.what() << hint;
     if (!unexpected.empty() && std::string(e.what()).find("not expected") == std::string::npos) {
       std::cerr << " (not taken: " << unexpected << "; files are given with their options)";
     }

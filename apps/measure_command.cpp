@@ -10,9 +10,13 @@
 
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "pipeline/output_check.hpp"
+#include "stereo/stereo_stages.hpp"
+#include "apps/parse.hpp"
 #include "apps/measure_lines.hpp"
-#include "cloud/pipeline.hpp"
-#include "cloud/registry.hpp"
+#include "stereo/capture_batch.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/registry.hpp"
 #include "fitting/methods.hpp"
 #include "stereo/capture.hpp"
 
@@ -55,10 +59,11 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
   cmd->add_flag("--pretty", a->pretty, "indented JSON instead of one line per object");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
   a->capture.Add(cmd);
+  GroupFlags(cmd, {{"Inputs", {"--left", "--right", "--rig"}}, {"Fitting", {"--method", "--no-clean"}}, {"Outputs", {"--overlay", "--print-pipeline"}}, {"Output format", {"--pretty"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
-      const cloud::Registry& registry = cloud::Registry::Global();
+      const pipeline::Registry& registry = pipeline::Registry::Global();
       const stereo::ConvertOptions o = a->capture.Resolve(registry);
       const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--method");
       std::vector<std::string> fit_stages;
@@ -70,12 +75,12 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
         return kExitOk;
       }
       stereo::ReadRig(a->rig);
-      CheckCaptureImages(a->left, a->right);
-      if (!a->overlay.empty()) CheckImageOutput("--overlay", a->overlay, {".png", ".jpg", ".jpeg"}, {a->left, a->right, a->rig});
-      cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "measure", registry);
-      cloud::Context ctx;
+      stereo::CheckCaptureImages(a->left, a->right);
+      if (!a->overlay.empty()) pipeline::CheckImageOutput("--overlay", a->overlay, {".png", ".jpg", ".jpeg"}, {a->left, a->right, a->rig});
+      pipeline::Pipeline p = pipeline::Pipeline::FromJson(stages.dump(), "measure", registry);
+      pipeline::Context ctx;
       ctx.quiet = true;
-      cloud::RunReport report;
+      pipeline::RunReport report;
       try {
         report = p.Run(ctx);
       } catch (const InputError&) {
@@ -87,7 +92,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
         throw ProcessingError(named ? what : a->left + ": " + what);
       }
       const MeasureLines m = CollectMeasureLines(ctx, report);
-      if (const std::string hint = CaptureHint(ctx); !hint.empty()) {
+      if (const std::string hint = stereo::CaptureHint(ctx); !hint.empty()) {
         std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), hint.c_str());
       }
       for (const auto& j : m.lines) std::printf("%s\n", a->pretty ? j.dump(2).c_str() : j.dump().c_str());

@@ -3,9 +3,10 @@
 #include <cmath>
 #include <cstdio>
 
-#include "fitting/evaluation.hpp"
+#include "eval/evaluation.hpp"
+#include "fitting/fit_fields.hpp"
 #include "fitting/sphere_fit.hpp"
-#include "stereo/garden.hpp"
+#include "stereo/depth_segmentation.hpp"
 
 namespace hedgefit::apps {
 
@@ -21,7 +22,7 @@ json Rounded(const json& v) {
   return v;
 }
 
-MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& report) {
+MeasureLines CollectMeasureLines(pipeline::Context& ctx, const pipeline::RunReport& report) {
   MeasureLines out;
   const auto* hedges = ctx.Find<std::vector<stereo::HedgeRegion>>("hedges");
   const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits");
@@ -53,39 +54,6 @@ MeasureLines CollectMeasureLines(cloud::Context& ctx, const cloud::RunReport& re
     out.lines.push_back(std::move(j));
   }
   return out;
-}
-
-std::string CaptureHint(cloud::Context& ctx) {
-  std::string hint;
-  char buf[256];
-  const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
-  if (!ctx.Find<std::vector<stereo::HedgeRegion>>("hedges") && mask && !mask->empty()) {
-    const double share = double(cv::countNonZero(*mask)) / double(mask->total());
-    if (share > 0.5) {
-      std::snprintf(buf, sizeof(buf),
-                    "the colour mask covers %.0f%% of the frame (a lawn, a hedge row or trees are green too); in a "
-                    "garden, --garden finds every hedge by depth",
-                    100 * share);
-      hint = buf;
-      // The default searched by depth and found nothing: say so and why (a pair swapped left for
-      // right, or a wrong rig, matches nothing in the working range).
-      if (const auto* why = ctx.Find<std::string>("depth_segmentation_failed")) {
-        std::snprintf(buf, sizeof(buf),
-                      "the colour mask covers %.0f%% of the frame (a lawn, a hedge row or trees are green too) and the "
-                      "search by depth found no hedge; check --min-z/--max-z and that left and right are not swapped",
-                      100 * share);
-        hint = std::string(buf) + " (" + *why + ")";
-      }
-    }
-  }
-  if (const double* rows = ctx.Find<double>("vertical_disparity_px"); rows && *rows > 0.5) {
-    std::snprintf(buf, sizeof(buf),
-                  "the rectified rows disagree by up to %.2f px: the rig file is not these cameras', or they moved "
-                  "since calibration; recalibrate (hedgefit calibrate)",
-                  *rows);
-    hint += (hint.empty() ? "" : "; ") + std::string(buf);
-  }
-  return hint;
 }
 
 }  // namespace hedgefit::apps

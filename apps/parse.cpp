@@ -3,7 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::apps {
 
@@ -34,6 +34,12 @@ std::vector<double> ParseNumbers(const std::string& text, std::size_t n, const s
   }
   if (v.size() != n) throw Error(flag + " '" + text + "': expected " + std::to_string(n) + " comma-separated numbers");
   return v;
+}
+
+void GroupFlags(CLI::App* cmd, const std::vector<std::pair<std::string, std::vector<std::string>>>& groups) {
+  for (const auto& [heading, flags] : groups) {
+    for (const auto& flag : flags) cmd->get_option(flag)->group(heading);
+  }
 }
 
 }  // namespace hedgefit::apps

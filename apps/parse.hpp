@@ -2,6 +2,8 @@
 // The command line's small value syntaxes, parsed in one place: "COLSxROWS" sizes and
 // comma-separated numbers. Errors name the flag, the text and an example.
 
+#include <CLI/CLI.hpp>
+
 #include <string>
 #include <utility>
 #include <vector>
@@ -15,5 +17,10 @@ std::pair<int, int> ParseCount2(const std::string& text, const std::string& flag
 
 /// "1,2,3" -> {1, 2, 3}: exactly `n` finite numbers.
 std::vector<double> ParseNumbers(const std::string& text, std::size_t n, const std::string& flag);
+
+/// Lists `cmd`'s flags under headings in --help: {"Inputs", {"--left", "--right"}}, ... in order.
+/// A flag named here that the command lacks is a programming error (CLI11 throws at start-up,
+/// and the docs test, which runs every --help, fails).
+void GroupFlags(CLI::App* cmd, const std::vector<std::pair<std::string, std::vector<std::string>>>& groups);
 
 }  // namespace hedgefit::apps

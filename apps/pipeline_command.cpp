@@ -4,8 +4,9 @@
 #include <iostream>
 
 #include "apps/commands.hpp"
+#include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
-#include "cloud/pipeline.hpp"
+#include "pipeline/pipeline.hpp"
 
 namespace hedgefit::apps {
 
@@ -29,14 +30,15 @@ void AddPipelineCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--metadata", a->metadata, "write the run's metadata JSON here");
   cmd->add_option("--seed", a->seed, "base random seed for stages that sample");
   cmd->add_flag("-q,--quiet", a->quiet, "print nothing on success");
+  GroupFlags(cmd, {{"Input", {"FILE", "--set", "--seed"}}, {"Output", {"--metadata", "--quiet"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
-      cloud::Pipeline pipeline = cloud::Pipeline::FromFile(a->file, cloud::Registry::Global(), a->sets);
-      cloud::Context ctx;
+      pipeline::Pipeline pipeline = pipeline::Pipeline::FromFile(a->file, pipeline::Registry::Global(), a->sets);
+      pipeline::Context ctx;
       ctx.seed = a->seed;
       ctx.quiet = a->quiet;
-      const cloud::RunReport report = pipeline.Run(ctx);
+      const pipeline::RunReport report = pipeline.Run(ctx);
       if (!a->metadata.empty()) cloud::WriteTextFileAtomic(a->metadata, pipeline.MetadataJson(report, ctx));
       if (a->quiet) return kExitOk;
       std::printf("%-30s %10s %10s %10s  %s\n", "stage", "points in", "points out", "time ms", "notes");
@@ -44,7 +46,7 @@ void AddPipelineCommand(CLI::App& app, CommandFn* run) {
         std::string notes;
         for (const auto& [k, v] : s.notes) {
           if (k == "points" || k == "kept") continue;  // already in the columns
-          notes += (notes.empty() ? "" : ", ") + k + "=" + cloud::ToString(v);
+          notes += (notes.empty() ? "" : ", ") + k + "=" + pipeline::ToString(v);
         }
         auto count = [](std::int64_t n) { return n < 0 ? std::string("-") : std::to_string(n); };
         std::printf("%-30s %10s %10s %10.1f  %s\n", s.label.c_str(), count(s.points_in).c_str(),

@@ -1,5 +1,6 @@
 #include "apps/commands.hpp"
-#include "cloud/plugin.hpp"
+#include "cloud/cloud_stages.hpp"
+#include "pipeline/plugin.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "render/render_stages.hpp"
 #include "stereo/stereo_stages.hpp"
@@ -7,15 +8,12 @@
 namespace hedgefit::apps {
 
 void PrepareRegistry(bool load_plugins) {
-  cloud::Registry& registry = cloud::Registry::Global();
-  static const bool builtins = [&] {
-    fitting::RegisterFittingStages(registry);
-    render::RegisterRenderStages(registry);
-    stereo::RegisterStereoStages(registry);
-    return true;
-  }();
-  (void)builtins;
-  if (load_plugins) cloud::LoadPlugins(registry, cloud::PluginSearchPath());
+  pipeline::Registry& registry = pipeline::Registry::Global();
+  registry.AddModule("cloud", &cloud::RegisterCloudStages);
+  registry.AddModule("fitting", &fitting::RegisterFittingStages);
+  registry.AddModule("render", &render::RegisterRenderStages);
+  registry.AddModule("stereo", &stereo::RegisterStereoStages);
+  if (load_plugins) pipeline::LoadPlugins(registry, pipeline::PluginSearchPath());
 }
 
 }  // namespace hedgefit::apps

@@ -1,7 +1,5 @@
 // hedgefit render CLOUD: an off-screen VTK picture of a cloud and its fitted spheres.
 
-#include <nlohmann/json.hpp>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -9,10 +7,12 @@
 
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "pipeline/output_check.hpp"
 #include "apps/stage_flags.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
-#include "fitting/evaluation.hpp"
+#include "eval/compare.hpp"
+#include "eval/evaluation.hpp"
 #include "fitting/methods.hpp"
 #include "render/render.hpp"
 
@@ -20,51 +20,10 @@ namespace hedgefit::apps {
 
 namespace {
 
-using nlohmann::json;
-
-// Fits (and truth) for `cloud_path` from `hedgefit compare --format json` output.
+// The fits file's spheres as the picture draws them.
 std::vector<render::SphereOverlay> ReadFits(const std::string& path, const std::string& cloud_path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the fits file; write one with `hedgefit compare CLOUD --format json > FILE`");
-  json j;
-  try {
-    in >> j;
-  } catch (const json::exception&) {
-    throw Error(path + ": invalid JSON; expected the output of `hedgefit compare --format json`");
-  }
-  if (!j.is_object() || !j.contains("clouds") || !j["clouds"].is_array() || j["clouds"].empty()) {
-    throw Error(path + ": has no \"clouds\"; expected the output of `hedgefit compare --format json`");
-  }
-  const json* entry = &j["clouds"][0];
-  for (const auto& c : j["clouds"]) {
-    if (c.value("file", "") == cloud_path ||
-        std::filesystem::path(c.value("file", "")).filename() == std::filesystem::path(cloud_path).filename()) {
-      entry = &c;
-      break;
-    }
-  }
   std::vector<render::SphereOverlay> out;
-  try {
-    for (const auto& f : (*entry)["fits"]) {
-      if (!f.value("converged", false)) continue;
-      render::SphereOverlay o;
-      o.label = f.at("method").get<std::string>();
-      o.sphere.center_mm = Eigen::Vector3d(f.at("center_mm")[0], f.at("center_mm")[1], f.at("center_mm")[2]);
-      o.sphere.radius_mm = f.at("radius_mm").get<double>();
-      out.push_back(o);
-    }
-    if (entry->contains("truth") && !(*entry)["truth"].is_null()) {
-      const auto& t = (*entry)["truth"];
-      render::SphereOverlay o;
-      o.label = "truth";
-      o.truth = true;
-      o.sphere.center_mm = Eigen::Vector3d(t.at("center_mm")[0], t.at("center_mm")[1], t.at("center_mm")[2]);
-      o.sphere.radius_mm = t.at("radius_mm").get<double>();
-      out.push_back(o);
-    }
-  } catch (const json::exception&) {
-    throw Error(path + ": a fit lacks center_mm or radius_mm; expected the output of `hedgefit compare --format json`");
-  }
+  for (const auto& f : eval::ReadCompareFits(path, cloud_path)) out.push_back({f.label, f.sphere, f.truth, false});
   return out;
 }
 
@@ -94,16 +53,17 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
                {"color", "field", "view", "point_size", "wireframe", "sphere_opacity", "distance_range"});
   cmd->add_option("--size", a->size, "WxH of each view, px")->capture_default_str();
   cmd->add_option("--background", a->background, "R,G,B in 0..255")->capture_default_str();
-  cmd->add_option("--methods", a->methods, "draw only these fits (comma-separated)")->delimiter(',');
+  cmd->add_option("--method,--methods", a->methods, "draw only these fits (comma-separated)")->delimiter(',');
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
+  GroupFlags(cmd, {{"Inputs", {"CLOUD", "--fits", "--truth", "--method", "--scale"}}, {"Picture", {"--color", "--field", "--view", "--point-size", "--wireframe", "--sphere-opacity", "--distance-range", "--size", "--background"}}, {"Output", {"--output"}}});
   cmd->callback([=]() {
     *run = [=]() {
-      CheckImageOutput("-o", a->output, {".png"}, {a->cloud, a->fits, a->truth});
+      pipeline::CheckImageOutput("-o", a->output, {".png"}, {a->cloud, a->fits, a->truth});
       render::RenderOptions o;
       try {
         const auto specs = render::RenderOptions::Table().Specs();
         o = render::RenderOptions::Table().FromOptions(
-            cloud::ResolveOptions(cloud::StageInfo{"render", "", specs, {}, {}, {}}, a->flags.Given(), "render"));
+            pipeline::ResolveOptions(pipeline::StageInfo{"render", "", specs, {}, {}, {}}, a->flags.Given(), "render"));
       } catch (const Error& e) {
         throw Error(AsFlagMessage(e.what()));
       }
@@ -131,7 +91,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
       const cloud::PointCloud cloud = cloud::ReadCloud(a->cloud, ro);
       std::vector<render::SphereOverlay> spheres;
       if (!a->fits.empty()) spheres = ReadFits(a->fits, a->cloud);
-      for (const auto& m : a->methods) fitting::FindFitMethod(m, "--methods");
+      for (const auto& m : a->methods) fitting::FindFitMethod(m, "--method");
       if (!a->methods.empty()) {
         std::vector<render::SphereOverlay> kept;
         for (const auto& s : spheres) {
@@ -143,23 +103,10 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
         render::SphereOverlay t;
         t.label = "truth";
         t.truth = true;
-        t.sphere = fitting::ReadTruthFile(a->truth);
+        t.sphere = eval::ReadTruthFile(a->truth);
         spheres.push_back(t);
       }
-      // Signed distances to the most trustworthy fit drawn (the method table's ranking).
-      std::vector<std::string> drawn;
-      for (const auto& s : spheres) {
-        if (!s.truth) drawn.push_back(s.label);
-      }
-      if (const fitting::FitMethod* best = fitting::MostTrusted(drawn)) {
-        for (const auto& s : spheres) {
-          if (!s.truth && s.label == best->name) o.distance_sphere = s.sphere;
-        }
-      } else if (!drawn.empty()) {
-        for (const auto& s : spheres) {
-          if (!s.truth && !o.distance_sphere) o.distance_sphere = s.sphere;
-        }
-      }
+      o.distance_sphere = render::MostTrustedSphere(spheres);
       render::RenderToPng(cloud, spheres, o, a->output);
       std::printf("wrote %s\n", a->output.c_str());
       return kExitOk;

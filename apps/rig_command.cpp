@@ -13,9 +13,10 @@ void AddRigCommand(CLI::App& app, CommandFn* run) {
   auto* cmd = app.add_subcommand(
       "rig", "Write a rig file for an already rectified pair from its focal length, principal point and baseline");
   cmd->footer(
-      "Example (PCL's outdoor stereo pair; its baseline's unit is not stated, metres fit the scene):\n"
+      "Examples:\n"
+      "  hedgefit rig --size 1920x1200 --focal 933.3 --cx 960 --cy 600 --baseline 140 -o rig.yaml   # the paper's rig\n"
       "  hedgefit rig --size 640x480 --focal 368.5347 --cx 318.1122 --cy 224.3349 --baseline 838.7445 \\\n"
-      "      -o build/pcl_outdoor_rig.yaml\n"
+      "      -o build/pcl_outdoor_rig.yaml   # PCL's outdoor pair (its baseline's unit is not stated)\n"
       "The images are used as they are (no undistortion, identity rectification).\n");
   struct Args {
     std::string size, output;
@@ -28,6 +29,7 @@ void AddRigCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--cy", a->cy, "principal point y, px")->required();
   cmd->add_option("--baseline", a->baseline, "distance between the cameras, mm")->required();
   cmd->add_option("-o,--output", a->output, "rig file to write (YAML)")->required();
+  GroupFlags(cmd, {{"Cameras", {"--size", "--focal", "--cx", "--cy", "--baseline"}}, {"Output", {"--output"}}});
   cmd->callback([=]() {
     *run = [=]() {
       const auto [w, h] = ParseCount2(a->size, "--size", 1, "WIDTHxHEIGHT in px", "640x480");

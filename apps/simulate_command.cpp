@@ -3,25 +3,107 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <opencv2/calib3d.hpp>
-#include <sstream>
 
 #include "apps/commands.hpp"
-#include "stereo/calibration.hpp"
-#include "stereo/povray.hpp"
-#include "stereo/stereo_stages.hpp"
 #include "apps/parse.hpp"
-#include "cloud/cloud_io.hpp"
-#include "stereo/camera_model.hpp"
-#include "stereo/simulator.hpp"
-#include "stereo/image_io.hpp"
+#include "sim/camera_model.hpp"
+#include "sim/povray.hpp"
+#include "sim/simulator.hpp"
+#include "sim/single_scene.hpp"
 
 namespace hedgefit::apps {
 
 namespace {
 
+struct SimulateArgs {
+  std::string preset, sphere, board, out = "simulated", squares = "13x12", dictionary;
+  double square = 30.0, marker = 0;
+  double scale = 1.0, blur = 0.5, noise = 0.0;
+  int supersample = 3, jpeg = 0;
+  std::uint64_t seed = 1;
+  std::string camera = "ideal", renderer = "hedgefit";
+};
 
-void SaveImage(const std::filesystem::path& path, const cv::Mat& img) { stereo::WriteImageAtomic(path.string(), img); }
+
+int RunSimulate(const SimulateArgs& a) {
+  const int modes = !a.preset.empty() + !a.sphere.empty() + !a.board.empty();
+  if (modes != 1) throw Error("give exactly one of --preset, --sphere or --board");
+  if (a.renderer == "povray" && a.preset.empty()) {
+    throw Error("--renderer povray: renders the presets (paper-lab, garden, wide-boards); drop it for --sphere or --board");
+  }
+  sim::RenderOptions ro;
+  ro.supersample = a.supersample;
+  ro.blur_sigma_px = a.blur;
+  ro.noise_sigma = a.noise;
+  ro.seed = a.seed;
+  // Every argument is checked before anything is created or written.
+  sim::SphereScene sc;
+  sim::BoardScene b;
+  if (a.preset.empty() && !a.sphere.empty()) {
+    const auto v = ParseNumbers(a.sphere, 4, "--sphere");
+    if (!(v[3] > 0) || !(v[2] > v[3])) throw Error("--sphere: need R > 0 and the sphere in front of the camera (Z > R)");
+    sc.center = cv::Vec3d(v[0], v[1], v[2]);
+    sc.radius = v[3];
+  } else if (a.preset.empty()) {
+    const auto v = ParseNumbers(a.board, 6, "--board");
+    const auto [cols, rows] = ParseCount2(a.squares, "--squares", 3, "squares as COLSxROWS", "13x12");
+    try {
+      b = sim::PosedBoard(v, cv::Size(cols, rows), a.square, a.dictionary, a.marker);
+    } catch (const Error& e) {
+      throw Error(std::string("--") + e.what());
+    }
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(a.out, ec);
+  if (!std::filesystem::is_directory(a.out, ec)) throw Error(a.out + ": cannot create the output directory");
+  sim::CameraModel camera = a.camera == "real" ? sim::CameraModel() : sim::CameraModel::Ideal();
+  camera.jpeg_quality = a.jpeg;
+  const bool recorded = a.camera == "real" || a.jpeg > 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  if (a.preset == "garden") {
+    const auto names = sim::GardenPresetNames();
+    std::vector<std::string> files;
+    if (a.renderer == "povray") {
+      files = sim::WritePovrayGarden(a.out, a.scale, camera, names, a.seed);
+    } else {
+      files = sim::WriteGarden(a.out, a.scale, ro, names);
+      if (recorded) sim::RecordAsCamera(files, camera, a.seed);
+    }
+    std::printf("wrote %zu files to %s in %.1f s (%zu garden captures: ", files.size(), a.out.c_str(), seconds(),
+                names.size());
+    for (std::size_t i = 0; i < names.size(); ++i) std::printf("%s%s", i ? ", " : "", ("garden_" + names[i]).c_str());
+    std::printf(")\n");
+    return kExitOk;
+  }
+  if (a.preset == "wide-boards") {
+    // Into the lab's directory beside board_01..16, or a directory of their own.
+    sim::WriteWideBoards(a.out, a.renderer, a.scale, ro, camera, a.seed);
+    std::printf("wrote 12 board pairs (board_17..board_28) to %s in %.1f s\n", a.out.c_str(), seconds());
+    return kExitOk;
+  }
+  if (!a.preset.empty()) {
+    std::vector<std::string> files;
+    if (a.renderer == "povray") {
+      files = sim::WritePovrayLab(a.out, a.scale, camera, a.seed);
+    } else {
+      files = sim::WritePaperLab(a.out, a.scale, ro);
+      if (recorded) sim::RecordAsCamera(files, camera, a.seed);
+    }
+    std::printf("wrote %zu files to %s in %.1f s (23 pairs%s, %.2f s per pair)\n", files.size(), a.out.c_str(),
+                seconds(), a.renderer == "povray" ? " by POV-Ray" : "", seconds() / 23.0);
+    return kExitOk;
+  }
+  const sim::SimRig rig = sim::PaperRig(a.scale);
+  if (!a.sphere.empty()) {
+    sim::WriteSphereCapture(a.out, rig, sc, ro, camera, recorded, a.seed);
+  } else {
+    sim::WriteBoardCapture(a.out, rig, b, ro, camera, recorded, a.seed);
+  }
+  std::printf("wrote a %dx%d pair to %s in %.2f s\n", rig.left.size.width, rig.left.size.height, a.out.c_str(),
+              seconds());
+  return kExitOk;
+}
 
 }  // namespace
 
@@ -36,15 +118,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit simulate --preset garden -o build/garden         # leafy balls on a lawn: row, single, outdoor\n"
       "  hedgefit simulate --preset garden --renderer povray --camera real -o build/garden-povray   # leaf discs, POV-Ray\n"
       "The rig is the paper's (1920x1200, f 933.3 px, baseline 140 mm); --scale shrinks it.\n");
-  struct Args {
-    std::string preset, sphere, board, out = "simulated", squares = "13x12", dictionary;
-    double square = 30.0, marker = 0;
-    double scale = 1.0, blur = 0.5, noise = 0.0;
-    int supersample = 3, jpeg = 0;
-    std::uint64_t seed = 1;
-    std::string camera = "ideal", renderer = "hedgefit";
-  };
-  auto a = std::make_shared<Args>();
+  auto a = std::make_shared<SimulateArgs>();
   cmd->add_option("--preset", a->preset,
                   "paper-lab (the paper's lab: boards and spheres), garden (leafy hedge balls on a lawn) or wide-boards "
                   "(12 more board pairs near the image's edges, board_17..board_28, for calibration)")
@@ -74,128 +148,8 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--jpeg", a->jpeg, "also compress every image as JPEG of this quality (1-100; 0 = lossless)")
       ->check(CLI::Range(0, 100))
       ->capture_default_str();
-  cmd->callback([=]() {
-    *run = [=]() {
-      const int modes = !a->preset.empty() + !a->sphere.empty() + !a->board.empty();
-      if (modes != 1) throw Error("give exactly one of --preset, --sphere or --board");
-      if (a->renderer == "povray" && a->preset.empty()) {
-        throw Error("--renderer povray: renders the presets (paper-lab, garden, wide-boards); drop it for --sphere or --board");
-      }
-      stereo::RenderOptions ro;
-      ro.supersample = a->supersample;
-      ro.blur_sigma_px = a->blur;
-      ro.noise_sigma = a->noise;
-      ro.seed = a->seed;
-      namespace fs = std::filesystem;
-      // Every argument is checked before anything is created or written.
-      stereo::SphereScene sc;
-      stereo::BoardScene b;
-      if (a->preset.empty() && !a->sphere.empty()) {
-        const auto v = ParseNumbers(a->sphere, 4, "--sphere");
-        if (!(v[3] > 0) || !(v[2] > v[3])) throw Error("--sphere: need R > 0 and the sphere in front of the camera (Z > R)");
-        sc.center = cv::Vec3d(v[0], v[1], v[2]);
-        sc.radius = v[3];
-      } else if (a->preset.empty()) {
-        const auto v = ParseNumbers(a->board, 6, "--board");
-        cv::Matx33d R;
-        cv::Rodrigues(cv::Vec3d(v[0], v[1], v[2]), R);
-        b.rotation = R;
-        b.translation = cv::Vec3d(v[3], v[4], v[5]);
-        const auto [cols, rows] = ParseCount2(a->squares, "--squares", 3, "squares as COLSxROWS", "13x12");
-        b.squares = cv::Size(cols, rows);
-        b.square_mm = a->square;
-        if (!a->dictionary.empty()) {
-          stereo::BoardSpec spec;
-          spec.type = stereo::BoardType::kCharuco;
-          spec.inner_corners = cv::Size(cols - 1, rows - 1);
-          spec.square_mm = a->square;
-          spec.marker_mm = a->marker;
-          spec.dictionary = a->dictionary;
-          stereo::CalibrationOptions probe;
-          probe.board = spec;
-          try {
-            probe.Check();
-          } catch (const Error& e) {
-            throw Error(std::string("--") + e.what());
-          }
-          b.texture = stereo::CharucoImage(spec, 64);
-        }
-      }
-      std::error_code ec;
-      fs::create_directories(a->out, ec);
-      if (!fs::is_directory(a->out, ec)) throw Error(a->out + ": cannot create the output directory");
-      stereo::CameraModel camera = a->camera == "real" ? stereo::CameraModel() : stereo::CameraModel::Ideal();
-      camera.jpeg_quality = a->jpeg;
-      const bool recorded = a->camera == "real" || a->jpeg > 0;
-      // Every capture image written, as the model records it (stereo/camera_model.hpp); the
-      // two views of a pair share a seed, which ApplyCameraModel splits per camera.
-      auto record = [&](const std::vector<std::string>& files) {
-        if (!recorded) return;
-        std::uint64_t view = 0;
-        for (const auto& f : files) {
-          const bool left = f.find("_left.png") != std::string::npos, right = f.find("_right.png") != std::string::npos;
-          if (!left && !right) continue;
-          SaveImage(f, stereo::ApplyCameraModel(stereo::ReadImageFile(f), camera, right, a->seed * 1000 + view++ / 2));
-        }
-      };
-      const auto t0 = std::chrono::steady_clock::now();
-      auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-      if (a->preset == "garden") {
-        const auto names = stereo::GardenPresetNames();
-        std::vector<std::string> files;
-        if (a->renderer == "povray") {
-          files = stereo::WritePovrayGarden(a->out, a->scale, camera, names, a->seed);
-        } else {
-          files = stereo::WriteGarden(a->out, a->scale, ro, names);
-          record(files);
-        }
-        std::printf("wrote %zu files to %s in %.1f s (%zu garden captures: ", files.size(), a->out.c_str(), seconds(),
-                    names.size());
-        for (std::size_t i = 0; i < names.size(); ++i) std::printf("%s%s", i ? ", " : "", ("garden_" + names[i]).c_str());
-        std::printf(")\n");
-        return kExitOk;
-      }
-      if (a->preset == "wide-boards") {
-        // Into the lab's directory beside board_01..16, or a directory of their own.
-        const auto files = stereo::WriteWideBoards(a->out, a->renderer, a->scale, ro, camera, a->seed);
-        std::printf("wrote 12 board pairs (board_17..board_28) to %s in %.1f s\n", a->out.c_str(), seconds());
-        return kExitOk;
-      }
-      if (!a->preset.empty() && a->renderer == "povray") {
-        const auto files = stereo::WritePovrayLab(a->out, a->scale, camera, a->seed);
-        std::printf("wrote %zu files to %s in %.1f s (23 pairs by POV-Ray, %.2f s per pair)\n", files.size(),
-                    a->out.c_str(), seconds(), seconds() / 23.0);
-        return kExitOk;
-      }
-      if (!a->preset.empty()) {
-        const auto files = stereo::WritePaperLab(a->out, a->scale, ro);
-        record(files);
-        std::printf("wrote %zu files to %s in %.1f s (23 pairs, %.2f s per pair)\n", files.size(), a->out.c_str(),
-                    seconds(), seconds() / 23.0);
-        return kExitOk;
-      }
-      const stereo::SimRig rig = stereo::PaperRig(a->scale);
-      if (!a->sphere.empty()) {
-        const cv::Mat l = stereo::RenderSphere(rig, false, sc, ro), r = stereo::RenderSphere(rig, true, sc, ro);
-        SaveImage(fs::path(a->out) / "sphere_left.png", l);
-        SaveImage(fs::path(a->out) / "sphere_right.png", r);
-        record({(fs::path(a->out) / "sphere_left.png").string(), (fs::path(a->out) / "sphere_right.png").string()});
-        stereo::WriteSphereTruth((fs::path(a->out) / "sphere.truth.json").string(), sc);
-      } else {
-        const cv::Mat l = stereo::RenderBoard(rig, false, b, ro), r = stereo::RenderBoard(rig, true, b, ro);
-        SaveImage(fs::path(a->out) / "board_left.png", l);
-        SaveImage(fs::path(a->out) / "board_right.png", r);
-        record({(fs::path(a->out) / "board_left.png").string(), (fs::path(a->out) / "board_right.png").string()});
-        stereo::WriteBoardTruth((fs::path(a->out) / "board.truth.json").string(), b);
-      }
-      cloud::WriteTextFileAtomic((fs::path(a->out) / "rig_truth.json").string(), stereo::RigJson(rig) + "\n");
-      // The exact rig as a rig file: one capture can be converted or measured without calibrating.
-      stereo::WriteRig((fs::path(a->out) / "rig.yaml").string(), stereo::RigFromSimulation(rig));
-      std::printf("wrote a %dx%d pair to %s in %.2f s\n", rig.left.size.width, rig.left.size.height, a->out.c_str(),
-                  seconds());
-      return kExitOk;
-    };
-  });
+  GroupFlags(cmd, {{"Scene", {"--preset", "--renderer", "--sphere", "--board", "--squares", "--charuco", "--marker", "--square"}}, {"Camera", {"--scale", "--supersample", "--blur", "--noise", "--seed", "--camera", "--jpeg"}}, {"Output", {"--output"}}});
+  cmd->callback([=]() { *run = [=]() { return RunSimulate(*a); }; });
 }
 
 }  // namespace hedgefit::apps

@@ -2,13 +2,13 @@
 
 #include <algorithm>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 
 namespace hedgefit::apps {
 
 namespace {
 
-std::string Help(const cloud::OptionSpec& spec) {
+std::string Help(const pipeline::OptionSpec& spec) {
   std::string out = spec.help;
   if (!spec.unit.empty()) out += ", " + spec.unit;
   if (!spec.choices.empty()) {
@@ -16,7 +16,7 @@ std::string Help(const cloud::OptionSpec& spec) {
     for (const auto& c : spec.choices) list += (list.empty() ? "" : "|") + c;
     out += " (" + list + ")";
   }
-  if (spec.type != cloud::OptionType::kBool) out += " [default " + cloud::ToString(spec.default_value) + "]";
+  if (spec.type != pipeline::OptionType::kBool) out += " [default " + pipeline::ToString(spec.default_value) + "]";
   return out;
 }
 
@@ -26,18 +26,20 @@ std::string AsFlagMessage(const std::string& msg) {
   if (msg.rfind("option '", 0) != 0) return msg;
   const auto end = msg.find('\'', 8);
   if (end == std::string::npos) return msg;
-  return cloud::FlagName(msg.substr(8, end - 8)) + msg.substr(end + 1);
+  return pipeline::FlagName(msg.substr(8, end - 8)) + msg.substr(end + 1);
 }
 
-void StageFlags::Add(CLI::App* cmd, const std::vector<cloud::OptionSpec>& specs, const std::vector<std::string>& only) {
+void StageFlags::Add(CLI::App* cmd, const std::vector<pipeline::OptionSpec>& specs, const std::vector<std::string>& only,
+                     const std::string& group, const std::map<std::string, std::string>& flag_names) {
   for (const auto& spec : specs) {
     if (!only.empty() && std::find(only.begin(), only.end(), spec.name) == only.end()) continue;
     const bool taken = std::any_of(flags_.begin(), flags_.end(), [&](const auto& f) { return f->spec.name == spec.name; });
     if (taken) continue;
     auto flag = std::make_unique<Flag>();
     flag->spec = spec;
-    const std::string name = cloud::FlagName(spec.name);
-    if (spec.type == cloud::OptionType::kBool) {
+    const auto renamed = flag_names.find(spec.name);
+    const std::string name = renamed != flag_names.end() ? renamed->second : pipeline::FlagName(spec.name);
+    if (spec.type == pipeline::OptionType::kBool) {
       // A switch: --name sets true; an option that defaults to true is turned off by --no-name.
       const bool def = std::get<bool>(spec.default_value);
       const std::string switch_name = def ? "--no-" + name.substr(2) : name;
@@ -46,23 +48,24 @@ void StageFlags::Add(CLI::App* cmd, const std::vector<cloud::OptionSpec>& specs,
     } else {
       flag->option = cmd->add_option(name, flag->text, Help(spec));
     }
+    if (!group.empty()) flag->option->group(group);
     flags_.push_back(std::move(flag));
   }
 }
 
-std::map<std::string, cloud::OptionValue> StageFlags::Given() const {
-  std::map<std::string, cloud::OptionValue> out;
+std::map<std::string, pipeline::OptionValue> StageFlags::Given() const {
+  std::map<std::string, pipeline::OptionValue> out;
   for (const auto& f : flags_) {
     if (f->option->count() == 0) continue;
-    const std::string typed = f->option->get_name().empty() ? cloud::FlagName(f->spec.name) : "--" + f->option->get_lnames().front();
-    const cloud::OptionNamer name_of = [typed](const std::string&) { return typed; };
-    out[f->spec.name] = cloud::CheckOptionValue(f->spec, cloud::ParseOptionString(f->spec, f->text, name_of), name_of);
+    const std::string typed = f->option->get_name().empty() ? pipeline::FlagName(f->spec.name) : "--" + f->option->get_lnames().front();
+    const pipeline::OptionNamer name_of = [typed](const std::string&) { return typed; };
+    out[f->spec.name] = pipeline::CheckOptionValue(f->spec, pipeline::ParseOptionString(f->spec, f->text, name_of), name_of);
   }
   return out;
 }
 
-std::map<std::string, cloud::OptionValue> StageFlags::For(const std::vector<cloud::OptionSpec>& specs) const {
-  std::map<std::string, cloud::OptionValue> given = Given(), out;
+std::map<std::string, pipeline::OptionValue> StageFlags::For(const std::vector<pipeline::OptionSpec>& specs) const {
+  std::map<std::string, pipeline::OptionValue> given = Given(), out;
   for (const auto& spec : specs) {
     auto it = given.find(spec.name);
     if (it != given.end()) out[spec.name] = it->second;

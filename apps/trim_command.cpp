@@ -3,17 +3,18 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <memory>
 #include <string>
 
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "pipeline/output_check.hpp"
 #include "apps/parse.hpp"
 #include "cloud/cloud_io.hpp"
-#include "cloud/pipeline.hpp"
-#include "cloud/registry.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/registry.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
 #include "render/render.hpp"
@@ -43,24 +44,6 @@ json Stages(const TrimArgs& a, const std::vector<double>& center) {
   return p;
 }
 
-json PlanJson(const fitting::TrimPlan& t) {
-  auto r3 = [](double v) { return std::round(v * 1000) / 1000; };
-  const auto& c = t.target.center_mm;
-  return {{"hedge", t.hedge_id ? t.hedge_id : 1},
-          {"target_center_mm", {r3(c.x()), r3(c.y()), r3(c.z())}},
-          {"target_radius_mm", t.target.radius_mm},
-          {"points", t.points},
-          {"points_to_cut", t.points_to_cut},
-          {"cut_share", r3(t.cut_share)},
-          {"cut_p50_mm", r3(t.cut_p50_mm)},
-          {"cut_p90_mm", r3(t.cut_p90_mm)},
-          {"cut_p99_mm", r3(t.cut_p99_mm)},
-          {"cut_max_mm", r3(t.cut_max_mm)},
-          {"seen_share", r3(t.seen_share)},
-          {"volume_seen_l", r3(t.volume_seen_l)},
-          {"volume_all_round_l", r3(t.volume_all_round_l)}};
-}
-
 }  // namespace
 
 void AddTrimCommand(CLI::App& app, CommandFn* run) {
@@ -88,6 +71,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
   cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and outlier removal (filters.hedge_outlier) before the fit");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
+  GroupFlags(cmd, {{"Inputs", {"cloud", "--no-clean"}}, {"Target", {"--radius", "--center", "--method", "--tolerance"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
@@ -98,10 +82,10 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
         std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
         return kExitOk;
       }
-      if (!a->output.empty()) CheckCloudOutput("-o", a->output, {a->cloud});
-      if (!a->render.empty()) CheckImageOutput("--render", a->render, {".png"}, {a->cloud});
-      cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "trim", cloud::Registry::Global());
-      cloud::Context ctx;
+      if (!a->output.empty()) cloud::CheckCloudOutput("-o", a->output, {a->cloud});
+      if (!a->render.empty()) pipeline::CheckImageOutput("--render", a->render, {".png"}, {a->cloud});
+      pipeline::Pipeline p = pipeline::Pipeline::FromJson(stages.dump(), "trim", pipeline::Registry::Global());
+      pipeline::Context ctx;
       ctx.quiet = true;
       p.Run(ctx);
       const auto& plans = ctx.Get<std::vector<fitting::TrimPlan>>("trim_plans");
@@ -118,21 +102,10 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
         render::RenderToPng(ctx.Get<cloud::PointCloud>("cloud"), spheres, ro, a->render);
       }
       if (a->format == "json") {
-        json out = {{"cloud", a->cloud}, {"hedges", json::array()}};
-        for (const auto& t : plans) out["hedges"].push_back(PlanJson(t));
-        std::printf("%s\n", out.dump(2).c_str());
+        std::cout << fitting::TrimPlansJson(a->cloud, plans) << "\n";
         return kExitOk;
       }
-      std::printf("%-5s %-28s %7s %8s %6s %6s %6s %7s %6s %9s %10s\n", "hedge", "target centre (x, y, z) mm", "R mm",
-                  "cut %", "p50", "p90", "p99", "max mm", "seen %", "volume L", "all round");
-      for (const auto& t : plans) {
-        char centre[64];
-        std::snprintf(centre, sizeof(centre), "(%.0f, %.0f, %.0f)", t.target.center_mm.x(), t.target.center_mm.y(),
-                      t.target.center_mm.z());
-        std::printf("%-5d %-28s %7.1f %7.1f%% %6.1f %6.1f %6.1f %7.1f %5.1f%% %9.2f %10.2f\n", t.hedge_id ? t.hedge_id : 1,
-                    centre, t.target.radius_mm, 100 * t.cut_share, t.cut_p50_mm, t.cut_p90_mm, t.cut_p99_mm, t.cut_max_mm,
-                    100 * t.seen_share, t.volume_seen_l, t.volume_all_round_l);
-      }
+      fitting::PrintTrimTable(std::cout, plans);
       return kExitOk;
     };
   });

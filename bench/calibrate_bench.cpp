@@ -97,6 +97,89 @@ struct Row {
 
 }  // namespace
 
+namespace {
+
+// The simulated rig's truth and every board pair with a truth file (the lab's 16, and the
+// wide-boards preset's 17..28 if present), up to board `last`.
+Truth ReadTruth(const fs::path& dir, int last, std::vector<std::pair<std::string, std::string>>* files, BoardSpec* spec_out) {
+  BoardSpec& spec = *spec_out;
+  Truth truth;
+  const auto rt = ReadJson(dir / "rig_truth.json");
+  for (int c = 0; c < 2; ++c) {
+    const auto& cam = rt[c == 0 ? "left" : "right"];
+    truth.K[c] = cv::Mat::eye(3, 3, CV_64F);
+    for (int r = 0; r < 3; ++r) {
+      for (int k = 0; k < 3; ++k) truth.K[c].at<double>(r, k) = cam["K"][r][k].get<double>();
+    }
+    truth.D[c] = cv::Mat(1, 5, CV_64F);
+    for (int k = 0; k < 5; ++k) truth.D[c].at<double>(k) = cam["dist"][k].get<double>();
+  }
+  truth.R = cv::Mat(3, 3, CV_64F);
+  truth.T = cv::Mat(3, 1, CV_64F);
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) truth.R.at<double>(r, k) = rt["R"][r][k].get<double>();
+    truth.T.at<double>(r) = rt["T"][r].get<double>();
+  }
+  // Every board pair with a truth file: the lab's 16, and the wide-boards preset's 17..28 if present.
+  for (int i = 1; i <= last; ++i) {
+    char base[32];
+    std::snprintf(base, sizeof(base), "board_%02d", i);
+    if (!fs::exists(dir / (std::string(base) + ".truth.json"))) continue;
+    files->emplace_back((dir / (std::string(base) + "_left.png")).string(),
+                       (dir / (std::string(base) + "_right.png")).string());
+    const auto bt = ReadJson(dir / (std::string(base) + ".truth.json"));
+    spec.inner_corners = cv::Size(bt["inner_corners"][0].get<int>(), bt["inner_corners"][1].get<int>());
+    spec.square_mm = bt["square_mm"].get<double>();
+    cv::Matx33d rot;
+    for (int r = 0; r < 3; ++r) {
+      for (int k = 0; k < 3; ++k) rot(r, k) = bt["rotation"][r][k].get<double>();
+    }
+    cv::Vec3d rvec;
+    cv::Rodrigues(rot, rvec);
+    truth.rvec.push_back(rvec);
+    truth.tvec.emplace_back(bt["translation_mm"][0].get<double>(), bt["translation_mm"][1].get<double>(),
+                            bt["translation_mm"][2].get<double>());
+  }
+  return truth;
+}
+
+// RMS corner error of `row` against the truth, over the pairs every detector found.
+double CornerRms(const Row& row, const std::vector<Row>& rows, const Truth& truth, const std::vector<cv::Point3f>& board,
+                 std::size_t pairs) {
+  double sum = 0;
+  long n = 0;
+  for (std::size_t i = 0; i < pairs; ++i) {
+    bool all = true;
+    for (const Row& o : rows) all = all && o.corners[i].status.empty();
+    if (!all) continue;
+    std::vector<cv::Point2f> pl, pr;
+    cv::projectPoints(board, truth.rvec[i], truth.tvec[i], truth.K[0], truth.D[0], pl);
+    cv::Mat Rb;
+    cv::Rodrigues(truth.rvec[i], Rb);
+    cv::Mat Rr = truth.R * Rb, tr = truth.R * cv::Mat(truth.tvec[i]) + truth.T, rr;
+    cv::Rodrigues(Rr, rr);
+    cv::projectPoints(board, rr, tr, truth.K[1], truth.D[1], pr);
+    // A board with an odd number of inner corners one way and an even number the other has
+    // a 180-degree ambiguity the detectors resolve arbitrarily: compare in the closer order.
+    for (int view = 0; view < 2; ++view) {
+      const std::vector<cv::Point2f>& found = view == 0 ? row.corners[i].left_px : row.corners[i].right_px;
+      const std::vector<cv::Point2f>& want = view == 0 ? pl : pr;
+      double same = 0, reversed = 0;
+      const std::size_t m = want.size();
+      for (std::size_t k = 0; k < m; ++k) {
+        const cv::Point2f a = found[k] - want[k], b = found[m - 1 - k] - want[k];
+        same += a.dot(a);
+        reversed += b.dot(b);
+      }
+      sum += std::min(same, reversed);
+      n += long(m);
+    }
+  }
+  return n ? std::sqrt(sum / double(n)) : 0.0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr, "usage: bench_calibrate DIR [--threads N]\n");
@@ -110,45 +193,9 @@ int main(int argc, char** argv) {
   }
   cv::setNumThreads(threads);
   try {
-    Truth truth;
-    const auto rt = ReadJson(dir / "rig_truth.json");
-    for (int c = 0; c < 2; ++c) {
-      const auto& cam = rt[c == 0 ? "left" : "right"];
-      truth.K[c] = cv::Mat::eye(3, 3, CV_64F);
-      for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) truth.K[c].at<double>(r, k) = cam["K"][r][k].get<double>();
-      }
-      truth.D[c] = cv::Mat(1, 5, CV_64F);
-      for (int k = 0; k < 5; ++k) truth.D[c].at<double>(k) = cam["dist"][k].get<double>();
-    }
-    truth.R = cv::Mat(3, 3, CV_64F);
-    truth.T = cv::Mat(3, 1, CV_64F);
-    for (int r = 0; r < 3; ++r) {
-      for (int k = 0; k < 3; ++k) truth.R.at<double>(r, k) = rt["R"][r][k].get<double>();
-      truth.T.at<double>(r) = rt["T"][r].get<double>();
-    }
     std::vector<std::pair<std::string, std::string>> files;
     BoardSpec spec;
-    // Every board pair with a truth file: the lab's 16, and the wide-boards preset's 17..28 if present.
-    for (int i = 1; i <= last; ++i) {
-      char base[32];
-      std::snprintf(base, sizeof(base), "board_%02d", i);
-      if (!fs::exists(dir / (std::string(base) + ".truth.json"))) continue;
-      files.emplace_back((dir / (std::string(base) + "_left.png")).string(),
-                         (dir / (std::string(base) + "_right.png")).string());
-      const auto bt = ReadJson(dir / (std::string(base) + ".truth.json"));
-      spec.inner_corners = cv::Size(bt["inner_corners"][0].get<int>(), bt["inner_corners"][1].get<int>());
-      spec.square_mm = bt["square_mm"].get<double>();
-      cv::Matx33d rot;
-      for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) rot(r, k) = bt["rotation"][r][k].get<double>();
-      }
-      cv::Vec3d rvec;
-      cv::Rodrigues(rot, rvec);
-      truth.rvec.push_back(rvec);
-      truth.tvec.emplace_back(bt["translation_mm"][0].get<double>(), bt["translation_mm"][1].get<double>(),
-                              bt["translation_mm"][2].get<double>());
-    }
+    const Truth truth = ReadTruth(dir, last, &files, &spec);
     CalibrationOptions co;
     co.board = spec;
     std::vector<Row> rows;
@@ -178,40 +225,12 @@ int main(int argc, char** argv) {
     std::printf("  %-38s %5s %9s %9s %10s %9s %9s %9s %9s %8s %9s\n", "detector", "pairs", "detect s", "calib s",
                 "corner rms", "dcx1 px", "dcy1 px", "dcx2 px", "dcy2 px", "dfx %", "dB mm");
     for (const Row& row : rows) {
-      double sum = 0;
-      long n = 0;
-      for (std::size_t i = 0; i < files.size(); ++i) {
-        bool all = true;
-        for (const Row& o : rows) all = all && o.corners[i].status.empty();
-        if (!all) continue;
-        std::vector<cv::Point2f> pl, pr;
-        cv::projectPoints(board, truth.rvec[i], truth.tvec[i], truth.K[0], truth.D[0], pl);
-        cv::Mat Rb;
-        cv::Rodrigues(truth.rvec[i], Rb);
-        cv::Mat Rr = truth.R * Rb, tr = truth.R * cv::Mat(truth.tvec[i]) + truth.T, rr;
-        cv::Rodrigues(Rr, rr);
-        cv::projectPoints(board, rr, tr, truth.K[1], truth.D[1], pr);
-        // A board with an odd number of inner corners one way and an even number the other has
-        // a 180-degree ambiguity the detectors resolve arbitrarily: compare in the closer order.
-        for (int view = 0; view < 2; ++view) {
-          const std::vector<cv::Point2f>& found = view == 0 ? row.corners[i].left_px : row.corners[i].right_px;
-          const std::vector<cv::Point2f>& want = view == 0 ? pl : pr;
-          double same = 0, reversed = 0;
-          const std::size_t m = want.size();
-          for (std::size_t k = 0; k < m; ++k) {
-            const cv::Point2f a = found[k] - want[k], b = found[m - 1 - k] - want[k];
-            same += a.dot(a);
-            reversed += b.dot(b);
-          }
-          sum += std::min(same, reversed);
-          n += long(m);
-        }
-      }
+      const double rms = CornerRms(row, rows, truth, board, files.size());
       const StereoRig& r = row.rig;
       const double dfx = 100 * std::max(std::abs(r.K1.at<double>(0, 0) / truth.K[0].at<double>(0, 0) - 1),
                                         std::abs(r.K2.at<double>(0, 0) / truth.K[1].at<double>(0, 0) - 1));
       std::printf("  %-38s %5d %9.1f %9.2f %10.4f %+9.3f %+9.3f %+9.3f %+9.3f %8.4f %+9.4f\n", row.name.c_str(), row.found,
-                  row.detect_s, row.calibrate_s, n ? std::sqrt(sum / double(n)) : 0.0,
+                  row.detect_s, row.calibrate_s, rms,
                   r.K1.at<double>(0, 2) - truth.K[0].at<double>(0, 2), r.K1.at<double>(1, 2) - truth.K[0].at<double>(1, 2),
                   r.K2.at<double>(0, 2) - truth.K[1].at<double>(0, 2), r.K2.at<double>(1, 2) - truth.K[1].at<double>(1, 2),
                   dfx, r.baseline_mm - cv::norm(truth.T));

@@ -14,12 +14,13 @@
 #include <thread>
 
 #include "bench/bench_util.hpp"
-#include "cloud/pipeline.hpp"
-#include "cloud/registry.hpp"
+#include "cloud/cloud_stages.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/registry.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
 #include "stereo/capture.hpp"
-#include "stereo/simulator.hpp"
+#include "sim/simulator.hpp"
 #include "stereo/stereo_stages.hpp"
 
 int main(int argc, char** argv) {
@@ -28,13 +29,13 @@ int main(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     if (std::string(argv[i]) == "--repeats") repeats = std::atoi(argv[i + 1]);
   }
-  const stereo::SimRig sim = stereo::PaperRig(1.0);
-  stereo::SphereScene scene;
+  const sim::SimRig sim = sim::PaperRig(1.0);
+  sim::SphereScene scene;
   scene.center = cv::Vec3d(70, 50, 2300);
-  stereo::RenderOptions ro;
+  sim::RenderOptions ro;
   ro.supersample = 2;
-  const cv::Mat left = stereo::RenderSphere(sim, false, scene, ro), right = stereo::RenderSphere(sim, true, scene, ro);
-  const stereo::StereoRig rig = stereo::RigFromSimulation(sim);
+  const cv::Mat left = sim::RenderSphere(sim, false, scene, ro), right = sim::RenderSphere(sim, true, scene, ro);
+  const stereo::StereoRig rig = sim::RigFromSimulation(sim);
 
   double radius = 0;
   std::size_t points = 0;
@@ -53,20 +54,20 @@ int main(int argc, char** argv) {
   });
   // `hedgefit stream` / `measure`'s path in a warm process: the measure pipeline (capture
   // stages, default cleaning, ransac_ray) built once, run per frame.
-  cloud::Registry registry;
+  pipeline::Registry registry;
   cloud::RegisterCloudStages(registry);
   stereo::RegisterStereoStages(registry);
   fitting::RegisterFittingStages(registry);
-  cloud::Pipeline measure =
-      cloud::Pipeline::FromJson(stereo::MeasurePipelineJson(stereo::ConvertOptions{}, {"fitters.ransac_ray"}, true),
+  pipeline::Pipeline measure =
+      pipeline::Pipeline::FromJson(stereo::MeasurePipelineJson(stereo::ConvertOptions{}, {"fitters.ransac_ray"}, true),
                                 "measure", registry, {}, {"left_image", "right_image", "rig"});
   std::map<std::string, double> measure_stages;
   double measured_radius = 0;
   const double warm = bench::MedianMs(repeats, [&] {
-    cloud::Context ctx;
+    pipeline::Context ctx;
     ctx.quiet = true;
     stereo::PutCapture(left, right, rig, &ctx);
-    const cloud::RunReport report = measure.Run(ctx);
+    const pipeline::RunReport report = measure.Run(ctx);
     for (const auto& s : report.stages) measure_stages[s.type] = s.wall_ms;
     measured_radius = ctx.Get<std::vector<fitting::SphereFitResult>>("fits").back().sphere.radius_mm;
   });

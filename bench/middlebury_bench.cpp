@@ -42,13 +42,14 @@
 #include <vector>
 
 #include "bench/bench_util.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "stereo/matching.hpp"
-#include "stereo/middlebury.hpp"
+#include "bench/middlebury.hpp"
 
 namespace {
 
 using namespace hedgefit::stereo;
+using namespace hedgefit::bench;
 
 struct SubpixelScore {
   double mean_abs = 0, mean_abs_stored = 0, bias = 0, spread = 0, locking = 0, measured_percent = 0;

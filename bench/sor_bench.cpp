@@ -30,6 +30,7 @@ namespace {
 
 int main(int argc, char** argv) {
   using namespace hedgefit::cloud;
+  using namespace hedgefit::pipeline;
   const char* data = std::getenv("HEDGEFIT_DATA_DIR");
   std::string path = std::string(data ? data : HEDGEFIT_DEFAULT_DATA_DIR) + "/pcl_test/table_scene_mug_stereo_textured.pcd";
   int repeats = 5, mean_k = 50;

@@ -1,5 +1,7 @@
 #include "cloud/cloud_io.hpp"
 
+#include "pipeline/output_check.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,11 +10,13 @@
 #include <filesystem>
 #include <fstream>
 
-#include "cloud/cloud_formats.hpp"
-#include "cloud/error.hpp"
+#include "cloud/formats/formats.hpp"
+#include "pipeline/error.hpp"
 #include "cloud/pcl_adapter.hpp"
 
 namespace hedgefit::cloud {
+
+using pipeline::OptionTable;
 
 namespace fs = std::filesystem;
 
@@ -60,7 +64,7 @@ const std::vector<CloudFormat>& CloudFormats() {
   return formats;
 }
 
-const cloud::OptionTable<WriteOptions>& WriteOptions::Table() {
+const pipeline::OptionTable<WriteOptions>& WriteOptions::Table() {
   using O = WriteOptions;
   static const auto table =
       OptionTable<O>()
@@ -164,6 +168,16 @@ void WriteCloud(const std::string& path, const PointCloud& cloud, const WriteOpt
     fs::remove(tmp, ec);
     throw Error(path + ": cannot be replaced: " + ec.message());
   }
+}
+
+void CheckCloudOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs) {
+  pipeline::CheckOutputDirectory(flag, path);
+  try {
+    FormatFromPath(path);
+  } catch (const Error&) {
+    throw Error(flag + " " + path + ": not a cloud file name; end it in " + CloudExtensionList());
+  }
+  pipeline::CheckNotAnInput(flag, path, inputs);
 }
 
 }  // namespace hedgefit::cloud

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 
 namespace hedgefit::cloud {
@@ -36,7 +36,7 @@ struct WriteOptions {
   bool ply_binary = true;                           ///< PLY only
   int ascii_precision = 8;  ///< significant digits for text formats (float holds ~7)
   /// The writers' options, declared once; each format uses the ones it names.
-  static const OptionTable<WriteOptions>& Table();
+  static const pipeline::OptionTable<WriteOptions>& Table();
 };
 
 /// One cloud file format: a file of its own (cloud/format_*.cpp) and one entry in
@@ -66,5 +66,10 @@ void WriteCloud(const std::string& path, const PointCloud& cloud, const WriteOpt
 
 /// Writes `contents` to `path` atomically; used for JSON and other small outputs.
 void WriteTextFileAtomic(const std::string& path, const std::string& contents);
+
+/// pipeline::CheckOutputDirectory, and the name ends in a cloud format's extension (.pcd, .ply,
+/// .xyz...), so a bad name fails before the work and names the flag, not the writer's temporary
+/// file; and it names none of `inputs` (pipeline::CheckNotAnInput).
+void CheckCloudOutput(const std::string& flag, const std::string& path, const std::vector<std::string>& inputs = {});
 
 }  // namespace hedgefit::cloud

@@ -7,10 +7,24 @@
 
 #include "cloud/cloud_io.hpp"
 #include "cloud/filters.hpp"
-#include "cloud/option_table.hpp"
-#include "cloud/registry.hpp"
+#include "pipeline/option_table.hpp"
+#include "cloud/cloud_stages.hpp"
+#include "pipeline/registry.hpp"
 
 namespace hedgefit::cloud {
+
+using pipeline::OptionSpec;
+using pipeline::IntOption;
+using pipeline::DoubleOption;
+using pipeline::StringOption;
+using pipeline::StageInfo;
+using pipeline::Options;
+using pipeline::Context;
+using pipeline::StageFactory;
+using pipeline::MakeFactory;
+using pipeline::Registry;
+using pipeline::TableOptions;
+using pipeline::TableFactory;
 
 namespace {
 

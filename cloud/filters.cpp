@@ -1,5 +1,5 @@
 #include "cloud/filters.hpp"
-#include "cloud/parallel.hpp"
+#include "pipeline/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,12 +11,15 @@
 #include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 #include <pcl/sample_consensus/sac_model_plane.h>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "cloud/pcl_adapter.hpp"
 #include "cloud/neighbour_search.hpp"
 #include "cloud/voxel_neighbours.hpp"
 
 namespace hedgefit::cloud {
+
+using pipeline::OptionTable;
+using pipeline::ParallelFor;
 
 namespace {
 

@@ -7,7 +7,7 @@
 #include <optional>
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 
 namespace hedgefit::cloud {
@@ -30,7 +30,7 @@ struct StatisticalOutlierOptions {
   int num_threads = 0;      ///< 0 = all hardware threads
   bool keep_organized = false;  ///< removed points become NaN, structure kept
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<StatisticalOutlierOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<StatisticalOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// Per-point mean distance to the mean_k nearest neighbours (mm; 0 for non-finite
@@ -51,7 +51,7 @@ struct RadiusOutlierOptions {
   int num_threads = 0;      ///< 0 = all hardware threads
   bool keep_organized = false;
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<RadiusOutlierOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<RadiusOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// PCL RadiusOutlierRemoval's decision: keep a point with >= min_neighbours others within radius.
@@ -63,7 +63,7 @@ struct LocalOutlierOptions {
   int num_threads = 0;      ///< 0 = all hardware threads
   bool keep_organized = false;
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<LocalOutlierOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<LocalOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// Each finite point's local outlier factor (Breunig, Kriegel, Ng and Sander 2000, as
@@ -86,7 +86,7 @@ struct SpacingOutlierOptions {
   int num_threads = 0;      ///< 0 = all hardware threads
   bool keep_organized = false;
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<SpacingOutlierOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<SpacingOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// Each finite point's mean distance to its mean_k nearest neighbours (as MeanNeighbourDistances)
@@ -109,7 +109,7 @@ struct HedgeOutlierOptions {
   std::string shells = "statistical";
   int num_threads = 0;  ///< 0 = all hardware threads
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<HedgeOutlierOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<HedgeOutlierOptions>& Table();  ///< the options, declared once
 };
 
 /// Whether HedgeOutlierRemoval takes the local outlier factor and the spacing ratio for `cloud`
@@ -133,7 +133,7 @@ struct VoxelGridOptions {
   double leaf_mm = 5.0;           ///< cubic voxel edge (mm)
   int min_points_per_voxel = 1;   ///< voxels with fewer points are dropped
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<VoxelGridOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<VoxelGridOptions>& Table();  ///< the options, declared once
 };
 
 /// One point per occupied voxel at the centroid of its points (colours and
@@ -147,7 +147,7 @@ struct CropBoxOptions {
   bool negative = false;        ///< keep the points outside the box instead
   bool keep_organized = false;
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<CropBoxOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<CropBoxOptions>& Table();  ///< the options, declared once
 };
 
 /// Keeps points inside an axis-aligned box (bounds inclusive).
@@ -160,7 +160,7 @@ struct PassThroughOptions {
   bool negative = false;    ///< keep the points outside [min, max]
   bool keep_organized = false;
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<PassThroughOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<PassThroughOptions>& Table();  ///< the options, declared once
 };
 
 /// Keeps points whose `field` lies in [min, max]; throws Error if the field is missing.
@@ -173,7 +173,7 @@ struct PlaneRemovalOptions {
   int max_iterations = 1000;            ///< RANSAC samples per plane
   std::uint64_t seed = 42;              ///< RANSAC sampler seed
   void Check() const;  ///< every field against Table(), then the rules between fields
-  static const OptionTable<PlaneRemovalOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<PlaneRemovalOptions>& Table();  ///< the options, declared once
 };
 
 /// Removes the dominant planes (floor, walls) one after another with PCL's RANSAC on

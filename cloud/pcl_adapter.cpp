@@ -6,7 +6,7 @@
 #include <cstring>
 #include <limits>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::cloud {
 

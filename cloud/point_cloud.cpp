@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 #include <limits>
 
@@ -24,6 +24,13 @@ void PointCloud::CheckConsistent(const std::string& what) const {
     throw Error(what + ": width*height = " + std::to_string(width) + "*" +
                 std::to_string(height) + " does not match " + std::to_string(n) + " points");
   }
+}
+
+std::vector<Eigen::Vector3d> PointsAt(const PointCloud& cloud, const std::vector<std::size_t>& indices) {
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(indices.size());
+  for (std::size_t i : indices) out.push_back(cloud.points_mm[i].cast<double>());
+  return out;
 }
 
 std::vector<double> FieldAt(const PointCloud& cloud, const std::string& name, const std::vector<std::size_t>& indices) {

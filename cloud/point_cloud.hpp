@@ -57,6 +57,9 @@ inline constexpr const char* kPixelSizeField = "pixel_mm";
 /// The values of field `name` at `indices`, as doubles; empty when the cloud has no such field.
 std::vector<double> FieldAt(const PointCloud& cloud, const std::string& name, const std::vector<std::size_t>& indices);
 
+/// The points at `indices` in double precision: one hedge's points, as the fitters take them.
+std::vector<Eigen::Vector3d> PointsAt(const PointCloud& cloud, const std::vector<std::size_t>& indices);
+
 /// One hedge's finite points.
 struct HedgeGroup {
   int id = 0;                        ///< 0 when the cloud has no hedge_id field (one hedge)

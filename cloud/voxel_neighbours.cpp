@@ -13,9 +13,11 @@
 #include <immintrin.h>
 #endif
 
-#include "cloud/parallel.hpp"
+#include "pipeline/parallel.hpp"
 
 namespace hedgefit::cloud::internal {
+
+using pipeline::ParallelFor;
 
 namespace {
 
@@ -197,48 +199,55 @@ Kernels PickKernels() {
   return k;
 }
 
-}  // namespace
+// The finite points sorted by (z, y, x) cell of a grid whose cells are about 1.5 typical k-th
+// distances: each (y, z) row of cells is one contiguous range of the sorted points, sorted by x cell.
+struct SortedGrid {
+  std::vector<std::uint32_t> finite;  // cloud index of each finite point
+  std::vector<std::uint32_t> order;   // sorted position -> index into finite
+  std::vector<float> xs, ys, zs;      // the sorted points
+  std::vector<std::uint32_t> cx;      // their x cells
+  std::vector<std::uint32_t> row_begin;
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+  double diag = 0, rho0 = 0, inv_h = 1;
+  std::uint32_t nx = 1, ny = 1, nz = 1;
 
-void ForcePortableKnn(bool portable) { g_force_portable = portable; }
+  std::uint32_t Cell(double v, double origin, std::uint32_t count) const {
+    const double c = std::floor((v - origin) * inv_h);
+    return static_cast<std::uint32_t>(std::clamp(c, 0.0, double(count - 1)));
+  }
+};
 
-std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int num_threads) {
-  std::vector<float> out(cloud.size(), 0.0f);
-  const std::size_t k = static_cast<std::size_t>(mean_k) + 1;  // includes the query point itself
-  std::vector<std::uint32_t> finite;
+SortedGrid BuildGrid(const PointCloud& cloud, std::size_t k) {
+  SortedGrid g;
   std::vector<Eigen::Vector3f> finite_pts;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (IsFinite(cloud.points_mm[i])) {
-      finite.push_back(static_cast<std::uint32_t>(i));
+      g.finite.push_back(static_cast<std::uint32_t>(i));
       finite_pts.push_back(cloud.points_mm[i]);
     }
   }
-  const std::size_t n = finite.size();
-  if (n == 0) return out;
-
+  const std::size_t n = g.finite.size();
+  if (n == 0) return g;
   Eigen::Vector3d lo = finite_pts[0].cast<double>(), hi = lo;
   for (const auto& p : finite_pts) {
     lo = lo.cwiseMin(p.cast<double>());
     hi = hi.cwiseMax(p.cast<double>());
   }
+  g.lo = lo;
   const Eigen::Vector3d extent = hi - lo;
-  const double diag = extent.norm();
-  const double rho0 = n > k ? EstimateKthDistance(finite_pts, k) : diag;
+  g.diag = extent.norm();
+  g.rho0 = n > k ? EstimateKthDistance(finite_pts, k) : g.diag;
   // Cells of 1.5 typical k-th distances (fastest on real stereo clouds: larger cells let
   // consecutive queries share boxes); coarser if the (y, z) row table would be too big.
   constexpr double kMaxRows = double(1 << 24);
-  double h = std::max(rho0 * 1.5, diag * 1e-6);
+  double h = std::max(g.rho0 * 1.5, g.diag * 1e-6);
   if (!(h > 0)) h = 1.0;  // every point identical
   h = std::max(h, std::sqrt((extent.y() + h) * (extent.z() + h) / kMaxRows));
   h = std::max(h, extent.x() / double(1u << 30));
-  const double inv_h = 1.0 / h;
-  const std::uint32_t nx = static_cast<std::uint32_t>(extent.x() * inv_h) + 1;
-  const std::uint32_t ny = static_cast<std::uint32_t>(extent.y() * inv_h) + 1;
-  const std::uint32_t nz = static_cast<std::uint32_t>(extent.z() * inv_h) + 1;
-  auto cell = [&](double v, double origin, std::uint32_t count) {
-    const double c = std::floor((v - origin) * inv_h);
-    return static_cast<std::uint32_t>(std::clamp(c, 0.0, double(count - 1)));
-  };
-
+  g.inv_h = 1.0 / h;
+  g.nx = static_cast<std::uint32_t>(extent.x() * g.inv_h) + 1;
+  g.ny = static_cast<std::uint32_t>(extent.y() * g.inv_h) + 1;
+  g.nz = static_cast<std::uint32_t>(extent.z() * g.inv_h) + 1;
   // Sort points by (z, y, x) cell; each (y, z) row is then one contiguous range, sorted by x cell.
   struct Item {
     std::uint64_t key;
@@ -247,119 +256,136 @@ std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int
   std::vector<Item> items(n);
   for (std::size_t j = 0; j < n; ++j) {
     const Eigen::Vector3f& p = finite_pts[j];
-    const std::uint64_t row = std::uint64_t(cell(p.z(), lo.z(), nz)) * ny + cell(p.y(), lo.y(), ny);
-    items[j] = {(row << 32) | cell(p.x(), lo.x(), nx), static_cast<std::uint32_t>(j)};
+    const std::uint64_t row = std::uint64_t(g.Cell(p.z(), lo.z(), g.nz)) * g.ny + g.Cell(p.y(), lo.y(), g.ny);
+    items[j] = {(row << 32) | g.Cell(p.x(), lo.x(), g.nx), static_cast<std::uint32_t>(j)};
   }
   std::sort(items.begin(), items.end(), [](const Item& a, const Item& b) { return a.key < b.key; });
-  std::vector<float> xs(n), ys(n), zs(n);
-  std::vector<std::uint32_t> cx(n);
-  std::vector<std::uint32_t> row_begin(std::size_t(ny) * nz + 1, 0);
+  g.xs.resize(n), g.ys.resize(n), g.zs.resize(n), g.cx.resize(n), g.order.resize(n);
+  g.row_begin.assign(std::size_t(g.ny) * g.nz + 1, 0);
   for (std::size_t s = 0; s < n; ++s) {
     const Eigen::Vector3f& p = finite_pts[items[s].index];
-    xs[s] = p.x();
-    ys[s] = p.y();
-    zs[s] = p.z();
-    cx[s] = static_cast<std::uint32_t>(items[s].key & 0xffffffffu);
-    ++row_begin[(items[s].key >> 32) + 1];
+    g.xs[s] = p.x();
+    g.ys[s] = p.y();
+    g.zs[s] = p.z();
+    g.cx[s] = static_cast<std::uint32_t>(items[s].key & 0xffffffffu);
+    g.order[s] = items[s].index;
+    ++g.row_begin[(items[s].key >> 32) + 1];
   }
-  for (std::size_t r = 1; r < row_begin.size(); ++r) row_begin[r] += row_begin[r - 1];
+  for (std::size_t r = 1; r < g.row_begin.size(); ++r) g.row_begin[r] += g.row_begin[r - 1];
+  return g;
+}
 
-  constexpr std::size_t kChunk = 2048;
-  const Kernels kernels = PickKernels();
-  // Scratch per worker, kept across its chunks (the buffers are as long as the cloud).
-  struct Scratch {
-    std::vector<float> near, ring;
-    std::vector<std::pair<std::ptrdiff_t, std::ptrdiff_t>> ranges;
-    std::array<std::uint32_t, 6> cached_box{1, 0, 1, 0, 1, 0};  // empty
-    float guess = 0;  // k-th squared distance of the previous query
-  };
-  tbb::enumerable_thread_specific<Scratch> scratch([&] {
-    Scratch sc;
-    sc.near.resize(n + 16);  // slack for the vector kernels' full-width stores
-    sc.ring.resize(n + 16);
-    sc.guess = static_cast<float>(rho0 * rho0);
-    return sc;
-  });
-  auto work = [&](std::size_t first, std::size_t last) {
-    Scratch& sc = scratch.local();
-    std::vector<float>& near = sc.near;
-    std::vector<float>& ring = sc.ring;
-    auto& ranges = sc.ranges;
-    auto& cached_box = sc.cached_box;
-    float& guess = sc.guess;
-    {
-      for (std::size_t s = first; s < last; ++s) {
-        const float qx = xs[s], qy = ys[s], qz = zs[s];
-        // Neighbouring queries have similar k-th distances: start just above the previous one.
-        double rho2 = std::max(double(guess) * 1.12, 1e-30);
-        std::size_t count = 0;
-        for (;;) {
-          // Every point within sqrt(rho2) of q lies in this box of cells (slightly padded
-          // so float rounding of the distance cannot put a counted point outside it).
-          const double rho = std::sqrt(rho2) * (1 + 1e-5) + 1e-9 * diag;
-          const std::uint32_t x0 = cell(qx - rho, lo.x(), nx), x1 = cell(qx + rho, lo.x(), nx);
-          const std::uint32_t y0 = cell(qy - rho, lo.y(), ny), y1 = cell(qy + rho, lo.y(), ny);
-          const std::uint32_t z0 = cell(qz - rho, lo.z(), nz), z1 = cell(qz + rho, lo.z(), nz);
-          const float limit = static_cast<float>(rho2);
-          const std::array<std::uint32_t, 6> box{x0, x1, y0, y1, z0, z1};
-          if (box != cached_box) {  // consecutive queries often share a box: reuse its ranges
-            cached_box = box;
-            ranges.clear();
-            for (std::uint32_t iz = z0; iz <= z1; ++iz) {
-              for (std::uint32_t iy = y0; iy <= y1; ++iy) {
-                const std::size_t row = std::size_t(iz) * ny + iy;
-                const std::uint32_t* rb = cx.data() + row_begin[row];
-                const std::uint32_t* re = cx.data() + row_begin[row + 1];
-                if (rb == re) continue;
-                const std::uint32_t* b = std::lower_bound(rb, re, x0);
-                const std::uint32_t* e = std::upper_bound(b, re, x1);
-                if (b != e) ranges.emplace_back(b - cx.data(), e - cx.data());
-              }
-            }
-          }
-          count = 0;
-          for (const auto& [b, e] : ranges) {
-            count = kernels.scan(xs.data(), ys.data(), zs.data(), static_cast<std::size_t>(b), static_cast<std::size_t>(e),
-                                 qx, qy, qz, limit, near.data(), count);
-          }
-          const bool whole_grid = x0 == 0 && y0 == 0 && z0 == 0 && x1 == nx - 1 && y1 == ny - 1 && z1 == nz - 1;
-          if (count >= k || (whole_grid && rho2 >= diag * diag)) break;
-          rho2 = std::max(rho2 * 2.0, 1e-12 * diag * diag + 1e-30);
+// Scratch per worker, kept across its chunks (the buffers are as long as the cloud).
+struct KnnScratch {
+  std::vector<float> near, ring;
+  std::vector<std::pair<std::ptrdiff_t, std::ptrdiff_t>> ranges;
+  std::array<std::uint32_t, 6> cached_box{1, 0, 1, 0, 1, 0};  // empty
+  float guess = 0;  // k-th squared distance of the previous query
+};
+
+// Gathers into sc.near the squared distances from sorted point `s` within a radius grown from the
+// previous query's k-th distance until it holds k points (or the whole grid); returns their count.
+std::size_t GatherNear(const SortedGrid& g, const Kernels& kernels, std::size_t s, std::size_t k, KnnScratch* sc) {
+  const float qx = g.xs[s], qy = g.ys[s], qz = g.zs[s];
+  // Neighbouring queries have similar k-th distances: start just above the previous one.
+  double rho2 = std::max(double(sc->guess) * 1.12, 1e-30);
+  std::size_t count = 0;
+  for (;;) {
+    // Every point within sqrt(rho2) of q lies in this box of cells (slightly padded so float
+    // rounding of the distance cannot put a counted point outside it).
+    const double rho = std::sqrt(rho2) * (1 + 1e-5) + 1e-9 * g.diag;
+    const std::uint32_t x0 = g.Cell(qx - rho, g.lo.x(), g.nx), x1 = g.Cell(qx + rho, g.lo.x(), g.nx);
+    const std::uint32_t y0 = g.Cell(qy - rho, g.lo.y(), g.ny), y1 = g.Cell(qy + rho, g.lo.y(), g.ny);
+    const std::uint32_t z0 = g.Cell(qz - rho, g.lo.z(), g.nz), z1 = g.Cell(qz + rho, g.lo.z(), g.nz);
+    const float limit = static_cast<float>(rho2);
+    const std::array<std::uint32_t, 6> box{x0, x1, y0, y1, z0, z1};
+    if (box != sc->cached_box) {  // consecutive queries often share a box: reuse its ranges
+      sc->cached_box = box;
+      sc->ranges.clear();
+      for (std::uint32_t iz = z0; iz <= z1; ++iz) {
+        for (std::uint32_t iy = y0; iy <= y1; ++iy) {
+          const std::size_t row = std::size_t(iz) * g.ny + iy;
+          const std::uint32_t* rb = g.cx.data() + g.row_begin[row];
+          const std::uint32_t* re = g.cx.data() + g.row_begin[row + 1];
+          if (rb == re) continue;
+          const std::uint32_t* b = std::lower_bound(rb, re, x0);
+          const std::uint32_t* e = std::upper_bound(b, re, x1);
+          if (b != e) sc->ranges.emplace_back(b - g.cx.data(), e - g.cx.data());
         }
-        // PCL divides by mean_k even when the cloud holds fewer than k points; so do we.
-        const std::size_t kk = std::min(k, count);
-        // Sum of sqrt over the kk smallest squared distances. The query itself is among
-        // them at distance 0 and adds nothing, as in PCL. Values clearly below the previous
-        // k-th distance are certainly in; only the few near it need ordering.
-        const float sure = guess * 0.88f;
-        double sum = 0.0;
-        std::size_t in = 0;
-        const std::size_t ring_size = kernels.split(near.data(), count, sure, &sum, &in, ring.data());
-        float kth;
-        if (in <= kk) {
-          const std::size_t need = kk - in;  // ring_size >= need since count >= kk
-          if (ring_size <= 16) {
-            kernels.sort16(ring.data(), ring_size);
-          } else {
-            std::nth_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(need),
-                             ring.begin() + static_cast<std::ptrdiff_t>(ring_size));
-          }
-          for (std::size_t j = 0; j < need; ++j) sum += std::sqrt(static_cast<double>(ring[j]));
-          kth = need > 0 ? *std::max_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(need)) : sure;
-        } else {  // the neighbourhood got denser than the guess: select among all of near
-          std::nth_element(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(kk - 1),
-                           near.begin() + static_cast<std::ptrdiff_t>(count));
-          sum = 0.0;
-          for (std::size_t j = 0; j < kk; ++j) sum += std::sqrt(static_cast<double>(near[j]));
-          kth = near[kk - 1];
-        }
-        guess = kth;
-        out[finite[items[s].index]] = static_cast<float>(sum / mean_k);
       }
     }
-  };
-  ParallelFor(n, num_threads, kChunk, work);
+    count = 0;
+    for (const auto& [b, e] : sc->ranges) {
+      count = kernels.scan(g.xs.data(), g.ys.data(), g.zs.data(), static_cast<std::size_t>(b), static_cast<std::size_t>(e),
+                           qx, qy, qz, limit, sc->near.data(), count);
+    }
+    const bool whole_grid = x0 == 0 && y0 == 0 && z0 == 0 && x1 == g.nx - 1 && y1 == g.ny - 1 && z1 == g.nz - 1;
+    if (count >= k || (whole_grid && rho2 >= g.diag * g.diag)) return count;
+    rho2 = std::max(rho2 * 2.0, 1e-12 * g.diag * g.diag + 1e-30);
+  }
+}
+
+// The sum of the square roots of the kk smallest of the `count` squared distances in sc.near; the
+// query itself is among them at distance 0 and adds nothing, as in PCL. Values clearly below the
+// previous k-th distance are certainly in; only the few near it need ordering. Updates sc.guess.
+double SumOfNearest(const Kernels& kernels, std::size_t count, std::size_t kk, KnnScratch* sc) {
+  std::vector<float>& near = sc->near;
+  std::vector<float>& ring = sc->ring;
+  const float sure = sc->guess * 0.88f;
+  double sum = 0.0;
+  std::size_t in = 0;
+  const std::size_t ring_size = kernels.split(near.data(), count, sure, &sum, &in, ring.data());
+  float kth;
+  if (in <= kk) {
+    const std::size_t need = kk - in;  // ring_size >= need since count >= kk
+    if (ring_size <= 16) {
+      kernels.sort16(ring.data(), ring_size);
+    } else {
+      std::nth_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(need),
+                       ring.begin() + static_cast<std::ptrdiff_t>(ring_size));
+    }
+    for (std::size_t j = 0; j < need; ++j) sum += std::sqrt(static_cast<double>(ring[j]));
+    kth = need > 0 ? *std::max_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(need)) : sure;
+  } else {  // the neighbourhood got denser than the guess: select among all of near
+    std::nth_element(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(kk - 1),
+                     near.begin() + static_cast<std::ptrdiff_t>(count));
+    sum = 0.0;
+    for (std::size_t j = 0; j < kk; ++j) sum += std::sqrt(static_cast<double>(near[j]));
+    kth = near[kk - 1];
+  }
+  sc->guess = kth;
+  return sum;
+}
+
+}  // namespace
+
+std::vector<float> GridMeanKnnDistances(const PointCloud& cloud, int mean_k, int num_threads) {
+  std::vector<float> out(cloud.size(), 0.0f);
+  const std::size_t k = static_cast<std::size_t>(mean_k) + 1;  // includes the query point itself
+  const SortedGrid g = BuildGrid(cloud, k);
+  const std::size_t n = g.finite.size();
+  if (n == 0) return out;
+  constexpr std::size_t kChunk = 2048;
+  const Kernels kernels = PickKernels();
+  tbb::enumerable_thread_specific<KnnScratch> scratch([&] {
+    KnnScratch sc;
+    sc.near.resize(n + 16);  // slack for the vector kernels' full-width stores
+    sc.ring.resize(n + 16);
+    sc.guess = static_cast<float>(g.rho0 * g.rho0);
+    return sc;
+  });
+  ParallelFor(n, num_threads, kChunk, [&](std::size_t first, std::size_t last) {
+    KnnScratch& sc = scratch.local();
+    for (std::size_t s = first; s < last; ++s) {
+      const std::size_t count = GatherNear(g, kernels, s, k, &sc);
+      // PCL divides by mean_k even when the cloud holds fewer than k points; so do we.
+      const double sum = SumOfNearest(kernels, count, std::min(k, count), &sc);
+      out[g.finite[g.order[s]]] = static_cast<float>(sum / mean_k);
+    }
+  });
   return out;
 }
+
+void ForcePortableKnn(bool portable) { g_force_portable = portable; }
 
 }  // namespace hedgefit::cloud::internal

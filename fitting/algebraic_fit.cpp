@@ -6,7 +6,7 @@
 #include <cmath>
 #include <optional>
 
-#include "cloud/parallel.hpp"
+#include "pipeline/parallel.hpp"
 namespace hedgefit::fitting {
 
 namespace {
@@ -26,7 +26,7 @@ std::vector<Acc> Slices(std::size_t n, Fn fn) {
   const std::size_t slices = n >= 2 * kSlice ? (n + kSlice - 1) / kSlice : 1;
   const std::size_t grain = (n + slices - 1) / std::max<std::size_t>(1, slices);
   std::vector<Acc> acc(slices);
-  cloud::ParallelFor(n, 0, std::max<std::size_t>(1, grain),
+  pipeline::ParallelFor(n, 0, std::max<std::size_t>(1, grain),
                      [&](std::size_t b, std::size_t e) { fn(b, e, &acc[b / std::max<std::size_t>(1, grain)]); });
   return acc;
 }

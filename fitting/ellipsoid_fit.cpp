@@ -7,7 +7,7 @@
 #include <cmath>
 #include <memory>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "fitting/geometric_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -110,10 +110,10 @@ EllipsoidFit FitEllipsoid(const std::vector<Eigen::Vector3d>& points_mm) {
   return done();
 }
 
-const cloud::OptionTable<SpheroidFitOptions>& SpheroidFitOptions::Table() {
+const pipeline::OptionTable<SpheroidFitOptions>& SpheroidFitOptions::Table() {
   using O = SpheroidFitOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("up", &O::up, "the vertical in the cloud's frame ([0, -1, 0]: a level camera, y down)")
           .Add("loss_scale", &O::loss_scale_mm, "Huber loss scale: larger residuals are down-weighted", "mm").Min(1e-6);
   return table;

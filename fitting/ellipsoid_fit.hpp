@@ -7,7 +7,7 @@
 
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -33,7 +33,7 @@ struct SpheroidFitOptions {
   Eigen::Vector3d up = Eigen::Vector3d(0, -1, 0);  ///< the vertical, in the cloud's frame (camera: -y)
   double loss_scale_mm = 10.0;  ///< Huber: residuals beyond this (leaf gaps, strays) are down-weighted
   void Check() const;
-  static const cloud::OptionTable<SpheroidFitOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<SpheroidFitOptions>& Table();  ///< the options, declared once
 };
 
 /// A sphere flattened or stretched along the vertical: centre, horizontal semi-axis a and

@@ -7,8 +7,8 @@
 #include <chrono>
 #include <cmath>
 
-#include "cloud/error.hpp"
-#include "cloud/parallel.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/parallel.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/geometric_fit.hpp"
 
@@ -138,7 +138,7 @@ class ParallelShellCost : public ceres::FirstOrderFunction {
     const std::size_t chunk = (n + kChunks - 1) / kChunks;
     std::array<double, kChunks> partial{};
     std::array<std::array<double, kParams>, kChunks> partial_grad{};
-    cloud::ParallelFor(kChunks, 0, 1, [&](std::size_t b, std::size_t e) {
+    pipeline::ParallelFor(kChunks, 0, 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t c = b; c < e; ++c) {
         partial[c] = model_.Sum(p, std::min(n, c * chunk), std::min(n, (c + 1) * chunk),
                                 gradient ? partial_grad[c].data() : nullptr);
@@ -189,10 +189,10 @@ class ScaledShellCost : public ceres::FirstOrderFunction {
 
 }  // namespace
 
-const cloud::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
+const pipeline::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
   using O = EnvelopeFitOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("viewpoint", &O::viewpoint_mm, "the camera's position in the cloud's frame", "mm")
           .Add("outlier_share", &O::outlier_share, "prior share of outliers (uniform)").Range(1e-6, 0.5)
           .Add("max_iterations", &O::max_iterations, "LBFGS iterations at most", "iterations").Range(1, 10000)
@@ -208,6 +208,144 @@ const cloud::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
 }
 
 void EnvelopeFitOptions::Check() const { Table().Validate(*this); }
+
+// The points about their mean, the matcher's reading of the outermost leaves below them (per
+// point), the residuals' robust spread from the start and where outliers may fall; every n-th point
+// when there are more than max_points.
+struct ShellData {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> centred;
+  std::vector<double> bias;
+  double spread = 0, width = 0, mean_bias = 0;
+};
+
+ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
+                       const SphereFitResult& start, const std::vector<double>* pixel_mm) {
+  ShellData d;
+  Eigen::Vector3d& mean = d.mean;
+  std::vector<Eigen::Vector3d>& centred = d.centred;
+  std::vector<double>& bias = d.bias;
+  for (const auto& p : points_mm) mean += p;
+  mean /= double(points_mm.size());
+  centred.resize(points_mm.size());
+  std::vector<double> res(points_mm.size());
+  for (std::size_t i = 0; i < points_mm.size(); ++i) {
+    centred[i] = points_mm[i] - mean;
+    res[i] = (points_mm[i] - start.sphere.center_mm).norm() - start.sphere.radius_mm;
+  }
+  // Robust spread of the residuals: the scale of the leaf layer and the noise together.
+  std::vector<double> abs_res(res.size());
+  for (std::size_t i = 0; i < res.size(); ++i) abs_res[i] = std::abs(res[i]);
+  std::nth_element(abs_res.begin(), abs_res.begin() + std::ptrdiff_t(abs_res.size() / 2), abs_res.end());
+  const double spread = d.spread = std::max(0.05, 1.4826 * abs_res[abs_res.size() / 2]);
+  d.width = std::max(10 * spread, 0.5 * start.sphere.radius_mm);  // where outliers may fall
+  // The matcher's reading of the outermost leaves below them, per point (top_bias_px footprints).
+  if (pixel_mm && options.top_bias_px > 0) {
+    bias.resize(points_mm.size());
+    for (std::size_t i = 0; i < bias.size(); ++i) {
+      const double p = (*pixel_mm)[i];
+      bias[i] = std::isfinite(p) && p > 0 ? options.top_bias_px * std::min(p, kMaxTopBiasFootprintMm) : 0.0;
+    }
+  }
+  // Every n-th point, n the smallest that keeps at most max_points.
+  if (options.max_points > 0 && centred.size() > std::size_t(options.max_points)) {
+    const std::size_t n = (centred.size() + std::size_t(options.max_points) - 1) / std::size_t(options.max_points);
+    std::vector<Eigen::Vector3d> thinned;
+    std::vector<double> thinned_bias;
+    thinned.reserve(centred.size() / n + 1);
+    for (std::size_t i = 0; i < centred.size(); i += n) {
+      thinned.push_back(centred[i]);
+      if (!bias.empty()) thinned_bias.push_back(bias[i]);
+    }
+    centred.swap(thinned);
+    bias.swap(thinned_bias);
+  }
+  double& mean_bias = d.mean_bias;
+  for (const double b : bias) mean_bias += b;
+  if (!bias.empty()) mean_bias /= double(bias.size());
+  return d;
+}
+
+// The likeliest shell from the start and its restarts; `p` gets the parameters, `iterations`
+// the solver's iterations over all of them.
+ceres::GradientProblemSolver::Summary SolveShell(const ShellLikelihood& model, const ShellData& d, const Sphere& start_sphere,
+                                                 const EnvelopeFitOptions& options, double p[kParams], int* iterations) {
+  const double spread = d.spread, mean_bias = d.mean_bias;
+  const Eigen::Vector3d& mean = d.mean;
+  // A start: the geometric sphere, the envelope a spread outside it, leaves and noise of that
+  // spread's scale, and the given share on the envelope (as a logit).
+  auto start_at = [&](double logit_share, double* x) {
+    const Eigen::Vector3d c = start_sphere.center_mm - mean;
+    const double values[kParams] = {c.x(), c.y(), c.z(), start_sphere.radius_mm + spread + mean_bias, std::log(spread),
+                                    std::log(0.5 * spread), logit_share};
+    std::copy(values, values + kParams, x);
+  };
+  start_at(kStartLogitShare, p);
+  const double unit = spread;  // lengths in the residuals' spread (ScaledShellCost)
+  ceres::GradientProblem problem(new ScaledShellCost(model, unit));
+  ceres::GradientProblemSolver::Options so;
+  so.max_num_iterations = options.max_iterations;
+  so.logging_type = ceres::SILENT;
+  // A relative change of 1e-9 in the cost (tens of thousands of nats for 10000 points) is ~1e-5
+  // nats: with the radius's curvature of ~N / noise^2, a few thousandths of a millimetre. 1e-12
+  // took a third more iterations for the same fits (both renderers' standard and hard gardens
+  // within 0.03 mm mean |AER|, the envelope stage 145-153 -> 121-126 ms on POV-Ray's row).
+  so.function_tolerance = 1e-9;
+  so.gradient_tolerance = 1e-10;
+  auto scaled_solve = [&](double* x, ceres::GradientProblemSolver::Summary* sum) {
+    for (int k = 0; k < 4; ++k) x[k] /= unit;
+    ceres::Solve(so, problem, x, sum);
+    for (int k = 0; k < 4; ++k) x[k] *= unit;
+  };
+  ceres::GradientProblemSolver::Summary summary;
+  scaled_solve(p, &summary);
+  *iterations = static_cast<int>(summary.iterations.size());
+  // The share on the envelope and the exponential's depth trade against each other where the
+  // noise is as large as the leaf layer, and the likelihood has a local optimum on each side: a
+  // synthetic ball with 8 mm of exponential leaves and 6 mm of noise stopped at a third of its
+  // leaves on the envelope and a mean depth of 5.7 mm (a worse likelihood than the 8.1 mm found
+  // from no share). So the search also starts from almost no share (the exponential alone) and
+  // the likelier end is kept (when the first search ended with next to no share it is that start's
+  // basin already, and the second is skipped).
+  if (1 / (1 + std::exp(-p[6])) > kNoShareSkip) {
+    double q[kParams];
+    start_at(kNoShareLogit, q);
+    ceres::GradientProblemSolver::Summary again;
+    scaled_solve(q, &again);
+    *iterations += static_cast<int>(again.iterations.size());
+    if (again.IsSolutionUsable() && (!summary.IsSolutionUsable() || again.final_cost < summary.final_cost)) {
+      std::copy(q, q + kParams, p);
+      summary = again;
+    }
+  }
+  // Leaf depth and noise are searched as logarithms (both stay positive), so once the leaf depth
+  // has shrunk towards its floor its gradient vanishes and the search stays there, all spread
+  // taken for noise, even where deeper leaves explain the points better: a garden ball's fit
+  // (r 600 mm) stopped at 1.6 mm of leaves and 10.4 mm of noise, its centre 6.9 mm off, where
+  // every other start reached 8.2 and 7.3 mm and a centre 0.6 mm off; on synthetic leafy balls
+  // with noise 4-9 mm and leaves 6-10 mm deep, 63 of 72 ended so. A fit that ends with less leaf
+  // depth than half its noise is searched again with leaves half and all as deep as that noise,
+  // and the likeliest kept (3 of the 72 still end without leaves, all with the noise over 1.5
+  // times the leaf depth; a smooth sphere, whose leaf depth is nil, ends there again).
+  if (summary.IsSolutionUsable() && std::exp(p[4]) < 0.5 * std::exp(p[5])) {
+    const double noise = kMinScaleMm + std::exp(p[5]);
+    double best[kParams];
+    std::copy(p, p + kParams, best);
+    for (const double share : {0.5, 1.0}) {
+      double q[kParams] = {p[0], p[1], p[2], p[3] + share * noise, std::log(share * noise), std::log(0.6 * noise),
+                           kStartLogitShare};
+      ceres::GradientProblemSolver::Summary again;
+      scaled_solve(q, &again);
+      *iterations += static_cast<int>(again.iterations.size());
+      if (again.IsSolutionUsable() && again.final_cost < summary.final_cost) {
+        std::copy(q, q + kParams, best);
+        summary = again;
+      }
+    }
+    std::copy(best, best + kParams, p);
+  }
+  return summary;
+}
 
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
                         const Sphere* initial, const std::vector<double>* pixel_mm) {
@@ -240,121 +378,13 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
     r.message = "no starting sphere: " + start.message;
     return out;
   }
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : points_mm) mean += p;
-  mean /= double(points_mm.size());
-  std::vector<Eigen::Vector3d> centred(points_mm.size());
-  std::vector<double> res(points_mm.size());
-  for (std::size_t i = 0; i < points_mm.size(); ++i) {
-    centred[i] = points_mm[i] - mean;
-    res[i] = (points_mm[i] - start.sphere.center_mm).norm() - start.sphere.radius_mm;
-  }
-  // Robust spread of the residuals: the scale of the leaf layer and the noise together.
-  std::vector<double> abs_res(res.size());
-  for (std::size_t i = 0; i < res.size(); ++i) abs_res[i] = std::abs(res[i]);
-  std::nth_element(abs_res.begin(), abs_res.begin() + std::ptrdiff_t(abs_res.size() / 2), abs_res.end());
-  const double spread = std::max(0.05, 1.4826 * abs_res[abs_res.size() / 2]);
-  const double width = std::max(10 * spread, 0.5 * start.sphere.radius_mm);  // where outliers may fall
-  // The matcher's reading of the outermost leaves below them, per point (top_bias_px footprints).
-  std::vector<double> bias;
-  if (pixel_mm && options.top_bias_px > 0) {
-    bias.resize(points_mm.size());
-    for (std::size_t i = 0; i < bias.size(); ++i) {
-      const double p = (*pixel_mm)[i];
-      bias[i] = std::isfinite(p) && p > 0 ? options.top_bias_px * std::min(p, kMaxTopBiasFootprintMm) : 0.0;
-    }
-  }
-  // Every n-th point, n the smallest that keeps at most max_points.
-  if (options.max_points > 0 && centred.size() > std::size_t(options.max_points)) {
-    const std::size_t n = (centred.size() + std::size_t(options.max_points) - 1) / std::size_t(options.max_points);
-    std::vector<Eigen::Vector3d> thinned;
-    std::vector<double> thinned_bias;
-    thinned.reserve(centred.size() / n + 1);
-    for (std::size_t i = 0; i < centred.size(); i += n) {
-      thinned.push_back(centred[i]);
-      if (!bias.empty()) thinned_bias.push_back(bias[i]);
-    }
-    centred.swap(thinned);
-    bias.swap(thinned_bias);
-  }
-  double mean_bias = 0;
-  for (const double b : bias) mean_bias += b;
-  if (!bias.empty()) mean_bias /= double(bias.size());
-  ShellLikelihood model{&centred, bias.empty() ? nullptr : &bias, options.viewpoint_mm - mean,
-                        std::log(options.outlier_share / width), std::log(1 - options.outlier_share)};
-  // A start: the geometric sphere, the envelope a spread outside it, leaves and noise of that
-  // spread's scale, and the given share on the envelope (as a logit).
-  auto start_at = [&](double logit_share, double* x) {
-    const Eigen::Vector3d c = start.sphere.center_mm - mean;
-    const double values[kParams] = {c.x(), c.y(), c.z(), start.sphere.radius_mm + spread + mean_bias, std::log(spread),
-                                    std::log(0.5 * spread), logit_share};
-    std::copy(values, values + kParams, x);
-  };
+  const ShellData d = PrepareShell(points_mm, options, start, pixel_mm);
+  const Eigen::Vector3d& mean = d.mean;
+  const double mean_bias = d.mean_bias;
+  ShellLikelihood model{&d.centred, d.bias.empty() ? nullptr : &d.bias, options.viewpoint_mm - mean,
+                        std::log(options.outlier_share / d.width), std::log(1 - options.outlier_share)};
   double p[kParams];
-  start_at(kStartLogitShare, p);
-  const double unit = spread;  // lengths in the residuals' spread (ScaledShellCost)
-  ceres::GradientProblem problem(new ScaledShellCost(model, unit));
-  ceres::GradientProblemSolver::Options so;
-  so.max_num_iterations = options.max_iterations;
-  so.logging_type = ceres::SILENT;
-  // A relative change of 1e-9 in the cost (tens of thousands of nats for 10000 points) is ~1e-5
-  // nats: with the radius's curvature of ~N / noise^2, a few thousandths of a millimetre. 1e-12
-  // took a third more iterations for the same fits (both renderers' standard and hard gardens
-  // within 0.03 mm mean |AER|, the envelope stage 145-153 -> 121-126 ms on POV-Ray's row).
-  so.function_tolerance = 1e-9;
-  so.gradient_tolerance = 1e-10;
-  auto scaled_solve = [&](double* x, ceres::GradientProblemSolver::Summary* sum) {
-    for (int k = 0; k < 4; ++k) x[k] /= unit;
-    ceres::Solve(so, problem, x, sum);
-    for (int k = 0; k < 4; ++k) x[k] *= unit;
-  };
-  ceres::GradientProblemSolver::Summary summary;
-  scaled_solve(p, &summary);
-  r.iterations = static_cast<int>(summary.iterations.size());
-  // The share on the envelope and the exponential's depth trade against each other where the
-  // noise is as large as the leaf layer, and the likelihood has a local optimum on each side: a
-  // synthetic ball with 8 mm of exponential leaves and 6 mm of noise stopped at a third of its
-  // leaves on the envelope and a mean depth of 5.7 mm (a worse likelihood than the 8.1 mm found
-  // from no share). So the search also starts from almost no share (the exponential alone) and
-  // the likelier end is kept (when the first search ended with next to no share it is that start's
-  // basin already, and the second is skipped).
-  if (1 / (1 + std::exp(-p[6])) > kNoShareSkip) {
-    double q[kParams];
-    start_at(kNoShareLogit, q);
-    ceres::GradientProblemSolver::Summary again;
-    scaled_solve(q, &again);
-    r.iterations += static_cast<int>(again.iterations.size());
-    if (again.IsSolutionUsable() && (!summary.IsSolutionUsable() || again.final_cost < summary.final_cost)) {
-      std::copy(q, q + kParams, p);
-      summary = again;
-    }
-  }
-  // Leaf depth and noise are searched as logarithms (both stay positive), so once the leaf depth
-  // has shrunk towards its floor its gradient vanishes and the search stays there, all spread
-  // taken for noise, even where deeper leaves explain the points better: a garden ball's fit
-  // (r 600 mm) stopped at 1.6 mm of leaves and 10.4 mm of noise, its centre 6.9 mm off, where
-  // every other start reached 8.2 and 7.3 mm and a centre 0.6 mm off; on synthetic leafy balls
-  // with noise 4-9 mm and leaves 6-10 mm deep, 63 of 72 ended so. A fit that ends with less leaf
-  // depth than half its noise is searched again with leaves half and all as deep as that noise,
-  // and the likeliest kept (3 of the 72 still end without leaves, all with the noise over 1.5
-  // times the leaf depth; a smooth sphere, whose leaf depth is nil, ends there again).
-  if (summary.IsSolutionUsable() && std::exp(p[4]) < 0.5 * std::exp(p[5])) {
-    const double noise = kMinScaleMm + std::exp(p[5]);
-    double best[kParams];
-    std::copy(p, p + kParams, best);
-    for (const double share : {0.5, 1.0}) {
-      double q[kParams] = {p[0], p[1], p[2], p[3] + share * noise, std::log(share * noise), std::log(0.6 * noise),
-                           kStartLogitShare};
-      ceres::GradientProblemSolver::Summary again;
-      scaled_solve(q, &again);
-      r.iterations += static_cast<int>(again.iterations.size());
-      if (again.IsSolutionUsable() && again.final_cost < summary.final_cost) {
-        std::copy(q, q + kParams, best);
-        summary = again;
-      }
-    }
-    std::copy(best, best + kParams, p);
-  }
+  const ceres::GradientProblemSolver::Summary summary = SolveShell(model, d, start.sphere, options, p, &r.iterations);
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const double mu = kMinScaleMm + std::exp(p[4]), sigma = kMinScaleMm + std::exp(p[5]);
   if (!summary.IsSolutionUsable() || !std::isfinite(p[3]) || !(p[3] > 0) || !std::isfinite(mu)) {

@@ -20,7 +20,7 @@
 
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -41,7 +41,7 @@ struct EnvelopeFitOptions {
   /// over 4 mm (beyond those it was measured at) count as 4 mm.
   double top_bias_px = 0.5;
   void Check() const;
-  static const cloud::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once
 };
 
 struct EnvelopeFit {

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <limits>
 
-#include "cloud/parallel.hpp"
+#include "pipeline/parallel.hpp"
 #include "cloud/point_cloud.hpp"
-#include "fitting/evaluation.hpp"
+#include "fitting/fit_fields.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
 #include "fitting/uncertainty.hpp"
@@ -17,8 +17,8 @@ namespace hedgefit::fitting {
 
 namespace {
 
-using cloud::Context;
-using cloud::Options;
+using pipeline::Context;
+using pipeline::Options;
 
 // Notes: the fit's fields; with several hedges, prefixed "hedgeN." so none overwrites another.
 void Record(Context& ctx, const SphereFitResult& r, bool per_hedge) {
@@ -35,9 +35,13 @@ void Record(Context& ctx, const SphereFitResult& r, bool per_hedge) {
 
 }  // namespace
 
-void RegisterFittingStages(cloud::Registry& r) {
-  using namespace hedgefit::cloud;
-  // One stage per row of the method table.
+namespace {
+
+using namespace hedgefit::cloud;
+using namespace hedgefit::pipeline;
+
+// fitters.*: one stage per row of the method table.
+void AddFitters(pipeline::Registry& r) {
   for (const FitMethod& m : FitMethods()) {
     std::vector<OptionSpec> options = m.options;
     if (m.has_inliers) options.push_back(BoolOption("keep_inliers", false, "replace 'cloud' by the inliers, for later stages"));
@@ -68,9 +72,7 @@ void RegisterFittingStages(cloud::Registry& r) {
               ParallelFor(groups.size(), 0, 1, [&](std::size_t b, std::size_t e) {
                 for (std::size_t k = b; k < e; ++k) {
                   const HedgeGroup& g = groups[k];
-                  std::vector<Eigen::Vector3d> pts;
-                  pts.reserve(g.indices.size());
-                  for (std::size_t i : g.indices) pts.push_back(c.points_mm[i].cast<double>());
+                  const std::vector<Eigen::Vector3d> pts = PointsAt(c, g.indices);
                   const std::vector<double> pixel_mm = FieldAt(c, kPixelSizeField, g.indices);
                   FitInputs in;
                   in.points_mm = &pts;
@@ -120,7 +122,16 @@ void RegisterFittingStages(cloud::Registry& r) {
             });
           });
   }
-  // The trim plan: cut depth per point against a target sphere, per hedge.
+  for (const char* stage : {"fitters.geometric", "fitters.envelope"}) {
+    r.SetOptionInputs(stage, [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
+      if (o.GetString("initial") == "previous") return {{"fits", "option 'initial' = previous (start from an earlier fit)"}};
+      return {};
+    });
+  }
+}
+
+// filters.trim_depth: the trim plan.
+void AddTrimDepth(pipeline::Registry& r) {
   const std::string trim = "filters.trim_depth";
   r.Add(StageInfo{trim,
                   "Trim plan: each point's cut depth past a target sphere (field 'cut_depth', mm, + = cut), the share "
@@ -181,9 +192,7 @@ void RegisterFittingStages(cloud::Registry& r) {
                 }
                 target.center_mm = fit->sphere.center_mm;
               }
-              std::vector<Eigen::Vector3d> pts;
-              pts.reserve(g.indices.size());
-              for (std::size_t i : g.indices) pts.push_back(c.points_mm[i].cast<double>());
+              const std::vector<Eigen::Vector3d> pts = PointsAt(c, g.indices);
               TrimPlan plan = PlanTrim(pts, target, to);
               plan.hedge_id = g.id;
               for (std::size_t k = 0; k < g.indices.size(); ++k) depth[g.indices[k]] = plan.depth_mm[k];
@@ -207,12 +216,12 @@ void RegisterFittingStages(cloud::Registry& r) {
     if (o.GetList("center").empty()) return {{"fits", "no option 'center' (the target is centred on the fit)"}};
     return {};
   });
-  for (const char* stage : {"fitters.geometric", "fitters.envelope"}) {
-    r.SetOptionInputs(stage, [](const Options& o) -> std::vector<std::pair<std::string, std::string>> {
-      if (o.GetString("initial") == "previous") return {{"fits", "option 'initial' = previous (start from an earlier fit)"}};
-      return {};
-    });
-  }
+}
+
+}  // namespace
+
+void RegisterFittingStages(pipeline::Registry& r) {
+  for (auto add : {&AddFitters, &AddTrimDepth}) add(r);
 }
 
 }  // namespace hedgefit::fitting

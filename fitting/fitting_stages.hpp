@@ -2,11 +2,11 @@
 /// fitters.* pipeline stages: each reads the 'cloud' artifact and appends its
 /// SphereFitResult to the 'fits' artifact (std::vector<SphereFitResult>).
 
-#include "cloud/registry.hpp"
+#include "pipeline/registry.hpp"
 
 namespace hedgefit::fitting {
 
 /// Adds one stage per row of the method table (fitting/methods.hpp) to `registry`.
-void RegisterFittingStages(cloud::Registry& registry);
+void RegisterFittingStages(pipeline::Registry& registry);
 
 }  // namespace hedgefit::fitting

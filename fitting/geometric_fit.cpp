@@ -6,7 +6,7 @@
 #include <cmath>
 #include <thread>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::fitting {
 
@@ -91,35 +91,24 @@ ceres::LossFunction* MakeLoss(RobustLoss loss, double scale) {
 
 }  // namespace
 
-const char* LossName(RobustLoss loss) {
-  switch (loss) {
-    case RobustLoss::kNone: return "none";
-    case RobustLoss::kHuber: return "huber";
-    case RobustLoss::kCauchy: return "cauchy";
-    case RobustLoss::kTukey: return "tukey";
-  }
-  return "?";
+const std::vector<std::pair<std::string, RobustLoss>>& LossNames() {
+  static const std::vector<std::pair<std::string, RobustLoss>> names{
+      {"none", RobustLoss::kNone}, {"huber", RobustLoss::kHuber}, {"cauchy", RobustLoss::kCauchy},
+      {"tukey", RobustLoss::kTukey}};
+  return names;
 }
 
-RobustLoss ParseLoss(const std::string& name) {
-  for (RobustLoss l : {RobustLoss::kNone, RobustLoss::kHuber, RobustLoss::kCauchy, RobustLoss::kTukey}) {
-    if (name == LossName(l)) return l;
-  }
-  throw Error("loss: '" + name + "' is not one of none, huber, cauchy, tukey");
-}
+const char* LossName(RobustLoss loss) { return pipeline::EnumName(LossNames(), loss); }
 
-const cloud::OptionTable<GeometricFitOptions>& GeometricFitOptions::Table() {
+const pipeline::OptionTable<GeometricFitOptions>& GeometricFitOptions::Table() {
   using O = GeometricFitOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .AddEnum("initial", &O::initial,
                    {{"kasa", AlgebraicMethod::kKasa}, {"pratt", AlgebraicMethod::kPratt},
                     {"taubin", AlgebraicMethod::kTaubin}, {"hyper", AlgebraicMethod::kHyper}},
                    "start from this algebraic fit")
-          .AddEnum("loss", &O::loss,
-                   {{"none", RobustLoss::kNone}, {"huber", RobustLoss::kHuber}, {"cauchy", RobustLoss::kCauchy},
-                    {"tukey", RobustLoss::kTukey}},
-                   "robust loss")
+          .AddEnum("loss", &O::loss, LossNames(), "robust loss")
           .Add("loss_scale", &O::loss_scale_mm, "residual where the loss starts to down-weight", "mm").Min(1e-9)
           .AddEnum("derivatives", &O::analytic_derivatives, {{"analytic", true}, {"automatic", false}}, "Jacobians")
           .Add("max_iterations", &O::max_iterations, "Levenberg-Marquardt iterations at most", "iterations")

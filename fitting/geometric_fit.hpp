@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/sphere_fit.hpp"
 
@@ -17,8 +17,9 @@ namespace hedgefit::fitting {
 enum class RobustLoss { kNone, kHuber, kCauchy, kTukey };
 
 /// "none", "huber", "cauchy", "tukey"; the parser throws hedgefit::Error if unknown.
+/// The losses by name, the one list the option table and LossName() read.
+const std::vector<std::pair<std::string, RobustLoss>>& LossNames();
 const char* LossName(RobustLoss loss);
-RobustLoss ParseLoss(const std::string& name);
 
 struct GeometricFitOptions {
   AlgebraicMethod initial = AlgebraicMethod::kHyper;  ///< starting fit, when none is given
@@ -30,7 +31,7 @@ struct GeometricFitOptions {
   int num_threads = 0;                 ///< 0 = all cores
   /// Throws hedgefit::Error naming the bad option.
   void Check() const;
-  static const cloud::OptionTable<GeometricFitOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<GeometricFitOptions>& Table();  ///< the options, declared once
 };
 
 /// Fits a sphere by orthogonal distance. `initial` (if given) replaces the algebraic start.

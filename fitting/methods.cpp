@@ -17,8 +17,8 @@ namespace hedgefit::fitting {
 
 namespace {
 
-using cloud::Options;
-using cloud::OptionSpec;
+using pipeline::Options;
+using pipeline::OptionSpec;
 
 // A shape fit (ellipsoid, spheroid) as a row of the table: the centre and the axes' geometric mean
 // as its sphere, the axes beside it.
@@ -53,8 +53,8 @@ FitMethod Algebraic(AlgebraicMethod m, std::string stage, std::string descriptio
 
 // RANSAC's options plus its seed (-1: the caller's, i.e. the pipeline's --seed).
 std::vector<OptionSpec> RansacOptions() {
-  return cloud::TableOptions<RansacFitOptions>(
-      {cloud::IntOption("seed", -1, "sampler seed; -1 = the pipeline's --seed").Min(-1)});
+  return pipeline::TableOptions<RansacFitOptions>(
+      {pipeline::IntOption("seed", -1, "sampler seed; -1 = the pipeline's --seed").Min(-1)});
 }
 
 RansacFitOptions BindRansac(const Options& o) {
@@ -99,6 +99,147 @@ SphereFitResult RansacThenRefine(
   return r;
 }
 
+// fitters.geometric: Ceres, from an algebraic fit or the pipeline's previous one.
+FitMethod GeometricRow() {
+  std::vector<OptionSpec> options = pipeline::TableOptions<GeometricFitOptions>();
+  // 'previous' starts from the last fit of the pipeline instead of an algebraic one.
+  for (auto& spec : options) {
+    if (spec.name == "initial") {
+      spec.choices.push_back("previous");
+      spec.help = "start from this algebraic fit, or 'previous' (the last fit before this one)";
+    }
+  }
+  return {"geometric", "fitters.geometric",
+               "Ceres orthogonal-distance sphere fit (residual |p - c| - r), robust loss optional, with standard errors",
+               options, false, [](const Options& o) -> BoundFit {
+                 const GeometricFitOptions p = GeometricFitOptions::Table().FromOptions(o);
+                 p.Check();
+                 const bool from_previous = o.GetString("initial") == "previous";
+                 return [p, from_previous](const FitInputs& in) {
+                   if (from_previous && in.previous == nullptr) {
+                     throw Error("option 'initial': 'previous' needs a converged fit from an earlier stage");
+                   }
+                   return FitSphereGeometric(*in.points_mm, p, from_previous ? in.previous : nullptr);
+                 };
+               }};
+}
+
+// fitters.ransac_ray: RANSAC, the geometric fit, then the fit along the rays.
+FitMethod RansacRayRow() {
+  std::vector<OptionSpec> options = RansacOptions();
+  options.push_back(pipeline::ListOption("origin", {0, 0, 0}, 3,
+                                      "where the sensor's rays start, in the cloud's frame (a capture's cloud: "
+                                      "the left camera, 0 0 0)",
+                                      "mm"));
+  return {"ransac_ray", "fitters.ransac_ray",
+               "RANSAC's inliers, the geometric fit, then a fit along the sensor's rays (range less the range "
+               "where the ray meets the sphere), which noise along the rays does not bias",
+               options, true, [](const Options& o) -> BoundFit {
+                 const RansacFitOptions p = BindRansac(o);
+                 const std::vector<double>& origin = o.GetList("origin");
+                 RayFitOptions ro;
+                 ro.origin_mm = Eigen::Vector3d(origin[0], origin[1], origin[2]);
+                 return [p, o, ro](const FitInputs& in) {
+                   return RansacThenRefine(p, o, in, "ransac_ray",
+                                           [&ro](const std::vector<Eigen::Vector3d>& pts, const Sphere& start) {
+                                             return FitSphereAlongRays(pts, start, ro);
+                                           });
+                 };
+               }};
+}
+
+// The envelope fit of `in` from the fit `initial` names (or the pipeline's previous one).
+SphereFitResult FitEnvelopeFrom(const EnvelopeFitOptions& p, const std::string& initial, const FitInputs& in) {
+  SphereFitResult start;
+  if (initial == "previous") {
+    if (in.previous == nullptr) {
+      throw Error("option 'initial': 'previous' needs a converged fit from an earlier stage");
+    }
+    start.sphere = *in.previous;
+    start.converged = true;
+  } else {
+    FitInputs sub = in;
+    sub.inliers = nullptr;
+    // The start sees the points the likelihood will (every n-th, at most
+    // max_points): it only has to land in the likelihood's basin, and RANSAC
+    // and the geometric fit cost in proportion to the points.
+    std::vector<Eigen::Vector3d> thinned;
+    const std::size_t n = in.points_mm->size(), cap = std::size_t(p.max_points);
+    if (cap > 0 && n > cap) {
+      const std::size_t step = (n + cap - 1) / cap;
+      thinned.reserve(n / step + 1);
+      for (std::size_t i = 0; i < n; i += step) thinned.push_back((*in.points_mm)[i]);
+      sub.points_mm = &thinned;
+    }
+    start = FindFitMethod(initial, "initial").bind(pipeline::Options(
+        [&] {
+          std::map<std::string, pipeline::OptionValue> v;
+          for (const auto& spec : FindFitMethod(initial, "initial").options) v[spec.name] = spec.default_value;
+          return v;
+        }()))(sub);
+  }
+  if (!start.converged) {
+    SphereFitResult failed = start;
+    failed.method = "envelope";
+    failed.message = "no starting sphere: " + start.message;
+    return failed;
+  }
+  const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm);
+  SphereFitResult r = e.fit;
+  r.wall_ms += start.wall_ms;
+  if (r.converged) {
+    r.surface_radius_mm = e.surface_radius_mm;
+    r.leaf_depth_mm = e.leaf_depth_mm;
+    if (e.top_bias_mm > 0) r.top_bias_mm = e.top_bias_mm;
+  }
+  return r;
+}
+
+// fitters.envelope: the leafy shell, from a start fit on the points it will see.
+FitMethod EnvelopeRow() {
+  std::vector<OptionSpec> options = pipeline::TableOptions<EnvelopeFitOptions>(
+      {pipeline::StringOption("initial", "ransac_geometric",
+                           "start from this fit, or 'previous' (the last fit before this one)")
+           .Choices({"geometric", "ransac_geometric", "previous"})});
+  return {"envelope", "fitters.envelope",
+               "Leafy shell: outer envelope radius (where the leaves end) and mean leaf-surface radius about one "
+               "centre, by maximum likelihood of leaf depth seen along the view ray plus noise",
+               options, false, [](const Options& o) -> BoundFit {
+                 const EnvelopeFitOptions p = EnvelopeFitOptions::Table().FromOptions(o);
+                 p.Check();
+                 const std::string initial = o.GetString("initial");
+                 return [p, initial](const FitInputs& in) { return FitEnvelopeFrom(p, initial, in); };
+               }};
+}
+
+// fitters.ellipsoid: a shape diagnostic.
+FitMethod EllipsoidRow() {
+  return {"ellipsoid", "fitters.ellipsoid",
+               "General ellipsoid (Li & Griffiths 2004 direct least squares): axes, the vertical against the "
+               "horizontal ones, to tell a ball from a dome",
+               {}, false, [](const Options&) -> BoundFit {
+                 return [](const FitInputs& in) {
+                   const EllipsoidFit e = FitEllipsoid(*in.points_mm);
+                   return ShapeResult("ellipsoid", e, in.points_mm->size());
+                 };
+               }};
+}
+
+// fitters.spheroid: a shape diagnostic.
+FitMethod SpheroidRow() {
+  return {"spheroid", "fitters.spheroid",
+               "Sphere flattened or stretched along the vertical (5 parameters, Ceres, Huber): horizontal and "
+               "vertical semi-axes, to tell a ball from a dome on the cap a camera sees",
+               pipeline::TableOptions<SpheroidFitOptions>(), false, [](const Options& o) -> BoundFit {
+                 const SpheroidFitOptions so = SpheroidFitOptions::Table().FromOptions(o);
+                 so.Check();
+                 return [so](const FitInputs& in) {
+                   const EllipsoidFit e = FitSpheroid(*in.points_mm, so);
+                   return ShapeResult("spheroid", e, in.points_mm->size());
+                 };
+               }};
+}
+
 std::vector<FitMethod> MakeTable() {
   std::vector<FitMethod> t;
   t.push_back(Algebraic(AlgebraicMethod::kKasa, "fitters.algebraic",
@@ -113,136 +254,17 @@ std::vector<FitMethod> MakeTable() {
                  const RansacFitOptions p = BindRansac(o);
                  return [p, o](const FitInputs& in) { return RunRansac(p, o, in, in.inliers); };
                }});
-  {
-    std::vector<OptionSpec> options = cloud::TableOptions<GeometricFitOptions>();
-    // 'previous' starts from the last fit of the pipeline instead of an algebraic one.
-    for (auto& spec : options) {
-      if (spec.name == "initial") {
-        spec.choices.push_back("previous");
-        spec.help = "start from this algebraic fit, or 'previous' (the last fit before this one)";
-      }
-    }
-    t.push_back({"geometric", "fitters.geometric",
-                 "Ceres orthogonal-distance sphere fit (residual |p - c| - r), robust loss optional, with standard errors",
-                 options, false, [](const Options& o) -> BoundFit {
-                   const GeometricFitOptions p = GeometricFitOptions::Table().FromOptions(o);
-                   p.Check();
-                   const bool from_previous = o.GetString("initial") == "previous";
-                   return [p, from_previous](const FitInputs& in) {
-                     if (from_previous && in.previous == nullptr) {
-                       throw Error("option 'initial': 'previous' needs a converged fit from an earlier stage");
-                     }
-                     return FitSphereGeometric(*in.points_mm, p, from_previous ? in.previous : nullptr);
-                   };
-                 }});
-  }
+  t.push_back(GeometricRow());
   t.push_back({"ransac_geometric", "fitters.ransac_geometric",
                "RANSAC finds the inliers, then the geometric fit refines on them from RANSAC's sphere",
                RansacOptions(), true, [](const Options& o) -> BoundFit {
                  const RansacFitOptions p = BindRansac(o);
                  return [p, o](const FitInputs& in) { return RansacThenRefine(p, o, in, "ransac_geometric"); };
                }});
-  {
-    std::vector<OptionSpec> options = RansacOptions();
-    options.push_back(cloud::ListOption("origin", {0, 0, 0}, 3,
-                                        "where the sensor's rays start, in the cloud's frame (a capture's cloud: "
-                                        "the left camera, 0 0 0)",
-                                        "mm"));
-    t.push_back({"ransac_ray", "fitters.ransac_ray",
-                 "RANSAC's inliers, the geometric fit, then a fit along the sensor's rays (range less the range "
-                 "where the ray meets the sphere), which noise along the rays does not bias",
-                 options, true, [](const Options& o) -> BoundFit {
-                   const RansacFitOptions p = BindRansac(o);
-                   const std::vector<double>& origin = o.GetList("origin");
-                   RayFitOptions ro;
-                   ro.origin_mm = Eigen::Vector3d(origin[0], origin[1], origin[2]);
-                   return [p, o, ro](const FitInputs& in) {
-                     return RansacThenRefine(p, o, in, "ransac_ray",
-                                             [&ro](const std::vector<Eigen::Vector3d>& pts, const Sphere& start) {
-                                               return FitSphereAlongRays(pts, start, ro);
-                                             });
-                   };
-                 }});
-  }
-  {
-    std::vector<OptionSpec> options = cloud::TableOptions<EnvelopeFitOptions>(
-        {cloud::StringOption("initial", "ransac_geometric",
-                             "start from this fit, or 'previous' (the last fit before this one)")
-             .Choices({"geometric", "ransac_geometric", "previous"})});
-    t.push_back({"envelope", "fitters.envelope",
-                 "Leafy shell: outer envelope radius (where the leaves end) and mean leaf-surface radius about one "
-                 "centre, by maximum likelihood of leaf depth seen along the view ray plus noise",
-                 options, false, [](const Options& o) -> BoundFit {
-                   const EnvelopeFitOptions p = EnvelopeFitOptions::Table().FromOptions(o);
-                   p.Check();
-                   const std::string initial = o.GetString("initial");
-                   return [p, initial](const FitInputs& in) {
-                     SphereFitResult start;
-                     if (initial == "previous") {
-                       if (in.previous == nullptr) {
-                         throw Error("option 'initial': 'previous' needs a converged fit from an earlier stage");
-                       }
-                       start.sphere = *in.previous;
-                       start.converged = true;
-                     } else {
-                       FitInputs sub = in;
-                       sub.inliers = nullptr;
-                       // The start sees the points the likelihood will (every n-th, at most
-                       // max_points): it only has to land in the likelihood's basin, and RANSAC
-                       // and the geometric fit cost in proportion to the points.
-                       std::vector<Eigen::Vector3d> thinned;
-                       const std::size_t n = in.points_mm->size(), cap = std::size_t(p.max_points);
-                       if (cap > 0 && n > cap) {
-                         const std::size_t step = (n + cap - 1) / cap;
-                         thinned.reserve(n / step + 1);
-                         for (std::size_t i = 0; i < n; i += step) thinned.push_back((*in.points_mm)[i]);
-                         sub.points_mm = &thinned;
-                       }
-                       start = FindFitMethod(initial, "initial").bind(cloud::Options(
-                           [&] {
-                             std::map<std::string, cloud::OptionValue> v;
-                             for (const auto& spec : FindFitMethod(initial, "initial").options) v[spec.name] = spec.default_value;
-                             return v;
-                           }()))(sub);
-                     }
-                     if (!start.converged) {
-                       SphereFitResult failed = start;
-                       failed.method = "envelope";
-                       failed.message = "no starting sphere: " + start.message;
-                       return failed;
-                     }
-                     const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm);
-                     SphereFitResult r = e.fit;
-                     r.wall_ms += start.wall_ms;
-                     if (r.converged) {
-                       r.surface_radius_mm = e.surface_radius_mm;
-                       r.leaf_depth_mm = e.leaf_depth_mm;
-                       if (e.top_bias_mm > 0) r.top_bias_mm = e.top_bias_mm;
-                     }
-                     return r;
-                   };
-                 }});
-  }
-  t.push_back({"ellipsoid", "fitters.ellipsoid",
-               "General ellipsoid (Li & Griffiths 2004 direct least squares): axes, the vertical against the "
-               "horizontal ones, to tell a ball from a dome",
-               {}, false, [](const Options&) -> BoundFit {
-                 return [](const FitInputs& in) {
-                   const EllipsoidFit e = FitEllipsoid(*in.points_mm);
-                   return ShapeResult("ellipsoid", e, in.points_mm->size());
-                 };
-               }});
-  t.push_back({"spheroid", "fitters.spheroid",
-               "Sphere flattened or stretched along the vertical (5 parameters, Ceres, Huber): horizontal and "
-               "vertical semi-axes, to tell a ball from a dome on the cap a camera sees",
-               cloud::TableOptions<SpheroidFitOptions>(), false, [](const Options& o) -> BoundFit {
-                 const SpheroidFitOptions so = SpheroidFitOptions::Table().FromOptions(o);
-                 so.Check();
-                 return [so](const FitInputs& in) {
-                   const EllipsoidFit e = FitSpheroid(*in.points_mm, so);
-                   return ShapeResult("spheroid", e, in.points_mm->size());
-                 };
-               }});
+  t.push_back(RansacRayRow());
+  t.push_back(EnvelopeRow());
+  t.push_back(EllipsoidRow());
+  t.push_back(SpheroidRow());
   // Robust and geometric before algebraic; among algebraic, the least biased first. The fit along
   // the rays ranks below ransac_geometric: it is the better fit of a capture's cloud, but only when
   // the cloud's origin is the camera, and the one fit that stands for any cloud (render's distance
@@ -302,7 +324,7 @@ const FitMethod& FindFitMethod(const std::string& name, const std::string& where
   const std::vector<std::string> names = FitMethodNames();
   std::string list;
   for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-  const std::string hint = cloud::DidYouMean(name, names);
+  const std::string hint = pipeline::DidYouMean(name, names);
   throw Error(where + ": unknown method '" + name + "'" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)") +
               "; choose from " + list + ", or all");
 }
@@ -332,16 +354,16 @@ std::vector<std::string> ParseMethodList(const std::string& text, const std::str
 }
 
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
-                             const std::map<std::string, cloud::OptionValue>& given, std::uint64_t seed,
+                             const std::map<std::string, pipeline::OptionValue>& given, std::uint64_t seed,
                              bool one_hedge, const std::vector<double>* pixel_mm) {
   const FitMethod& m = FindFitMethod(name, "fit");
-  std::map<std::string, cloud::OptionValue> mine;
+  std::map<std::string, pipeline::OptionValue> mine;
   for (const auto& spec : m.options) {
     auto it = given.find(spec.name);
     if (it != given.end()) mine[spec.name] = it->second;
   }
-  cloud::StageInfo info{m.stage, m.description, m.options, {}, {}, {}};
-  const BoundFit fit = m.bind(cloud::ResolveOptions(info, mine, m.stage));
+  pipeline::StageInfo info{m.stage, m.description, m.options, {}, {}, {}};
+  const BoundFit fit = m.bind(pipeline::ResolveOptions(info, mine, m.stage));
   FitInputs in;
   in.points_mm = &points_mm;
   in.seed = seed;

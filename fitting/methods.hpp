@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/stage.hpp"
+#include "pipeline/stage.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -37,10 +37,10 @@ struct FitMethod {
   std::string name;         ///< "kasa": what --methods takes
   std::string stage;        ///< "fitters.algebraic": the pipeline stage that runs it
   std::string description;  ///< one line
-  std::vector<cloud::OptionSpec> options;  ///< its options (types, defaults, units, ranges)
+  std::vector<pipeline::OptionSpec> options;  ///< its options (types, defaults, units, ranges)
   bool has_inliers = false;  ///< robust: reports which points it kept
   /// Builds the fit from resolved options; throws hedgefit::Error naming a bad option.
-  std::function<BoundFit(const cloud::Options&)> bind;
+  std::function<BoundFit(const pipeline::Options&)> bind;
   int trust = 0;  ///< higher = preferred when one fit must stand for the cloud
   /// A sphere fit. false for shape diagnostics (the ellipsoid), whose "radius" is a summary:
   /// they run when named, not in "all" or the Table 2 benches.
@@ -71,7 +71,7 @@ std::vector<std::string> ParseMethodList(const std::string& text, const std::str
 /// not declare are ignored, so one map can serve several methods). `one_hedge` and `pixel_mm`:
 /// see FitInputs.
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
-                             const std::map<std::string, cloud::OptionValue>& given = {}, std::uint64_t seed = 42,
+                             const std::map<std::string, pipeline::OptionValue>& given = {}, std::uint64_t seed = 42,
                              bool one_hedge = false, const std::vector<double>* pixel_mm = nullptr);
 
 /// Ceres reports a solver's trouble (e.g. "Linear solver failure" while a geometric refit of

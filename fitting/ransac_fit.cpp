@@ -13,7 +13,7 @@
 #include <cmath>
 #include <memory>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::fitting {
 
@@ -43,34 +43,20 @@ std::unique_ptr<pcl::SampleConsensus<pcl::PointXYZ>> MakeEstimator(
 
 }  // namespace
 
-const char* ConsensusName(ConsensusMethod method) {
-  switch (method) {
-    case ConsensusMethod::kRansac: return "ransac";
-    case ConsensusMethod::kMsac: return "msac";
-    case ConsensusMethod::kLmeds: return "lmeds";
-    case ConsensusMethod::kProsac: return "prosac";
-    case ConsensusMethod::kMlesac: return "mlesac";
-  }
-  return "?";
+const std::vector<std::pair<std::string, ConsensusMethod>>& ConsensusNames() {
+  static const std::vector<std::pair<std::string, ConsensusMethod>> names{
+      {"ransac", ConsensusMethod::kRansac}, {"msac", ConsensusMethod::kMsac}, {"lmeds", ConsensusMethod::kLmeds},
+      {"prosac", ConsensusMethod::kProsac}, {"mlesac", ConsensusMethod::kMlesac}};
+  return names;
 }
 
-ConsensusMethod ParseConsensus(const std::string& name) {
-  for (ConsensusMethod m : {ConsensusMethod::kRansac, ConsensusMethod::kMsac, ConsensusMethod::kLmeds,
-                            ConsensusMethod::kProsac, ConsensusMethod::kMlesac}) {
-    if (name == ConsensusName(m)) return m;
-  }
-  throw Error("method: '" + name + "' is not one of ransac, msac, lmeds, prosac, mlesac");
-}
+const char* ConsensusName(ConsensusMethod method) { return pipeline::EnumName(ConsensusNames(), method); }
 
-const cloud::OptionTable<RansacFitOptions>& RansacFitOptions::Table() {
+const pipeline::OptionTable<RansacFitOptions>& RansacFitOptions::Table() {
   using O = RansacFitOptions;
   static const auto table =
-      cloud::OptionTable<O>()
-          .AddEnum("method", &O::method,
-                   {{"ransac", ConsensusMethod::kRansac}, {"msac", ConsensusMethod::kMsac},
-                    {"lmeds", ConsensusMethod::kLmeds}, {"prosac", ConsensusMethod::kProsac},
-                    {"mlesac", ConsensusMethod::kMlesac}},
-                   "estimator")
+      pipeline::OptionTable<O>()
+          .AddEnum("method", &O::method, ConsensusNames(), "estimator")
           .Add("distance_threshold", &O::distance_threshold_mm, "inlier band around the sphere", "mm").Min(1e-9)
           .Add("max_iterations", &O::max_iterations, "samples drawn at most", "samples").Range(1, 100000000)
           .Add("probability", &O::probability, "chance of one outlier-free sample").Range(1e-6, 0.999999)

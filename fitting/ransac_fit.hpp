@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -28,12 +28,13 @@ struct RansacFitOptions {
   std::uint64_t seed = 42;              ///< PCL otherwise always uses 12345 (or the time)
   /// Throws hedgefit::Error naming the bad option.
   void Check() const;
-  static const cloud::OptionTable<RansacFitOptions>& Table();  ///< the options, declared once (not the seed)
+  static const pipeline::OptionTable<RansacFitOptions>& Table();  ///< the options, declared once (not the seed)
 };
 
 /// "ransac", "msac", "lmeds", "prosac", "mlesac"; parses the same names (Error if unknown).
+/// The estimators by name, the one list the option table and ConsensusName() read.
+const std::vector<std::pair<std::string, ConsensusMethod>>& ConsensusNames();
 const char* ConsensusName(ConsensusMethod method);
-ConsensusMethod ParseConsensus(const std::string& name);
 
 /// Fits by sample consensus; `inlier_indices`, if given, receives the final inliers.
 SphereFitResult FitSphereRansac(const std::vector<Eigen::Vector3d>& points_mm, const RansacFitOptions& options,

@@ -7,7 +7,11 @@
 #include <limits>
 #include <map>
 
-#include "cloud/error.hpp"
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+
+#include "pipeline/error.hpp"
 
 namespace hedgefit::fitting {
 
@@ -114,6 +118,47 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   plan.cut_p99_mm = Percentile(cut, 0.99);
   plan.cut_max_mm = cut.empty() ? 0 : *std::max_element(cut.begin(), cut.end());
   return plan;
+}
+
+std::string TrimPlansJson(const std::string& cloud, const std::vector<TrimPlan>& plans) {
+  using json = nlohmann::ordered_json;
+  auto r3 = [](double v) { return std::round(v * 1000) / 1000; };
+  json out = {{"cloud", cloud}, {"hedges", json::array()}};
+  for (const auto& t : plans) {
+    const auto& c = t.target.center_mm;
+    out["hedges"].push_back({{"hedge", t.hedge_id ? t.hedge_id : 1},
+                             {"target_center_mm", {r3(c.x()), r3(c.y()), r3(c.z())}},
+                             {"target_radius_mm", t.target.radius_mm},
+                             {"points", t.points},
+                             {"points_to_cut", t.points_to_cut},
+                             {"cut_share", r3(t.cut_share)},
+                             {"cut_p50_mm", r3(t.cut_p50_mm)},
+                             {"cut_p90_mm", r3(t.cut_p90_mm)},
+                             {"cut_p99_mm", r3(t.cut_p99_mm)},
+                             {"cut_max_mm", r3(t.cut_max_mm)},
+                             {"seen_share", r3(t.seen_share)},
+                             {"volume_seen_l", r3(t.volume_seen_l)},
+                             {"volume_all_round_l", r3(t.volume_all_round_l)}});
+  }
+  return out.dump(2);
+}
+
+void PrintTrimTable(std::ostream& out, const std::vector<TrimPlan>& plans) {
+  char line[256];
+  std::snprintf(line, sizeof(line), "%-5s %-28s %7s %8s %6s %6s %6s %7s %6s %9s %10s\n", "hedge",
+                "target centre (x, y, z) mm", "R mm", "cut %", "p50", "p90", "p99", "max mm", "seen %", "volume L",
+                "all round");
+  out << line;
+  for (const auto& t : plans) {
+    char centre[64];
+    std::snprintf(centre, sizeof(centre), "(%.0f, %.0f, %.0f)", t.target.center_mm.x(), t.target.center_mm.y(),
+                  t.target.center_mm.z());
+    std::snprintf(line, sizeof(line), "%-5d %-28s %7.1f %7.1f%% %6.1f %6.1f %6.1f %7.1f %5.1f%% %9.2f %10.2f\n",
+                  t.hedge_id ? t.hedge_id : 1, centre, t.target.radius_mm, 100 * t.cut_share, t.cut_p50_mm,
+                  t.cut_p90_mm, t.cut_p99_mm, t.cut_max_mm, 100 * t.seen_share, t.volume_seen_l,
+                  t.volume_all_round_l);
+    out << line;
+  }
 }
 
 }  // namespace hedgefit::fitting

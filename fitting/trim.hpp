@@ -22,6 +22,9 @@
 
 #include <vector>
 
+#include <ostream>
+#include <string>
+
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -55,5 +58,12 @@ struct TrimPlan {
 /// with a non-positive or non-finite radius or centre, or bad options.
 TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& target, const TrimOptions& options = {},
                   const Eigen::Vector3d& pole = Eigen::Vector3d::UnitY());
+
+/// The trim plans as `trim --format json` prints them: {"cloud": ..., "hedges": [...]}, to the
+/// micrometre.
+std::string TrimPlansJson(const std::string& cloud, const std::vector<TrimPlan>& plans);
+
+/// The trim plans as `trim` prints them: a table, one row per hedge.
+void PrintTrimTable(std::ostream& out, const std::vector<TrimPlan>& plans);
 
 }  // namespace hedgefit::fitting

@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 
-#include "cloud/parallel.hpp"
+#include "pipeline/parallel.hpp"
 #include "fitting/geometric_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -130,7 +130,7 @@ std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::V
   constexpr int kGroups = 16;
   // The refits run in parallel and are gathered in group order: the same result on any core count.
   std::vector<std::optional<Eigen::Vector4d>> by_group(kGroups);
-  cloud::ParallelFor(kGroups, 0, 1, [&](std::size_t b, std::size_t e) {
+  pipeline::ParallelFor(kGroups, 0, 1, [&](std::size_t b, std::size_t e) {
     std::vector<Eigen::Vector3d> rest;
     for (std::size_t g = b; g < e; ++g) {
       rest.clear();
@@ -158,7 +158,7 @@ std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vec
   const std::vector<Eigen::Vector3d> subset = EvenSubset(support, max_points);
   // In parallel, gathered in draw order (as the jackknife).
   std::vector<std::optional<Eigen::Vector4d>> by_draw(std::size_t(perturbation.samples));
-  cloud::ParallelFor(by_draw.size(), 0, 1, [&](std::size_t b, std::size_t e) {
+  pipeline::ParallelFor(by_draw.size(), 0, 1, [&](std::size_t b, std::size_t e) {
     std::vector<Eigen::Vector3d> moved, finite;
     for (std::size_t s = b; s < e; ++s) {
       perturbation.apply(int(s), subset, &moved);

@@ -4,7 +4,7 @@
 #include <cstdint>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "fuzz/fuzz_common.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

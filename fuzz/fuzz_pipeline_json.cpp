@@ -5,15 +5,16 @@
 #include <cstdint>
 #include <string>
 
-#include "cloud/error.hpp"
-#include "cloud/pipeline.hpp"
-#include "cloud/registry.hpp"
+#include "pipeline/error.hpp"
+#include "cloud/cloud_stages.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/registry.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "stereo/stereo_stages.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const hedgefit::cloud::Registry registry = [] {
-    hedgefit::cloud::Registry r;
+  static const hedgefit::pipeline::Registry registry = [] {
+    hedgefit::pipeline::Registry r;
     hedgefit::cloud::RegisterCloudStages(r);
     hedgefit::fitting::RegisterFittingStages(r);
     hedgefit::stereo::RegisterStereoStages(r);
@@ -21,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }();
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
-    hedgefit::cloud::Pipeline::FromJson(text, "fuzz.json", registry);
+    hedgefit::pipeline::Pipeline::FromJson(text, "fuzz.json", registry);
   } catch (const hedgefit::Error&) {
   }
   return 0;

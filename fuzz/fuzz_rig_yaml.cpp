@@ -2,7 +2,7 @@
 
 #include <cstdint>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "fuzz/fuzz_common.hpp"
 #include "stereo/rig.hpp"
 

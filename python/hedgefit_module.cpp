@@ -16,11 +16,12 @@
 #include <vector>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
-#include "cloud/pipeline.hpp"
-#include "cloud/registry.hpp"
-#include "cloud/version.hpp"
-#include "fitting/evaluation.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/registry.hpp"
+#include "pipeline/version.hpp"
+#include "eval/evaluation.hpp"
+#include "fitting/fit_fields.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
@@ -28,28 +29,31 @@
 #include "stereo/capture.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
+#include "stereo/rig_check.hpp"
+#include "cloud/cloud_stages.hpp"
 
 namespace py = pybind11;
 using namespace hedgefit;
 
 namespace {
 
-const cloud::Registry& Stages() {
-  static cloud::Registry& registry = [] () -> cloud::Registry& {
-    cloud::Registry& r = cloud::Registry::Global();
-    fitting::RegisterFittingStages(r);
-    render::RegisterRenderStages(r);
-    stereo::RegisterStereoStages(r);
+const pipeline::Registry& Stages() {
+  static pipeline::Registry& registry = [] () -> pipeline::Registry& {
+    pipeline::Registry& r = pipeline::Registry::Global();
+    r.AddModule("cloud", &cloud::RegisterCloudStages);
+    r.AddModule("fitting", &fitting::RegisterFittingStages);
+    r.AddModule("render", &render::RegisterRenderStages);
+    r.AddModule("stereo", &stereo::RegisterStereoStages);
     return r;
   }();
   return registry;
 }
 
-py::object ToPython(const cloud::OptionValue& v) {
+py::object ToPython(const pipeline::OptionValue& v) {
   return std::visit([](const auto& x) -> py::object { return py::cast(x); }, v);
 }
 
-cloud::OptionValue FromPython(const std::string& name, const py::handle& v) {
+pipeline::OptionValue FromPython(const std::string& name, const py::handle& v) {
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>();
   if (py::isinstance<py::int_>(v)) return v.cast<std::int64_t>();
   if (py::isinstance<py::float_>(v)) return v.cast<double>();
@@ -131,8 +135,8 @@ cv::Mat ImageFrom(const py::array& any, const char* what) {
 }
 
 // Runs a pipeline on a context; returns its fits, its cloud and its metadata.
-py::dict RunAndCollect(cloud::Pipeline& p, cloud::Context& ctx) {
-  cloud::RunReport report;
+py::dict RunAndCollect(pipeline::Pipeline& p, pipeline::Context& ctx) {
+  pipeline::RunReport report;
   {
     py::gil_scoped_release release;
     report = p.Run(ctx);
@@ -148,22 +152,8 @@ py::dict RunAndCollect(cloud::Pipeline& p, cloud::Context& ctx) {
   return out;
 }
 
-}  // namespace
-
-PYBIND11_MODULE(hedgefit, m) {
-  m.doc() = "hedgefit: measure spherical hedges from a binocular camera (clouds as numpy arrays, sphere fits, "
-            "stereo measurement, trim plans, JSON pipelines)";
-  m.attr("__version__") = kVersion;
-  hedgefit::fitting::QuietSolverWarnings();  // errors reach Python as exceptions and results, not as glog lines
-  static py::exception<Error> error(m, "Error", PyExc_ValueError);
-  py::register_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const Error& e) {
-      error(e.what());
-    }
-  });
-
+// Clouds as numpy arrays: read_cloud, write_cloud.
+void AddCloudFunctions(py::module_& m) {
   m.def("read_cloud", [](const std::string& path) { return CloudDict(cloud::ReadCloud(path)); }, py::arg("path"),
         "Reads a PCD, PLY or XYZ file: a dict with 'xyz' ((N, 3) float32, mm), 'rgb' ((N, 3) uint8) when the file "
         "has colour, and one (N,) float32 array per extra field (e.g. 'hedge_id', 'cut_depth').");
@@ -174,12 +164,16 @@ PYBIND11_MODULE(hedgefit, m) {
       py::arg("path"), py::arg("xyz"), py::arg("rgb") = py::none(), py::arg("fields") = py::dict(),
       "Writes points ((N, 3), mm), optional colours ((N, 3) uint8) and fields ({name: (N,)}) to PCD, PLY or XYZ by "
       "extension, atomically.");
+}
+
+// The fitters: methods, fit.
+void AddFitFunctions(py::module_& m) {
   m.def("methods", &fitting::FitMethodNames, "The fit methods, e.g. 'kasa', 'ransac_geometric', 'envelope'.");
   m.def(
       "fit",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::string& method,
          std::uint64_t seed, const py::object& pixel_mm, const py::kwargs& options) {
-        std::map<std::string, cloud::OptionValue> given;
+        std::map<std::string, pipeline::OptionValue> given;
         const fitting::FitMethod& fm = fitting::FindFitMethod(method, "method");
         for (const auto& [key, value] : options) {
           const std::string name = key.cast<std::string>();
@@ -208,6 +202,10 @@ PYBIND11_MODULE(hedgefit, m) {
       "method's options (as in a pipeline). pixel_mm: optional (N,) footprint of one pixel at each point (a capture "
       "cloud's 'pixel_mm' field), which the envelope fit uses. Returns a dict: converged, center_mm, radius_mm, "
       "rms_mm, std_error_mm, inliers, ...");
+}
+
+// Stereo captures: read_image, measure, check_rig.
+void AddCaptureFunctions(py::module_& m) {
   m.def("read_image",
         [](const std::string& path) {
           const cv::Mat img = stereo::ReadCaptureImage(path, 1 /* cv::IMREAD_COLOR */);
@@ -220,7 +218,7 @@ PYBIND11_MODULE(hedgefit, m) {
       "measure",
       [](const py::array& left, const py::array& right, const std::string& rig_path,
          const std::string& method, bool garden, bool clean, const py::kwargs& options) {
-        const cloud::Registry& registry = Stages();
+        const pipeline::Registry& registry = Stages();
         stereo::ConvertOptions o;
         if (garden) o.mode = stereo::SegmentMode::kGarden;
         nlohmann::json stages = nlohmann::json::parse(
@@ -239,9 +237,9 @@ PYBIND11_MODULE(hedgefit, m) {
           }
           if (!used) throw Error("measure: no capture stage has an option '" + name + "'; see `hedgefit measure --help`");
         }
-        cloud::Pipeline p = cloud::Pipeline::FromJson(stages.dump(), "measure", registry, {},
+        pipeline::Pipeline p = pipeline::Pipeline::FromJson(stages.dump(), "measure", registry, {},
                                                       {"left_image", "right_image", "rig"});
-        cloud::Context ctx;
+        pipeline::Context ctx;
         ctx.quiet = true;
         stereo::PutCapture(ImageFrom(left, "left"), ImageFrom(right, "right"), stereo::ReadRig(rig_path), &ctx);
         py::dict run = RunAndCollect(p, ctx);
@@ -260,6 +258,7 @@ PYBIND11_MODULE(hedgefit, m) {
          double min_z, double max_z) {
         if (!(min_z > 0 && max_z > min_z)) throw Error("check_rig: need 0 < min_z < max_z (mm)");
         const stereo::StereoRig rig = stereo::ReadRig(rig_path);
+        stereo::CheckRowSearchRange(rig, min_z, max_z, "check_rig: min_z", "max_z");
         const stereo::VerticalDisparity v =
             stereo::MeasureRowAgreement(rig, ImageFrom(left, "left"), ImageFrom(right, "right"), min_z, max_z);
         py::dict d;
@@ -274,6 +273,10 @@ PYBIND11_MODULE(hedgefit, m) {
       "How far apart a rig leaves a pair's rectified rows, as `hedgefit check-rig`: a dict with offset_px (at the "
       "centre), slope_x_px and slope_y_px (across the width and down the height), max_abs_px and windows (0: too "
       "little texture to tell; NaN max_abs_px).");
+}
+
+// The trim plan and JSON pipelines: trim, run_pipeline.
+void AddPlanFunctions(py::module_& m) {
   m.def(
       "trim",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::vector<double>& center,
@@ -303,9 +306,9 @@ PYBIND11_MODULE(hedgefit, m) {
       "run_pipeline",
       [](const std::string& pipeline, std::uint64_t seed) {
         const bool text = pipeline.find_first_of("[{") != std::string::npos;
-        cloud::Pipeline p = text ? cloud::Pipeline::FromJson(pipeline, "pipeline", Stages())
-                                 : cloud::Pipeline::FromFile(pipeline, Stages());
-        cloud::Context ctx;
+        pipeline::Pipeline p = text ? pipeline::Pipeline::FromJson(pipeline, "pipeline", Stages())
+                                 : pipeline::Pipeline::FromFile(pipeline, Stages());
+        pipeline::Context ctx;
         ctx.quiet = true;
         ctx.seed = seed;
         return RunAndCollect(p, ctx);
@@ -313,4 +316,25 @@ PYBIND11_MODULE(hedgefit, m) {
       py::arg("pipeline"), py::arg("seed") = 42,
       "Runs a JSON pipeline (its text, or a file name) as `hedgefit pipeline` does; returns a dict with 'fits' (one "
       "dict per fit), 'cloud' (the final cloud, as read_cloud gives it) and 'metadata'.");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(hedgefit, m) {
+  m.doc() = "hedgefit: measure spherical hedges from a binocular camera (clouds as numpy arrays, sphere fits, "
+            "stereo measurement, trim plans, JSON pipelines)";
+  m.attr("__version__") = kVersion;
+  hedgefit::fitting::QuietSolverWarnings();  // errors reach Python as exceptions and results, not as glog lines
+  static py::exception<Error> error(m, "Error", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      error(e.what());
+    }
+  });
+  AddCloudFunctions(m);
+  AddFitFunctions(m);
+  AddCaptureFunctions(m);
+  AddPlanFunctions(m);
 }

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::render {
 

@@ -22,7 +22,7 @@
 #include <filesystem>
 #include <unistd.h>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "render/render.hpp"
 #include "render/virtual_display.hpp"
 

@@ -4,15 +4,12 @@
 #include <string>
 #include <vector>
 
+#include "eval/compare.hpp"
+
 namespace hedgefit::render {
 
-/// One method's errors against truth, one entry per cloud.
-struct ErrorSeries {
-  std::string method;
-  std::vector<double> x;          ///< true distance Z (mm), or the cloud's index
-  std::vector<double> abs_aer_mm; ///< |measured - true radius|
-  std::vector<double> ld_mm;      ///< centre deviation
-};
+/// One method's errors against truth, one entry per cloud (eval/compare.hpp).
+using ErrorSeries = eval::ErrorSeries;
 
 /// Two charts side by side: |AER| and LD against x, one line per method. `x_title`
 /// names the x axis. Writes `png_path` atomically; throws hedgefit::Error.

@@ -1,5 +1,7 @@
 #include "render/render.hpp"
 
+#include "fitting/methods.hpp"
+
 #include <vtkActor.h>
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
@@ -31,7 +33,7 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "render/virtual_display.hpp"
 
 namespace hedgefit::render {
@@ -63,11 +65,11 @@ View ParseView(const std::string& name) {
   throw Error("'" + name + "' is not a view; use front, side, top, iso, a comma list of them, or all");
 }
 
-const cloud::OptionTable<RenderOptions>& RenderOptions::Table() {
+const pipeline::OptionTable<RenderOptions>& RenderOptions::Table() {
   using O = RenderOptions;
   static const char* const kViewNames[] = {"front", "side", "top", "iso"};
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("width", &O::width, "width of each view", "px").Range(16, 8192)
           .Add("height", &O::height, "height of each view", "px").Range(16, 8192)
           .AddEnum("color", &O::color,
@@ -78,14 +80,14 @@ const cloud::OptionTable<RenderOptions>& RenderOptions::Table() {
                    "point colours: own, distance (signed, to the best fit drawn), depth, or field (option 'field')")
           .Add("field", &O::field, "per-point field for color field, on a diverging map about 0 (e.g. cut_depth)")
           .AddCustom(
-              "view", cloud::OptionType::kString, "front (the left camera's view), side, top, iso, a comma list, or all (tiled)",
+              "view", pipeline::OptionType::kString, "front (the left camera's view), side, top, iso, a comma list, or all (tiled)",
               "",
-              [](const O& o) -> cloud::OptionValue {
+              [](const O& o) -> pipeline::OptionValue {
                 std::string out;
                 for (View v : o.views) out += (out.empty() ? "" : ",") + std::string(kViewNames[int(v)]);
                 return out;
               },
-              [](O& o, const cloud::OptionValue& v) {
+              [](O& o, const pipeline::OptionValue& v) {
                 const std::string& text = std::get<std::string>(v);
                 std::stringstream vs(text == "all" ? std::string("front,side,top,iso") : text);
                 o.views.clear();
@@ -101,11 +103,11 @@ const cloud::OptionTable<RenderOptions>& RenderOptions::Table() {
           .Add("distance_range", &O::distance_range_mm, "colour-map half range for color distance or field (0 = automatic)", "mm")
           .Min(0)
           .AddCustom(
-              "background", cloud::OptionType::kDoubleList, "background colour [r, g, b], each in [0, 1]", "",
-              [](const O& o) -> cloud::OptionValue {
+              "background", pipeline::OptionType::kDoubleList, "background colour [r, g, b], each in [0, 1]", "",
+              [](const O& o) -> pipeline::OptionValue {
                 return std::vector<double>{o.background[0], o.background[1], o.background[2]};
               },
-              [](O& o, const cloud::OptionValue& v) {
+              [](O& o, const pipeline::OptionValue& v) {
                 const auto& l = std::get<std::vector<double>>(v);
                 for (std::size_t k = 0; k < 3 && k < l.size(); ++k) o.background[k] = l[k];
               })
@@ -431,6 +433,18 @@ void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay
   vtkRenderWindow* window = SharedWindow();
   RenderViews(points, overlays, bar, options, window);
   WriteWindowPng(window, png_path);
+}
+
+std::optional<fitting::Sphere> MostTrustedSphere(const std::vector<SphereOverlay>& spheres) {
+  std::vector<std::string> drawn;
+  for (const auto& s : spheres) {
+    if (!s.truth) drawn.push_back(s.label);
+  }
+  const fitting::FitMethod* best = fitting::MostTrusted(drawn);
+  for (const auto& s : spheres) {
+    if (!s.truth && (!best || s.label == best->name)) return s.sphere;
+  }
+  return std::nullopt;
 }
 
 }  // namespace hedgefit::render

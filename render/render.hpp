@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 #include "fitting/sphere_fit.hpp"
 
@@ -44,13 +44,17 @@ struct RenderOptions {
   bool wireframe = false;              ///< fitted spheres as wireframes (else translucent)
   double sphere_opacity = 0.25;        ///< translucent spheres
   void Check() const;                  ///< throws hedgefit::Error naming the option
-  static const cloud::OptionTable<RenderOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<RenderOptions>& Table();  ///< the options, declared once
 };
 
 /// The colour used for the i-th fitted sphere (RGB in [0, 1]).
 std::array<double, 3> OverlayColor(std::size_t index);
 
 /// Renders and writes `png_path` atomically; throws hedgefit::Error on bad input.
+/// The sphere distances are coloured against: the most trustworthy fit among `spheres` by the
+/// method table's ranking (fitting::MostTrusted), else the first fit; none when only the truth is drawn.
+std::optional<fitting::Sphere> MostTrustedSphere(const std::vector<SphereOverlay>& spheres);
+
 void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
                  const RenderOptions& options, const std::string& png_path);
 

@@ -3,7 +3,7 @@
 #include <sstream>
 
 #include "fitting/sphere_fit.hpp"
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "cloud/cloud_io.hpp"
 #include "render/overlay.hpp"
 #include "render/render.hpp"
@@ -16,8 +16,9 @@
 
 namespace hedgefit::render {
 
-void RegisterRenderStages(cloud::Registry& r) {
+void RegisterRenderStages(pipeline::Registry& r) {
   using namespace hedgefit::cloud;
+  using namespace hedgefit::pipeline;
   const std::string name = "writers.png";
   StageInfo info{name,
                  "Renders the 'cloud' artifact and every converged fit in 'fits' to PNG, off-screen (VTK)",

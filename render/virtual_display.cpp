@@ -18,7 +18,7 @@
 
 #include <filesystem>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::render {
 

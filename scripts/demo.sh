@@ -29,6 +29,6 @@ echo "== the same capture in one step, as a robot would ask: hedgefit measure (o
 echo "== the same capture as one pipeline: examples/capture_to_fit.json"
 ./build/apps/hedgefit pipeline examples/capture_to_fit.json
 echo "== hedgefit render (the last step writes a picture of the reconstruction and its fits)"
-./build/apps/hedgefit compare build/demo/sphere_2300.pcd --methods kasa,ransac_geometric --format json > build/demo/fits.json
+./build/apps/hedgefit compare build/demo/sphere_2300.pcd --method kasa,ransac_geometric --format json > build/demo/fits.json
 ./build/apps/hedgefit render build/demo/sphere_2300.pcd --fits build/demo/fits.json --truth $L/sphere_2300.truth.json \
   --color distance --view front,side --size 640x480 --wireframe -o build/demo/render.png

@@ -6,17 +6,17 @@ H=./build/apps/hedgefit
 mkdir -p build/docs docs
 $H compare sample_clouds/cap_z2300_a60_o30.pcd --format json > build/docs/fits_cap.json
 $H render sample_clouds/cap_z2300_a60_o30.pcd --fits build/docs/fits_cap.json \
-  --methods kasa,hyper,ransac_geometric --color distance --view front,side --size 640x480 --wireframe \
+  --method kasa,hyper,ransac_geometric --color distance --view front,side --size 640x480 --wireframe \
   -o docs/render_cap_z2300_o30.png
 $H compare sample_clouds/cap_z2000_a60_o10.pcd sample_clouds/cap_z2300_a60_o10.pcd sample_clouds/cap_z2600_a60_o10.pcd \
-  --methods kasa,hyper,ransac,geometric,ransac_geometric --plot docs/compare_plot.png > /dev/null
+  --method kasa,hyper,ransac,geometric,ransac_geometric --plot docs/compare_plot.png > /dev/null
 # A reconstruction from simulated captures of the paper's lab (calibrated from its boards).
 L=build/docs/lab
 [ -f $L/sphere_2300_right.png ] || $H simulate --preset paper-lab -o $L > /dev/null
 $H calibrate --left "$L/board_*_left.png" --right "$L/board_*_right.png" --board 12x11 --square 30 -o build/docs/rig.yaml > /dev/null
 $H convert --left $L/sphere_2300_left.png --right $L/sphere_2300_right.png --rig build/docs/rig.yaml \
   -o build/docs/sphere_2300.pcd -q
-$H compare build/docs/sphere_2300.pcd --methods kasa,ransac_geometric --format json > build/docs/fits_sphere.json
+$H compare build/docs/sphere_2300.pcd --method kasa,ransac_geometric --format json > build/docs/fits_sphere.json
 $H render build/docs/sphere_2300.pcd --fits build/docs/fits_sphere.json --truth $L/sphere_2300.truth.json \
   --color distance --view front,side --size 640x480 --wireframe -o docs/reconstruction_z2300.png
 # The operator's overlay of the same capture, from the capture-to-fit pipeline.
@@ -52,7 +52,7 @@ if [ -f $D/stereo_left.png ]; then
   $H rig --size 640x480 --focal 368.5347 --cx 318.1122 --cy 224.3349 --baseline 838.7445 -o build/docs/pcl_rig.yaml > /dev/null
   $H convert --left $D/stereo_left.png --right $D/stereo_right.png --rig build/docs/pcl_rig.yaml \
     -o build/docs/shrub.pcd --box 270,178,44,34 --erode 1 --min-z 10000 --max-z 60000 --debug -q
-  $H compare build/docs/shrub.pcd --methods kasa,geometric --format json > build/docs/fits_shrub.json
+  $H compare build/docs/shrub.pcd --method kasa,geometric --format json > build/docs/fits_shrub.json
   $H render build/docs/shrub.pcd --fits build/docs/fits_shrub.json --view front,side --size 480x400 --wireframe \
     --point-size 4 -o docs/pcl_outdoor_shrub.png
 fi

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::stereo {
 

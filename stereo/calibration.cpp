@@ -14,8 +14,8 @@
 #include <mutex>
 #include <ostream>
 
-#include "cloud/error.hpp"
-#include "cloud/parallel.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/parallel.hpp"
 
 namespace hedgefit::stereo {
 
@@ -233,7 +233,7 @@ std::vector<PairCorners> DetectBoards(const std::vector<std::pair<std::string, s
   std::size_t done = 0;
   const auto t0 = std::chrono::steady_clock::now();
   // Pairs are independent: one per worker, each reporting when it is done.
-  cloud::ParallelFor(pairs.size(), threads, 1, [&](std::size_t begin, std::size_t end) {
+  pipeline::ParallelFor(pairs.size(), threads, 1, [&](std::size_t begin, std::size_t end) {
     for (std::size_t index = begin; index < end; ++index) {
       const auto& [left, right] = pairs[index];
       PairCorners pc;
@@ -391,6 +391,52 @@ cv::Mat CoveragePicture(const std::vector<PairCorners>& pairs, const std::vector
   return out;
 }
 
+namespace {
+
+// Why too few pairs are usable, from the pairs themselves: unreadable images are not a board problem.
+Error TooFewPairs(const StereoRig& rig, std::size_t usable, std::size_t total, const CalibrationOptions& options) {
+  std::size_t unreadable = 0;
+  std::string first_unreadable;
+  for (const auto& p : rig.pairs) {
+    if (!p.used && p.status.rfind("cannot read", 0) == 0) {
+      if (unreadable++ == 0) first_unreadable = p.status;
+    }
+  }
+  const std::string head = "only " + std::to_string(usable) + " of " + std::to_string(total) +
+                           " pairs are usable (need " + std::to_string(options.min_pairs) + ")";
+  if (unreadable > 0) {
+    return Error(head + ": " + std::to_string(unreadable) + " pair(s) cannot be read (" + first_unreadable +
+                "); check that the files are PNG or JPEG images");
+  }
+  return Error(head + (options.board.type == BoardType::kCharuco
+                          ? "; check --charuco (squares, e.g. 12x9), --marker, --dictionary and the images"
+                          : "; check --board (inner corners, e.g. 9x6) and the images"));
+}
+
+// Marks the pairs whose stereo RMS `worst` (of pairs `index`) exceeds reject_factor times the
+// median as not used; true when any was.
+bool RejectWorstPairs(const std::vector<std::size_t>& index, const std::vector<double>& worst,
+                      const CalibrationOptions& options, StereoRig* rig) {
+  std::vector<double> sorted = worst;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double limit = options.reject_factor * sorted[sorted.size() / 2];
+  bool rejected = false;
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    if (worst[k] > limit && static_cast<int>(index.size()) > options.min_pairs) {
+      PairReport& rep = rig->pairs[index[k]];
+      rep.used = false;
+      char buf[128];
+      std::snprintf(buf, sizeof(buf), "rejected: RMS %.3f px > %.1f x median %.3f px", worst[k],
+                    options.reject_factor, sorted[sorted.size() / 2]);
+      rep.status = buf;
+      rejected = true;
+    }
+  }
+  return rejected;
+}
+
+}  // namespace
+
 StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size image_size,
                                const CalibrationOptions& options) {
   options.Check();
@@ -437,23 +483,7 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
       index.push_back(i);
     }
     if (static_cast<int>(object.size()) < options.min_pairs) {
-      // Say why, from the pairs themselves: unreadable images are not a board problem.
-      std::size_t unreadable = 0;
-      std::string first_unreadable;
-      for (const auto& p : rig.pairs) {
-        if (!p.used && p.status.rfind("cannot read", 0) == 0) {
-          if (unreadable++ == 0) first_unreadable = p.status;
-        }
-      }
-      const std::string head = "only " + std::to_string(object.size()) + " of " + std::to_string(pairs.size()) +
-                               " pairs are usable (need " + std::to_string(options.min_pairs) + ")";
-      if (unreadable > 0) {
-        throw Error(head + ": " + std::to_string(unreadable) + " pair(s) cannot be read (" + first_unreadable +
-                    "); check that the files are PNG or JPEG images");
-      }
-      throw Error(head + (options.board.type == BoardType::kCharuco
-                              ? "; check --charuco (squares, e.g. 12x9), --marker, --dictionary and the images"
-                              : "; check --board (inner corners, e.g. 9x6) and the images"));
+      throw TooFewPairs(rig, object.size(), pairs.size(), options);
     }
     // Zhang's method per camera (fx = fy fixed at 1 ratio only when asked).
     used_object = object;
@@ -486,22 +516,7 @@ StereoRig CalibrateFromCorners(const std::vector<PairCorners>& pairs, cv::Size i
       worst[k] = rep.rms_stereo_px;
     }
     if (options.reject_factor <= 0 || round >= 3) break;
-    std::vector<double> sorted = worst;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-    const double limit = options.reject_factor * sorted[sorted.size() / 2];
-    bool rejected = false;
-    for (std::size_t k = 0; k < index.size(); ++k) {
-      if (worst[k] > limit && static_cast<int>(index.size()) > options.min_pairs) {
-        PairReport& rep = rig.pairs[index[k]];
-        rep.used = false;
-        char buf[128];
-        std::snprintf(buf, sizeof(buf), "rejected: RMS %.3f px > %.1f x median %.3f px", worst[k],
-                      options.reject_factor, sorted[sorted.size() / 2]);
-        rep.status = buf;
-        rejected = true;
-      }
-    }
-    if (!rejected) break;
+    if (!RejectWorstPairs(index, worst, options, &rig)) break;
   }
   // The same problem again in Ceres, from OpenCV's answer, for the parameters' covariance.
   RefineStereoBundle(left, right, used_object, options, &rig);

@@ -12,7 +12,7 @@
 #include <array>
 #include <cmath>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "stereo/calibration.hpp"
 
 namespace hedgefit::stereo {
@@ -87,6 +87,58 @@ struct RightCorner : Corner {
     return true;
   }
 };
+
+}  // namespace
+
+namespace {
+
+// The covariance of the parameters a rig keeps, in RigParameters() order (the board poses are
+// nuisance parameters, marginalised by taking the blocks of the full inverse), scaled by the
+// residual variance `sigma2`; zero where Ceres cannot compute it.
+cv::Mat ParameterCovariance(ceres::Problem* problem, double* const intr[2], double* const dist[2], double* rig_r,
+                            double* rig_t, const double aspect[2], double sigma2, const CalibrationOptions& options) {
+  std::vector<const double*> blocks = {rig_r, rig_t};
+  if (options.refine_intrinsics) blocks.insert(blocks.begin(), {intr[0], dist[0], intr[1], dist[1]});
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;  // drop directions the data does not constrain rather than fail
+  co.num_threads = 1;
+  ceres::Covariance covariance(co);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    for (std::size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
+  }
+  cv::Mat cov = cv::Mat::zeros(kRigParameters, kRigParameters, CV_64F);
+  if (covariance.Compute(pairs, problem)) {
+    const int start[] = {0, 4, 12, 16, 24, 27};
+    const int size[] = {4, 8, 4, 8, 3, 3};
+    const std::size_t first = options.refine_intrinsics ? 0 : 4;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      for (std::size_t j = i; j < blocks.size(); ++j) {
+        const std::size_t bi = first + i, bj = first + j;
+        std::vector<double> b(std::size_t(size[bi] * size[bj]));
+        covariance.GetCovarianceBlock(blocks[i], blocks[j], b.data());
+        for (int r = 0; r < size[bi]; ++r) {
+          for (int c = 0; c < size[bj]; ++c) {
+            const double val = b[std::size_t(r * size[bj] + c)] * sigma2;
+            cov.at<double>(start[bi] + r, start[bj] + c) = val;
+            cov.at<double>(start[bj] + c, start[bi] + r) = val;
+          }
+        }
+      }
+    }
+    if (options.fix_aspect_ratio) {  // fy = aspect * fx moves with fx
+      for (int c = 0; c < 2; ++c) {
+        const int fx = 12 * c, fy = fx + 1;
+        for (int k = 0; k < kRigParameters; ++k) {
+          cov.at<double>(fy, k) = cov.at<double>(k, fy) = aspect[c] * cov.at<double>(fx, k);
+        }
+        cov.at<double>(fy, fy) = aspect[c] * aspect[c] * cov.at<double>(fx, fx);
+      }
+    }
+  }
+  return cov;
+}
 
 }  // namespace
 
@@ -165,48 +217,7 @@ double RefineStereoBundle(const std::vector<std::vector<cv::Point2f>>& left_px,
   const double dof = std::max(1, summary.num_residuals_reduced - summary.num_effective_parameters_reduced);
   const double sigma2 = 2.0 * summary.final_cost / dof;
 
-  // The covariance of the parameters a rig keeps (the board poses are nuisance parameters,
-  // marginalised by taking the blocks of the full inverse).
-  std::vector<const double*> blocks = {rig_r, rig_t};
-  if (options.refine_intrinsics) blocks.insert(blocks.begin(), {intr[0], dist[0], intr[1], dist[1]});
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = -1;  // drop directions the data does not constrain rather than fail
-  co.num_threads = 1;
-  ceres::Covariance covariance(co);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (std::size_t i = 0; i < blocks.size(); ++i) {
-    for (std::size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
-  }
-  cv::Mat cov = cv::Mat::zeros(kRigParameters, kRigParameters, CV_64F);
-  if (covariance.Compute(pairs, &problem)) {
-    const int start[] = {0, 4, 12, 16, 24, 27};
-    const int size[] = {4, 8, 4, 8, 3, 3};
-    const std::size_t first = options.refine_intrinsics ? 0 : 4;
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
-      for (std::size_t j = i; j < blocks.size(); ++j) {
-        const std::size_t bi = first + i, bj = first + j;
-        std::vector<double> b(std::size_t(size[bi] * size[bj]));
-        covariance.GetCovarianceBlock(blocks[i], blocks[j], b.data());
-        for (int r = 0; r < size[bi]; ++r) {
-          for (int c = 0; c < size[bj]; ++c) {
-            const double val = b[std::size_t(r * size[bj] + c)] * sigma2;
-            cov.at<double>(start[bi] + r, start[bj] + c) = val;
-            cov.at<double>(start[bj] + c, start[bi] + r) = val;
-          }
-        }
-      }
-    }
-    if (options.fix_aspect_ratio) {  // fy = aspect * fx moves with fx
-      for (int c = 0; c < 2; ++c) {
-        const int fx = 12 * c, fy = fx + 1;
-        for (int k = 0; k < kRigParameters; ++k) {
-          cov.at<double>(fy, k) = cov.at<double>(k, fy) = aspect[c] * cov.at<double>(fx, k);
-        }
-        cov.at<double>(fy, fy) = aspect[c] * aspect[c] * cov.at<double>(fx, fx);
-      }
-    }
-  }
+  const cv::Mat cov = ParameterCovariance(&problem, intr, dist, rig_r, rig_t, aspect, sigma2, options);
   const StereoRig refined = RigWithParameters(*rig, theta);
   rig->K1 = refined.K1;
   rig->D1 = refined.D1;

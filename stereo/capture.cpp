@@ -1,4 +1,6 @@
 #include "stereo/capture.hpp"
+#include "cloud/cleaning.hpp"
+#include "cloud/cloud_stages.hpp"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
@@ -8,17 +10,17 @@
 #include <cmath>
 #include <limits>
 
-#include "cloud/error.hpp"
-#include "cloud/pipeline.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/pipeline.hpp"
 #include "stereo/rectification.hpp"
 #include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::stereo {
 
-const cloud::OptionTable<MatchOptions>& MatchOptions::Table() {
+const pipeline::OptionTable<MatchOptions>& MatchOptions::Table() {
   using O = MatchOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Nest(SgbmOptions::Table(), &O::sgbm)
           .Add("min_z", &O::min_z_mm, "working range, nearest", "mm").Min(1)
           .Add("max_z", &O::max_z_mm, "working range, farthest", "mm").Min(1)
@@ -334,7 +336,7 @@ void ConvertOptions::Check() const {
 std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left, const std::string& right,
                                 const std::string& rig, const std::string& output) {
   using nlohmann::json;
-  auto stage = [](const std::string& type, const std::map<std::string, cloud::OptionValue>& values) {
+  auto stage = [](const std::string& type, const std::map<std::string, pipeline::OptionValue>& values) {
     json j = {{"type", type}};
     for (const auto& [k, v] : values) j[k] = std::visit([](const auto& x) { return json(x); }, v);
     return j;
@@ -383,17 +385,16 @@ std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector
 ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig,
                              const ConvertOptions& options) {
   options.Check();
-  static const cloud::Registry registry = [] {
-    cloud::Registry r;
-    RegisterStereoStages(r);
-    return r;
-  }();
-  cloud::Pipeline pipeline = cloud::Pipeline::FromJson(CapturePipelineJson(options), "convert", registry, {},
+  // The process's registry, so a matcher added by a plugin or a library user works here too.
+  pipeline::Registry& registry = pipeline::Registry::Global();
+  registry.AddModule("cloud", &cloud::RegisterCloudStages);
+  registry.AddModule("stereo", &RegisterStereoStages);
+  pipeline::Pipeline pipeline = pipeline::Pipeline::FromJson(CapturePipelineJson(options), "convert", registry, {},
                                                        {"left_image", "right_image", "rig"});
-  cloud::Context ctx;
+  pipeline::Context ctx;
   ctx.quiet = true;
   PutCapture(left_bgr, right_bgr, rig, &ctx);
-  const cloud::RunReport report = pipeline.Run(ctx);
+  const pipeline::RunReport report = pipeline.Run(ctx);
   ConvertResult r;
   r.cloud = std::move(ctx.Get<cloud::PointCloud>("cloud"));
   r.left_rect = ctx.Get<cv::Mat>("left_image");

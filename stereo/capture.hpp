@@ -9,9 +9,10 @@
 
 #include <string>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
+#include "cloud/cleaning.hpp"
 #include "cloud/point_cloud.hpp"
-#include "stereo/garden.hpp"
+#include "stereo/depth_segmentation.hpp"
 #include "stereo/matching.hpp"
 #include "stereo/rectification.hpp"
 #include "stereo/reprojection.hpp"
@@ -64,7 +65,7 @@ struct MatchOptions {
   /// on the paper's rig), small against the light's change across a ball.
   int garden_sigma_tile_px = 32;
   void Check() const;
-  static const cloud::OptionTable<MatchOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<MatchOptions>& Table();  ///< the options, declared once
 };
 
 struct MatchResult {

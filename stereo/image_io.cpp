@@ -16,7 +16,7 @@
 #include <mutex>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "stereo/image_codecs_module.hpp"
 
 namespace hedgefit::stereo {

@@ -16,16 +16,16 @@
 #include <mutex>
 #include <vector>
 
-#include "cloud/error.hpp"
-#include "cloud/parallel.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/parallel.hpp"
 #include "stereo/bspline.hpp"
 
 namespace hedgefit::stereo {
 
-const cloud::OptionTable<SgbmOptions>& SgbmOptions::Table() {
+const pipeline::OptionTable<SgbmOptions>& SgbmOptions::Table() {
   using O = SgbmOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .AddEnum("mode", &O::mode,
                    {{"hh", SgbmMode::kHh8}, {"sgbm", SgbmMode::kSgbm5}, {"3way", SgbmMode::kSgbm3Way}, {"hh4", SgbmMode::kHh4}},
                    "paths: hh (8), sgbm (5), 3way, hh4")
@@ -427,6 +427,139 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
 
 }  // namespace
 
+namespace {
+
+struct WindowSample {
+  int di, dj;
+  float left;
+  const float* right_row;
+};
+
+// Gauss-Newton in a (2r+1)^2 window about (x, y) from SGBM's d0: true and the estimate and its
+// standard deviation when it settles. One per worker: it keeps the window's samples.
+class WindowRefiner {
+ public:
+  WindowRefiner(const cv::Mat& L, const cv::Mat& R, const cv::Mat& mask, int iterations, bool curvature,
+                double max_sigma_px, int max_radius)
+      : L_(L), R_(R), mask_(mask), iterations_(iterations), curvature_(curvature), max_sigma_px_(max_sigma_px) {
+    window_.reserve(std::size_t((2 * max_radius + 1) * (2 * max_radius + 1)));
+  }
+  bool Solve(int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out);
+
+ private:
+  const cv::Mat& L_;
+  const cv::Mat& R_;
+  const cv::Mat& mask_;
+  int iterations_;
+  bool curvature_;
+  double max_sigma_px_;
+  std::vector<WindowSample> window_;
+};
+
+bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out) {
+  const cv::Mat& L = L_;
+  const cv::Mat& R = R_;
+  const cv::Mat& mask = mask_;
+  const int w = L.cols, h = L.rows, iterations = iterations_;
+  const bool curvature = curvature_;
+  const double max_sigma_px = max_sigma_px_;
+  std::vector<WindowSample>& window = window_;
+  const int side = 2 * r + 1, min_samples = std::max(9, (side * side * 2) / 5);  // 40 % of the window
+  window.clear();
+  for (int j = std::max(0, y - r); j <= std::min(h - 1, y + r); ++j) {
+    const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(j);
+    const float* lrow = L.ptr<float>(j);
+    for (int i = std::max(0, x - r); i <= std::min(w - 1, x + r); ++i) {
+      if (!m || m[i] != 0) window.push_back({i - x, j - y, lrow[i], R.ptr<float>(j)});
+    }
+  }
+  if (int(window.size()) < min_samples) return false;
+  // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
+  // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
+  // gain and offset between the cameras.
+  Eigen::Matrix<double, 5, 1> q;
+  q << d0, 0, 0, 0, 0;
+  double sigma = 0;
+  for (int it = 0; it < iterations; ++it) {
+    // The window's response to curvature is wanted where the search ends, linearised as its
+    // last step is: with the correction on, every pixel takes all its steps (one that settles
+    // within 1e-3 px early would otherwise stop before the last), and the response is summed
+    // in the last step only.
+    const bool respond = curvature && it + 1 == iterations;
+    // The normal equations by hand (the upper triangle of J J^T, 15 sums, and J res): the
+    // window's samples are this function's whole cost, and Eigen's generic rank update of a
+    // 5 x 5 view costs about twice as much here.
+    // vq[t]: J^T (gv m_t), the window's response to the quadratic term m_t = u^2, u v, v^2:
+    // a surface bent by k_t m_t leaves the residuals -gv k_t m_t, which the step takes in as
+    // H^-1 J^T (gv m_t) k_t.
+    double hs[15] = {0}, g[5] = {0}, vq[3][5] = {{0}};
+    int used = 0;
+    double ssr = 0;
+    // The first step has no slope yet, and SGBM's d0 (a float) less a whole column is exact in
+    // double: every sample lies at the same fraction of a pixel, and one set of weights serves
+    // them all (the same values to the bit, without a B-spline evaluation per sample).
+    const bool level = q[1] == 0 && q[2] == 0;
+    double wt_level[4], dt_level[4];
+    const double shift_level = std::floor(-q[0]);
+    if (level) BSplineWeights(-q[0] - shift_level, wt_level, dt_level);
+    for (const WindowSample& sm : window) {
+      double wt_own[4], dt_own[4];
+      const double* wt = wt_level;
+      const double* dt = dt_level;
+      int x0 = x + sm.di + static_cast<int>(shift_level);
+      if (!level) {
+        const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
+        x0 = static_cast<int>(std::floor(xr));
+        BSplineWeights(xr - x0, wt_own, dt_own);
+        wt = wt_own, dt = dt_own;
+      }
+      if (x0 < 1 || x0 + 2 >= w) continue;
+      const float* rr = sm.right_row;
+      const double rv = wt[0] * rr[x0 - 1] + wt[1] * rr[x0] + wt[2] * rr[x0 + 1] + wt[3] * rr[x0 + 2];
+      const double gv = (1 + q[3]) * (dt[0] * rr[x0 - 1] + dt[1] * rr[x0] + dt[2] * rr[x0 + 1] + dt[3] * rr[x0 + 2]);
+      const double res = sm.left - (1 + q[3]) * rv - q[4];
+      const double J[5] = {gv, gv * sm.di, gv * sm.dj, -rv, -1.0};
+      for (int a = 0, k = 0; a < 5; ++a) {
+        g[a] -= J[a] * res;
+        for (int c = a; c < 5; ++c, ++k) hs[k] += J[a] * J[c];
+      }
+      if (respond) {
+        const double m[3] = {double(sm.di * sm.di), double(sm.di * sm.dj), double(sm.dj * sm.dj)};
+        for (int t = 0; t < 3; ++t) {
+          for (int a = 0; a < 5; ++a) vq[t][a] += J[a] * gv * m[t];
+        }
+      }
+      ssr += res * res;
+      ++used;
+    }
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    for (int a = 0, k = 0; a < 5; ++a) {
+      for (int c = a; c < 5; ++c, ++k) H(a, c) = hs[k];
+    }
+    const Eigen::Matrix<double, 5, 1> b = Eigen::Map<const Eigen::Matrix<double, 5, 1>>(g);
+    // Textureless windows (tiny gradient energy) or a singular system: not settled.
+    if (used < min_samples || H(0, 0) < 0.25 * used) return false;
+    const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
+    const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
+    const bool last = (!curvature && std::abs(step[0]) < 1e-3) || it + 1 == iterations;
+    // The estimate's standard deviation from the window's residuals and H^-1, of the
+    // iteration that ends the search.
+    if (last) sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
+    if (respond) {
+      for (int t = 0; t < 3; ++t) (*gain_out)[t] = float(ldlt.solve(Eigen::Map<const Eigen::Matrix<double, 5, 1>>(vq[t]))[0]);
+    }
+    q += step;
+    if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) return false;
+    if (last) break;
+  }
+  *d_out = q[0];
+  *sigma_out_px = sigma;
+  return sigma <= max_sigma_px;
+}
+
+}  // namespace
+
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
                    int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out, cv::Mat* dropped,
                    int max_radius, double retry_sigma_px, int curvature_radius, int curvature_step_px) {
@@ -446,111 +579,9 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
   // coefficient of the disparity surface, d = ... + k_uu u^2 + k_uv u v + k_vv v^2 (u, v in px).
   cv::Mat gain;
   if (curvature) gain = cv::Mat(disparity->size(), CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
-  struct Sample {
-    int di, dj;
-    float left;
-    const float* right_row;
-  };
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
-    std::vector<Sample> window;
-    window.reserve(std::size_t((2 * max_radius + 1) * (2 * max_radius + 1)));
+    WindowRefiner refiner(L, R, mask, iterations, curvature, max_sigma_px, max_radius);
     int local = 0;
-    // Gauss-Newton in a (2r+1)^2 window about (x, y) from SGBM's d0: true and the estimate
-    // and its standard deviation when it settles.
-    auto solve = [&](int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out) {
-      const int side = 2 * r + 1, min_samples = std::max(9, (side * side * 2) / 5);  // 40 % of the window
-      window.clear();
-      for (int j = std::max(0, y - r); j <= std::min(h - 1, y + r); ++j) {
-        const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(j);
-        const float* lrow = L.ptr<float>(j);
-        for (int i = std::max(0, x - r); i <= std::min(w - 1, x + r); ++i) {
-          if (!m || m[i] != 0) window.push_back({i - x, j - y, lrow[i], R.ptr<float>(j)});
-        }
-      }
-      if (int(window.size()) < min_samples) return false;
-      // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
-      // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
-      // gain and offset between the cameras.
-      Eigen::Matrix<double, 5, 1> q;
-      q << d0, 0, 0, 0, 0;
-      double sigma = 0;
-      for (int it = 0; it < iterations; ++it) {
-        // The window's response to curvature is wanted where the search ends, linearised as its
-        // last step is: with the correction on, every pixel takes all its steps (one that settles
-        // within 1e-3 px early would otherwise stop before the last), and the response is summed
-        // in the last step only.
-        const bool respond = curvature && it + 1 == iterations;
-        // The normal equations by hand (the upper triangle of J J^T, 15 sums, and J res): the
-        // window's samples are this function's whole cost, and Eigen's generic rank update of a
-        // 5 x 5 view costs about twice as much here.
-        // vq[t]: J^T (gv m_t), the window's response to the quadratic term m_t = u^2, u v, v^2:
-        // a surface bent by k_t m_t leaves the residuals -gv k_t m_t, which the step takes in as
-        // H^-1 J^T (gv m_t) k_t.
-        double hs[15] = {0}, g[5] = {0}, vq[3][5] = {{0}};
-        int used = 0;
-        double ssr = 0;
-        // The first step has no slope yet, and SGBM's d0 (a float) less a whole column is exact in
-        // double: every sample lies at the same fraction of a pixel, and one set of weights serves
-        // them all (the same values to the bit, without a B-spline evaluation per sample).
-        const bool level = q[1] == 0 && q[2] == 0;
-        double wt_level[4], dt_level[4];
-        const double shift_level = std::floor(-q[0]);
-        if (level) BSplineWeights(-q[0] - shift_level, wt_level, dt_level);
-        for (const Sample& sm : window) {
-          double wt_own[4], dt_own[4];
-          const double* wt = wt_level;
-          const double* dt = dt_level;
-          int x0 = x + sm.di + static_cast<int>(shift_level);
-          if (!level) {
-            const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
-            x0 = static_cast<int>(std::floor(xr));
-            BSplineWeights(xr - x0, wt_own, dt_own);
-            wt = wt_own, dt = dt_own;
-          }
-          if (x0 < 1 || x0 + 2 >= w) continue;
-          const float* rr = sm.right_row;
-          const double rv = wt[0] * rr[x0 - 1] + wt[1] * rr[x0] + wt[2] * rr[x0 + 1] + wt[3] * rr[x0 + 2];
-          const double gv = (1 + q[3]) * (dt[0] * rr[x0 - 1] + dt[1] * rr[x0] + dt[2] * rr[x0 + 1] + dt[3] * rr[x0 + 2]);
-          const double res = sm.left - (1 + q[3]) * rv - q[4];
-          const double J[5] = {gv, gv * sm.di, gv * sm.dj, -rv, -1.0};
-          for (int a = 0, k = 0; a < 5; ++a) {
-            g[a] -= J[a] * res;
-            for (int c = a; c < 5; ++c, ++k) hs[k] += J[a] * J[c];
-          }
-          if (respond) {
-            const double m[3] = {double(sm.di * sm.di), double(sm.di * sm.dj), double(sm.dj * sm.dj)};
-            for (int t = 0; t < 3; ++t) {
-              for (int a = 0; a < 5; ++a) vq[t][a] += J[a] * gv * m[t];
-            }
-          }
-          ssr += res * res;
-          ++used;
-        }
-        Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-        for (int a = 0, k = 0; a < 5; ++a) {
-          for (int c = a; c < 5; ++c, ++k) H(a, c) = hs[k];
-        }
-        const Eigen::Matrix<double, 5, 1> b = Eigen::Map<const Eigen::Matrix<double, 5, 1>>(g);
-        // Textureless windows (tiny gradient energy) or a singular system: not settled.
-        if (used < min_samples || H(0, 0) < 0.25 * used) return false;
-        const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
-        if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
-        const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
-        const bool last = (!curvature && std::abs(step[0]) < 1e-3) || it + 1 == iterations;
-        // The estimate's standard deviation from the window's residuals and H^-1, of the
-        // iteration that ends the search.
-        if (last) sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
-        if (respond) {
-          for (int t = 0; t < 3; ++t) (*gain_out)[t] = float(ldlt.solve(Eigen::Map<const Eigen::Matrix<double, 5, 1>>(vq[t]))[0]);
-        }
-        q += step;
-        if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) return false;
-        if (last) break;
-      }
-      *d_out = q[0];
-      *sigma_out_px = sigma;
-      return sigma <= max_sigma_px;
-    };
     for (int y = rows.start; y < rows.end; ++y) {
       float* drow = disparity->ptr<float>(y);
       const std::uint8_t* mrow = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y);
@@ -563,10 +594,10 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
         // The small window where it pins the disparity well (sigma <= retry_sigma); else the
         // large one, which averages more of the noise (Kanade and Okutomi's adaptive window);
         // else the small one if it settled at all.
-        bool ok = solve(x, y, d0, radius, &d, &sigma, &response);
+        bool ok = refiner.Solve(x, y, d0, radius, &d, &sigma, &response);
         if (max_radius > radius && !(ok && sigma <= retry_sigma_px)) {
           double d2 = d0, sigma2 = 0;
-          if (solve(x, y, d0, max_radius, &d2, &sigma2, &response2)) d = d2, sigma = sigma2, ok = true, response = response2;
+          if (refiner.Solve(x, y, d0, max_radius, &d2, &sigma2, &response2)) d = d2, sigma = sigma2, ok = true, response = response2;
         }
         if (ok) {
           drow[x] = static_cast<float>(d);
@@ -610,6 +641,65 @@ namespace {
 
 // ComputeDisparity on views whose first `blind_px` columns are padding: a match that reads the
 // right view there is no match.
+namespace {
+
+// The left-right check: a left disparity stays when the right matcher's disparity at the pixel it
+// points to agrees within `lrc` px; `min_d` is the search's first disparity.
+void LeftRightCheck(const cv::Mat& d16_right, double lrc, int min_d, DisparityMap* out) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const int cols = out->disparity.cols;
+  for (int y = 0; y < out->disparity.rows; ++y) {
+    float* d = out->disparity.ptr<float>(y);
+    const short* rr = d16_right.ptr<short>(y);
+    std::uint8_t* rej = out->rejected.ptr<std::uint8_t>(y);
+    for (int x = 0; x < cols; ++x) {
+      if (std::isnan(d[x])) {
+        rej[x] = 255;
+        continue;
+      }
+      const int xr = static_cast<int>(std::lround(x - d[x]));
+      bool ok = xr >= 0 && xr < cols;
+      if (ok) {
+        const short rv = rr[xr];
+        const float dr = -rv / 16.0f;
+        ok = rv != std::numeric_limits<short>::min() && rv <= 0 && std::abs(dr - d[x]) <= lrc && -rv > (min_d - 1) * 16;
+      }
+      if (!ok) {
+        d[x] = nan;
+        rej[x] = 255;
+      }
+    }
+  }
+}
+
+// Refines what SGBM and the check accepted (not `off_grid`), after taking the pair's residual
+// vertical disparity out of the right view.
+void RefineAccepted(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const SgbmOptions& o, int stride,
+                    const cv::Mat& off_grid, DisparityMap* out_map) {
+  DisparityMap& out = *out_map;
+  // The refinement matches along rows: the pair's residual vertical disparity goes first.
+  cv::Mat refine_right = right;
+  if (o.correct_vertical) {
+    const cv::Mat right_grey = GreyFloat(right), coeffs = BSplineCoefficients2D(right_grey);
+    cv::Mat known = out.disparity.clone();
+    known.setTo(std::numeric_limits<float>::quiet_NaN(), out.rejected);
+    out.vertical = EstimateVerticalDisparityFloat(GreyFloat(left), coeffs, known, mask);
+    // Below correct_vertical_min the rows agree to the refinement's own precision, and
+    // resampling the view would only perturb it.
+    out.vertical.applied = out.vertical.samples > 0 && out.vertical.MaxAbs(left.size()) >= o.correct_vertical_min_px;
+    refine_right = out.vertical.applied ? ShiftRows(right_grey, coeffs, out.vertical) : right_grey;
+  }
+  RefineSubpixel(left, refine_right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
+                 o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma,
+                 o.refine_drop_uncertain ? &out.rejected : nullptr, o.refine_max_radius, o.refine_retry_sigma_px,
+                 // Neighbours 1 px apart share most of their windows' samples, so their errors move
+                 // together; 2 px is the closest spacing that reads the curvature, and a thinned
+                 // hedge's refined pixels lie every stride-th.
+                 o.refine_curvature, std::max(2, stride));
+}
+
+}  // namespace
+
 DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOptions& o, const cv::Mat& mask, int stride,
                         int blind_px) {
   const int channels = left.channels();
@@ -639,7 +729,7 @@ DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOpt
   // The left and the right matcher (for the left-right check) run side by side: OpenCV's HH
   // modes are single-threaded, so on two cores this halves the matching time.
   cv::Mat d16_left, d16_right;
-  cloud::ParallelFor(o.lrc_tolerance_px >= 0 ? 2 : 1, 0, 1, [&](std::size_t b, std::size_t e) {
+  pipeline::ParallelFor(o.lrc_tolerance_px >= 0 ? 2 : 1, 0, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       if (i == 0) {
         sgbm->compute(l, r, d16_left);
@@ -659,30 +749,7 @@ DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOpt
     float* d = out.disparity.ptr<float>(y);
     for (int x = 0; x < l.cols; ++x) d[x] = s[x] <= invalid_left || x * 16 - s[x] < blind * 16 ? nan : s[x] / 16.0f;
   }
-  if (lrc >= 0) {
-    for (int y = 0; y < l.rows; ++y) {
-      float* d = out.disparity.ptr<float>(y);
-      const short* rr = d16_right.ptr<short>(y);
-      std::uint8_t* rej = out.rejected.ptr<std::uint8_t>(y);
-      for (int x = 0; x < l.cols; ++x) {
-        if (std::isnan(d[x])) {
-          rej[x] = 255;
-          continue;
-        }
-        const int xr = static_cast<int>(std::lround(x - d[x]));
-        bool ok = xr >= 0 && xr < l.cols;
-        if (ok) {
-          const short rv = rr[xr];
-          const float dr = -rv / 16.0f;
-          ok = rv != std::numeric_limits<short>::min() && rv <= 0 && std::abs(dr - d[x]) <= lrc && -rv > (min_d - 1) * 16;
-        }
-        if (!ok) {
-          d[x] = nan;
-          rej[x] = 255;
-        }
-      }
-    }
-  }
+  if (lrc >= 0) LeftRightCheck(d16_right, lrc, min_d, &out);
   if (half) {
     // Back to full resolution: each pixel takes its half-resolution pixel's disparity, doubled.
     cv::Mat d_full, rej_full;
@@ -700,27 +767,7 @@ DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOpt
       for (int x = 0; x < left.cols; x += stride) row[x] = 0;
     }
   }
-  if (o.refine_radius > 0) {
-    // The refinement matches along rows: the pair's residual vertical disparity goes first.
-    cv::Mat refine_right = right;
-    if (o.correct_vertical) {
-      const cv::Mat right_grey = GreyFloat(right), coeffs = BSplineCoefficients2D(right_grey);
-      cv::Mat known = out.disparity.clone();
-      known.setTo(std::numeric_limits<float>::quiet_NaN(), out.rejected);
-      out.vertical = EstimateVerticalDisparityFloat(GreyFloat(left), coeffs, known, mask);
-      // Below correct_vertical_min the rows agree to the refinement's own precision, and
-      // resampling the view would only perturb it.
-      out.vertical.applied = out.vertical.samples > 0 && out.vertical.MaxAbs(left.size()) >= o.correct_vertical_min_px;
-      refine_right = out.vertical.applied ? ShiftRows(right_grey, coeffs, out.vertical) : right_grey;
-    }
-    RefineSubpixel(left, refine_right, mask, off_grid.empty() ? out.rejected : (out.rejected | off_grid), o.refine_radius,
-                   o.refine_iterations, &out.disparity, o.refine_max_sigma_px, &out.sigma,
-                   o.refine_drop_uncertain ? &out.rejected : nullptr, o.refine_max_radius, o.refine_retry_sigma_px,
-                   // Neighbours 1 px apart share most of their windows' samples, so their errors move
-                   // together; 2 px is the closest spacing that reads the curvature, and a thinned
-                   // hedge's refined pixels lie every stride-th.
-                   o.refine_curvature, std::max(2, stride));
-  }
+  if (o.refine_radius > 0) RefineAccepted(left, right, mask, o, stride, off_grid, &out);
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
   if (!off_grid.empty()) {
     out.disparity.setTo(std::numeric_limits<float>::quiet_NaN(), off_grid);

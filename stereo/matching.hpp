@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 
 namespace hedgefit::stereo {
 
@@ -63,7 +63,7 @@ struct SgbmOptions {
   double correct_vertical_min_px = 0.05;
   void Check() const;  ///< throws hedgefit::Error naming the option
   /// The options a user sets (not the disparity range, which comes from the working range).
-  static const cloud::OptionTable<SgbmOptions>& Table();
+  static const pipeline::OptionTable<SgbmOptions>& Table();
 };
 
 /// The residual vertical disparity of a rectified pair: the left pixel (x, y) appears in the

@@ -7,7 +7,7 @@
 #include <mutex>
 #include <vector>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "stereo/bspline.hpp"
 
 namespace hedgefit::stereo {

@@ -4,14 +4,14 @@
 #include <limits>
 #include <vector>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::stereo {
 
-const cloud::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
+const pipeline::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
   using O = ReprojectOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("organized", &O::organized, "keep the image grid (NaN where no point)")
           .Add("extra_fields", &O::extra_fields, "add disparity, sigma_z and pixel_mm fields")
           .Add("sigma_disparity", &O::sigma_disparity_px, "disparity noise for sigma_z where the refinement gave none", "px")

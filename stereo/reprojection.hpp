@@ -4,7 +4,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "cloud/point_cloud.hpp"
 #include "stereo/rig.hpp"
 
@@ -17,7 +17,7 @@ struct ReprojectOptions {
                                    ///< refinement gave no per-pixel estimate
   bool keep_filled = false;        ///< also reproject hole-filled (unmeasured) disparities
   void Check() const;
-  static const cloud::OptionTable<ReprojectOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<ReprojectOptions>& Table();  ///< the options, declared once
 };
 
 /// Disparity (rectified left, CV_32F, NaN = none) to points in the unrectified left camera

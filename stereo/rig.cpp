@@ -9,7 +9,7 @@
 #include <regex>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::stereo {
 
@@ -103,6 +103,14 @@ const std::vector<std::string>& RigParameterNames() {
     return n;
   }();
   return names;
+}
+
+int RigParameterIndex(const std::string& name) {
+  const auto& names = RigParameterNames();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return int(i);
+  }
+  throw Error("internal: no rig parameter '" + name + "'");
 }
 
 cv::Vec<double, kRigParameters> RigParameters(const StereoRig& rig) {
@@ -225,74 +233,73 @@ cv::Mat ReadMatrix(const cv::FileNode& node, const std::string& path, const char
 
 }  // namespace
 
-StereoRig ReadRig(const std::string& path) {
+namespace {
+
+// Refuses a file that is not a rig before OpenCV parses it: too large, or (YAML) not the lines
+// `hedgefit calibrate` writes.
+void CheckRigFileText(const std::string& path) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": no such rig file; run `hedgefit calibrate` first");
   // A rig file is a few kB: a large one is not a rig (and would be parsed whole first).
-  {
-    const auto size = std::filesystem::file_size(path, ec);
-    if (ec || size > (1u << 20)) throw Error(path + ": too large for a rig file (over 1 MB); give the YAML `hedgefit calibrate` wrote");
-    // OpenCV's YAML parser loops forever on some malformed input (found by fuzzing), so a YAML
-    // rig must first look like what `hedgefit calibrate` writes: ASCII lines that are the
-    // header, comments, "key: value", a matrix's "rows/cols/dt/data" lines or rows of numbers.
-    std::ifstream in(path, std::ios::binary);
-    std::string line;
-    std::size_t line_no = 0;
-    bool yaml = false, keys = false, ended = false;
-    auto bad = [&](const std::string& why) {
-      return Error(path + ":" + std::to_string(line_no) + ": " + why + "; a rig file is the YAML `hedgefit calibrate` writes");
-    };
-    // A number as OpenCV writes it (1., -4.5e-02, .5, 3), or YAML's .nan / .inf, which
-    // RigProblem then refuses with a clear message.
-    static const std::string number = R"((?:[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:nan|NaN|NAN|inf|Inf|INF)))";
-    static const std::string list = number + "(?:, *" + number + ")*(?:,| *\\])?";
-    static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
-    static const std::regex data_row("^" + list + " *$");  // a matrix's data continued on the next line
-    // Words include the few-word notes OpenCV leaves unquoted, as calibrate's status of a pair it
-    // could not use ("board (9x6 inner corners) not found in left image").
-    static const std::regex plain_value("^( +(!!opencv-matrix|" + number + R"(|"[^"]*"|[A-Za-z0-9][A-Za-z0-9_.]*(?: [A-Za-z0-9(][^#:"\[\]{}]*)?|\[ *\]|\[ *)" +
-                                        list + "))? *$");
-    while (std::getline(in, line)) {
-      ++line_no;
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      // OpenCV writes short lines; a very long one would also overflow std::regex's recursive
-      // matcher below (found by fuzzing: a 31 kB line).
-      if (line.size() > 1024) throw bad("a line of " + std::to_string(line.size()) + " characters (a rig file's are short)");
-      for (unsigned char u : line) {
-        if ((u < 0x20 && u != '\t') || u >= 0x7f) throw bad("a byte that is not ASCII text (" + std::to_string(u) + ")");
-      }
-      if (line_no == 1) {
-        yaml = line.rfind("%YAML", 0) == 0;
-        if (!yaml) break;  // XML: OpenCV's XML parser, unchecked
-        continue;
-      }
-      const std::size_t first = line.find_first_not_of(" \t");
-      if (first == std::string::npos || line[first] == '#') continue;
-      if (ended) throw bad("text after the end of the document ('...')");
-      if (line == "---") {
-        if (keys) throw bad("a second document ('---')");
-        continue;
-      }
-      if (line == "...") {
-        ended = true;
-        continue;
-      }
-      const std::string body = line.substr(first);
-      // A matrix's data continued, or the calibration's list of pairs: "[]" when empty, else
-      // an item marker "-" on its own line before the item's keys.
-      if (body == "-" || body == "[]" || std::regex_match(body, data_row)) continue;
-      if (!std::regex_match(body, key_value)) throw bad("not a 'key: value' line");
-      keys = true;
-      const std::string value = body.substr(body.find(':') + 1);
-      if (!std::regex_match(value, plain_value)) throw bad("a value that is not a number, a word or a matrix");
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec || size > (1u << 20)) throw Error(path + ": too large for a rig file (over 1 MB); give the YAML `hedgefit calibrate` wrote");
+  // OpenCV's YAML parser loops forever on some malformed input (found by fuzzing), so a YAML
+  // rig must first look like what `hedgefit calibrate` writes: ASCII lines that are the
+  // header, comments, "key: value", a matrix's "rows/cols/dt/data" lines or rows of numbers.
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::size_t line_no = 0;
+  bool yaml = false, keys = false, ended = false;
+  auto bad = [&](const std::string& why) {
+    return Error(path + ":" + std::to_string(line_no) + ": " + why + "; a rig file is the YAML `hedgefit calibrate` writes");
+  };
+  // A number as OpenCV writes it (1., -4.5e-02, .5, 3), or YAML's .nan / .inf, which
+  // RigProblem then refuses with a clear message.
+  static const std::string number = R"((?:[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:nan|NaN|NAN|inf|Inf|INF)))";
+  static const std::string list = number + "(?:, *" + number + ")*(?:,| *\\])?";
+  static const std::regex key_value(R"(^[A-Za-z_][A-Za-z0-9_]*:( .*)?$)");
+  static const std::regex data_row("^" + list + " *$");  // a matrix's data continued on the next line
+  // Words include the few-word notes OpenCV leaves unquoted, as calibrate's status of a pair it
+  // could not use ("board (9x6 inner corners) not found in left image").
+  static const std::regex plain_value("^( +(!!opencv-matrix|" + number + R"(|"[^"]*"|[A-Za-z0-9][A-Za-z0-9_.]*(?: [A-Za-z0-9(][^#:"\[\]{}]*)?|\[ *\]|\[ *)" +
+                                      list + "))? *$");
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    // OpenCV writes short lines; a very long one would also overflow std::regex's recursive
+    // matcher below (found by fuzzing: a 31 kB line).
+    if (line.size() > 1024) throw bad("a line of " + std::to_string(line.size()) + " characters (a rig file's are short)");
+    for (unsigned char u : line) {
+      if ((u < 0x20 && u != '\t') || u >= 0x7f) throw bad("a byte that is not ASCII text (" + std::to_string(u) + ")");
     }
+    if (line_no == 1) {
+      yaml = line.rfind("%YAML", 0) == 0;
+      if (!yaml) break;  // XML: OpenCV's XML parser, unchecked
+      continue;
+    }
+    const std::size_t first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    if (ended) throw bad("text after the end of the document ('...')");
+    if (line == "---") {
+      if (keys) throw bad("a second document ('---')");
+      continue;
+    }
+    if (line == "...") {
+      ended = true;
+      continue;
+    }
+    const std::string body = line.substr(first);
+    // A matrix's data continued, or the calibration's list of pairs: "[]" when empty, else
+    // an item marker "-" on its own line before the item's keys.
+    if (body == "-" || body == "[]" || std::regex_match(body, data_row)) continue;
+    if (!std::regex_match(body, key_value)) throw bad("not a 'key: value' line");
+    keys = true;
+    const std::string value = body.substr(body.find(':') + 1);
+    if (!std::regex_match(value, plain_value)) throw bad("a value that is not a number, a word or a matrix");
   }
-  cv::FileStorage fs;
-  try {
-    if (!fs.open(path, cv::FileStorage::READ)) throw Error(path + ": not an OpenCV FileStorage file");
-  } catch (const std::exception&) {  // cv::Exception, or std::length_error on a garbled length
-    throw Error(path + ": not a readable OpenCV YAML/XML rig file");
-  }
+}
+
+// The rig's keys from an opened FileStorage; OpenCV's own exceptions become one line naming `path`.
+StereoRig ReadRigKeys(const cv::FileStorage& fs, const std::string& path) {
   StereoRig rig;
   // OpenCV's parser throws its own exception for malformed values (a matrix of negative size, a
   // string where a number belongs): the file is named, not OpenCV's assertion.
@@ -344,6 +351,22 @@ StereoRig ReadRig(const std::string& path) {
     throw Error(path + ": a value is malformed (" + (cv_error ? cv_error->err : std::string(e.what())) +
                 "); recalibrate with `hedgefit calibrate` or fix the file");
   }
+  return rig;
+}
+
+}  // namespace
+
+StereoRig ReadRig(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": no such rig file; run `hedgefit calibrate` first");
+  CheckRigFileText(path);
+  cv::FileStorage fs;
+  try {
+    if (!fs.open(path, cv::FileStorage::READ)) throw Error(path + ": not an OpenCV FileStorage file");
+  } catch (const std::exception&) {  // cv::Exception, or std::length_error on a garbled length
+    throw Error(path + ": not a readable OpenCV YAML/XML rig file");
+  }
+  StereoRig rig = ReadRigKeys(fs, path);
   if (const std::string why = RigProblem(rig); !why.empty()) {
     throw Error(path + ": " + why + "; recalibrate with `hedgefit calibrate` or fix the file");
   }

@@ -40,6 +40,9 @@ struct StereoRig {
 /// has fewer), then the rotation between the cameras as a rotation vector (rad), then T (mm).
 constexpr int kRigParameters = 30;
 const std::vector<std::string>& RigParameterNames();
+/// The index of parameter `name` ("left.cx", "right.k3", "rig.tx") in RigParameterNames() order;
+/// throws hedgefit::Error for an unknown name.
+int RigParameterIndex(const std::string& name);
 
 /// The parameter vector of `rig` (K, D, R, T) in RigParameterNames() order.
 cv::Vec<double, kRigParameters> RigParameters(const StereoRig& rig);

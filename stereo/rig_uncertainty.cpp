@@ -6,7 +6,7 @@
 #include <limits>
 #include <memory>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 
 namespace hedgefit::stereo {
 

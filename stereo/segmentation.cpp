@@ -8,7 +8,7 @@
 #include <limits>
 #include <vector>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "stereo/bspline.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/rectification.hpp"
@@ -16,10 +16,10 @@
 
 namespace hedgefit::stereo {
 
-const cloud::OptionTable<SegmentOptions>& SegmentOptions::Table() {
+const pipeline::OptionTable<SegmentOptions>& SegmentOptions::Table() {
   using O = SegmentOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("gamma", &O::gamma, "gamma on the excess-green value").Min(1e-3)
           .Add("esp", &O::esp, "offset added before the gamma")
           .Add("bilateral_diameter", &O::bilateral_diameter, "bilateral filter on excess green; 0 = off", "px")
@@ -37,10 +37,10 @@ const cloud::OptionTable<SegmentOptions>& SegmentOptions::Table() {
 
 void SegmentOptions::Check() const { Table().Validate(*this); }
 
-const cloud::OptionTable<MaskOptions>& MaskOptions::Table() {
+const pipeline::OptionTable<MaskOptions>& MaskOptions::Table() {
   using O = MaskOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("filename", &O::filename, "mask image drawn on the original left image (> 127 = hedge)")
           .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200);
   return table;
@@ -51,10 +51,10 @@ void MaskOptions::Check() const {
   Table().Validate(*this);
 }
 
-const cloud::OptionTable<DepthSegmentOptions>& DepthSegmentOptions::Table() {
+const pipeline::OptionTable<DepthSegmentOptions>& DepthSegmentOptions::Table() {
   using O = DepthSegmentOptions;
   static const auto table =
-      cloud::OptionTable<O>()
+      pipeline::OptionTable<O>()
           .Add("box", &O::box, "[X, Y, W, H] around the hedge in the original left image; required (its depth mask is eroded by 5 px unless --erode is given: SGBM's outline is up to 2 px fat)", "px")
           .Min(0)
           .Add("depth_tolerance", &O::tolerance_px, "disparity band around the box middle's median", "px").Min(1e-3)

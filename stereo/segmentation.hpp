@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/option_table.hpp"
+#include "pipeline/option_table.hpp"
 #include "stereo/matching.hpp"
 #include "stereo/rig.hpp"
 
@@ -37,7 +37,7 @@ struct SegmentOptions {
   /// split soil from wall instead of hedge from the rest.
   double green_floor = 20.0;
   void Check() const;
-  static const cloud::OptionTable<SegmentOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<SegmentOptions>& Table();  ///< the options, declared once
 };
 
 /// The paper's hedge mask: ExG = 2G - R - B, bilateral filter, gamma, Otsu; CV_8U 0/255.
@@ -49,7 +49,7 @@ struct MaskOptions {
   std::string filename;  ///< mask image (0 = background, > 127 = hedge), drawn on the original left image
   int erode_px = 3;      ///< drop this many silhouette pixels; as the colour mask's (SegmentOptions)
   void Check() const;
-  static const cloud::OptionTable<MaskOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<MaskOptions>& Table();  ///< the options, declared once
 };
 
 /// A user's mask: read, checked against the rig's image size, rectified and eroded.
@@ -68,7 +68,7 @@ struct DepthSegmentOptions {
   int block_size = 5;              ///< the coarse match's block, px
   bool precise_resampling = true;  ///< B-spline rectification of the matched box
   void Check() const;
-  static const cloud::OptionTable<DepthSegmentOptions>& Table();  ///< the options, declared once
+  static const pipeline::OptionTable<DepthSegmentOptions>& Table();  ///< the options, declared once
 };
 
 /// Segmentation by depth: matches the box's region coarsely (no refinement, no filling), then

@@ -11,8 +11,8 @@
 #include <fstream>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/option_table.hpp"
-#include "cloud/parallel.hpp"
+#include "pipeline/option_table.hpp"
+#include "pipeline/parallel.hpp"
 #include "cloud/point_cloud.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/image_io.hpp"
@@ -22,8 +22,8 @@ namespace hedgefit::stereo {
 
 namespace {
 
-using cloud::Context;
-using cloud::Options;
+using pipeline::Context;
+using pipeline::Options;
 
 cv::Mat ReadImage(const std::string& path, const std::string& which) {
   if (path.empty()) throw Error("stage 'readers.stereo', option '" + which + "': give the " + which + " image");
@@ -86,7 +86,7 @@ void RequireCaptureFormat(const std::string& path, const std::string& format) {
   }
 }
 
-void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx) {
+void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, pipeline::Context* ctx) {
   if (left_bgr.size() != right_bgr.size()) {
     throw Error("the left image is " + std::to_string(left_bgr.cols) + "x" + std::to_string(left_bgr.rows) +
                 " but the right one is " + std::to_string(right_bgr.cols) + "x" + std::to_string(right_bgr.rows) +
@@ -139,8 +139,13 @@ void PutGardenSegmentation(const GardenSegmentOptions& p, Context& ctx) {
 
 }  // namespace
 
-void RegisterStereoStages(cloud::Registry& r) {
-  using namespace hedgefit::cloud;
+namespace {
+
+using namespace hedgefit::cloud;
+using namespace hedgefit::pipeline;
+
+// readers.stereo: the pair and its rig
+void AddReader(pipeline::Registry& r) {
   r.Add(StageInfo{"readers.stereo", "Reads a stereo capture (left and right images) and its rig file",
                   {StringOption("left", "", "left image"), StringOption("right", "", "right image"),
                    StringOption("rig", "", "rig file from `hedgefit calibrate`")},
@@ -153,7 +158,7 @@ void RegisterStereoStages(cloud::Registry& r) {
           // The two images decode side by side.
           cv::Mat images[2];
           std::exception_ptr errors[2];
-          cloud::ParallelFor(2, 0, 1, [&](std::size_t b, std::size_t e) {
+          pipeline::ParallelFor(2, 0, 1, [&](std::size_t b, std::size_t e) {
             for (std::size_t i = b; i < e; ++i) {
               try {
                 images[i] = ReadImage(o.GetString(i == 0 ? "left" : "right"), i == 0 ? "left" : "right");
@@ -167,6 +172,10 @@ void RegisterStereoStages(cloud::Registry& r) {
           }
           PutCapture(images[0], images[1], rig, &ctx);
         }));
+}
+
+// stereo.rectify
+void AddRectification(pipeline::Registry& r) {
   r.Add(StageInfo{"stereo.rectify", "Undistorts and rectifies the pair with the rig (Bouguet)", {},
                   {"left_image", "right_image", "rig"}, {"left_image", "right_image", "raw_left_image", "raw_right_image"}, {}},
         MakeFactory([](const Options&, Context& ctx) {
@@ -179,6 +188,10 @@ void RegisterStereoStages(cloud::Registry& r) {
           ctx.Put("right_image", rt);
           ctx.Put("rectified", true);
         }));
+}
+
+// stereo.segment, stereo.mask, stereo.segment_depth, stereo.segment_garden
+void AddSegmenters(pipeline::Registry& r) {
   r.Add(StageInfo{"stereo.segment",
                   "The paper's hedge mask: excess green, bilateral filter, gamma, Otsu, largest region, holes filled",
                   TableOptions<SegmentOptions>(), {"left_image"}, {"mask"}, {}},
@@ -210,6 +223,10 @@ void RegisterStereoStages(cloud::Registry& r) {
                                            [](const GardenSegmentOptions& p, const Options&, Context& ctx) {
           PutGardenSegmentation(p, ctx);
         }));
+}
+
+// stereo.segment_auto: the colour mask, or every hedge by depth where it fails
+void AddAutoSegmenter(pipeline::Registry& r) {
   r.Add(StageInfo{"stereo.segment_auto",
                   "The default: the paper's colour mask where it isolates the hedge (a lab), every hedge by depth "
                   "(stereo.segment_garden) where the colour mask covers more than garden_above of the frame or finds "
@@ -275,6 +292,10 @@ void RegisterStereoStages(cloud::Registry& r) {
           }
           PutMask(ctx, colour);
         }));
+}
+
+// stereo.sgbm: SGBM, left-right check, sub-pixel refinement
+void AddMatcher(pipeline::Registry& r) {
   r.Add(StageInfo{"stereo.sgbm",
                   "Improved semi-global matching: SGBM, left-right check, background-side hole filling, sub-pixel "
                   "refinement; only over the mask's region and the working range's disparities",
@@ -331,6 +352,10 @@ void RegisterStereoStages(cloud::Registry& r) {
           ctx.Put("disparity_sigma", m.disparity_sigma);
           ctx.Put("matched_region", m.matched_region);
         }));
+}
+
+// stereo.reproject: disparity to points
+void AddReprojection(pipeline::Registry& r) {
   r.Add(StageInfo{"stereo.reproject",
                   "Disparity to points in the unrectified left camera frame (mm), coloured, inside the mask",
                   TableOptions<ReprojectOptions>(), {"disparity", "left_image", "rig"}, {"cloud"}, {}},
@@ -374,6 +399,25 @@ void RegisterStereoStages(cloud::Registry& r) {
           ctx.Note("points", static_cast<std::int64_t>(pc.size() - cloud::CountNonFinite(pc)));
           ctx.Put("cloud", std::move(pc));
         }));
+}
+
+}  // namespace
+
+void RegisterStereoStages(pipeline::Registry& r) {
+  // One row per family of stages.
+  for (auto add : {&AddReader, &AddRectification, &AddSegmenters, &AddAutoSegmenter, &AddMatcher, &AddReprojection}) add(r);
+}
+
+void CheckCaptureImages(const std::string& left, const std::string& right) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const std::string& image : {left, right}) {
+    if (fs::is_directory(image, ec)) throw Error(image + ": is a directory; give the image file in it");
+    if (!fs::is_regular_file(image, ec)) throw Error(image + ": no such image file; check the path");
+    unsigned char head[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    std::ifstream(image, std::ios::binary).read(reinterpret_cast<char*>(head), sizeof(head));
+    RequireCaptureFormat(image, SniffImageFormat(head, sizeof(head)));
+  }
 }
 
 }  // namespace hedgefit::stereo

@@ -10,7 +10,7 @@
 
 #include <string>
 
-#include "cloud/registry.hpp"
+#include "pipeline/registry.hpp"
 #include "stereo/image_io.hpp"  // WriteImageAtomic
 #include "stereo/rig.hpp"
 
@@ -18,7 +18,7 @@ namespace hedgefit::stereo {
 
 /// Adds readers.stereo, stereo.rectify, stereo.segment, stereo.mask, stereo.segment_depth,
 /// stereo.sgbm and stereo.reproject to `registry`.
-void RegisterStereoStages(cloud::Registry& registry);
+void RegisterStereoStages(pipeline::Registry& registry);
 
 /// One image of a capture, as readers.stereo reads it: 8-bit BGR (or grey with
 /// cv::IMREAD_GRAYSCALE); only PNG, JPEG, TIFF, BMP and PNM are decoded. Throws hedgefit::Error
@@ -30,6 +30,10 @@ cv::Mat ReadCaptureImage(const std::string& path, int flags = 1 /* cv::IMREAD_CO
 void RequireCaptureFormat(const std::string& path, const std::string& format);
 
 /// Puts a capture already in memory into `ctx` as readers.stereo would.
-void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, cloud::Context* ctx);
+void PutCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig, pipeline::Context* ctx);
+
+/// Checks the images of one capture before any work: each exists and is a format a capture can
+/// be read from (a missing or unreadable image is bad input, exit 1).
+void CheckCaptureImages(const std::string& left, const std::string& right);
 
 }  // namespace hedgefit::stereo

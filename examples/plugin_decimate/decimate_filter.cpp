@@ -5,12 +5,13 @@
 #include <cstdint>
 #include <vector>
 
-#include "cloud/plugin.hpp"
+#include "pipeline/plugin.hpp"
 #include "cloud/point_cloud.hpp"
 
 namespace {
 
 using namespace hedgefit::cloud;
+using namespace hedgefit::pipeline;
 
 void RegisterDecimate(Registry& registry) {
   StageInfo info{"filters.decimate",

@@ -99,6 +99,19 @@ TEST(Cli, BadInputsGiveOneLineAndExitCodeOne) {
   ExpectOneLineError(RunHedgefit("bench lab --nope", dir), 1, "hedgefit: bench lab: ");
 }
 
+// A misspelt command or flag gets a suggestion, as misspelt stages and options do.
+TEST(Cli, MisspeltCommandsAndFlagsGetADidYouMean) {
+  const fs::path dir = hedgefit::testing::ScratchDir();
+  const Result command = RunHedgefit("mesure --rig r.yaml", dir);
+  ExpectOneLineError(command, 1, "(did you mean 'measure'?)");
+  EXPECT_EQ(command.err.rfind("hedgefit: unknown command 'mesure'", 0), 0u) << command.err;
+  ExpectOneLineError(RunHedgefit("compare c.pcd --methdo kasa", dir), 1, "(did you mean '--method'?)");
+  ExpectOneLineError(RunHedgefit("info c.pcd --jsno", dir), 1, "(did you mean '--json'?)");
+  // Nothing close: no suggestion.
+  const Result r = RunHedgefit("info c.pcd --zzzzzzzz", dir);
+  EXPECT_EQ(r.err.find("did you mean"), std::string::npos) << r.err;
+}
+
 TEST(Cli, PluginsListsStagesAndReportsBrokenPlugins) {
   const fs::path dir = hedgefit::testing::ScratchDir();
   const std::string plugins = HEDGEFIT_TEST_PLUGIN_DIR;
@@ -132,23 +145,24 @@ TEST(Cli, PluginsListsStagesAndReportsBrokenPlugins) {
 
 namespace {
 
-// README's stage table names every built-in stage and every option it declares, so the
-// documentation cannot silently fall behind the declarations.
-TEST(Cli, ReadmeNamesEveryStageAndOption) {
+// docs/pipelines.md's stage table names every built-in stage and every option it declares, so
+// the documentation cannot silently fall behind the declarations.
+TEST(Cli, DocsNameEveryStageAndOption) {
   const auto dir = hedgefit::testing::ScratchDir();
   const Result r = RunHedgefit("plugins --json", dir);
   ASSERT_EQ(r.code, 0) << r.err;
-  std::ifstream in(std::string(HEDGEFIT_SOURCE_DIR) + "/README.md");
+  std::ifstream in(std::string(HEDGEFIT_SOURCE_DIR) + "/docs/pipelines.md");
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string readme = ss.str();
-  const std::string table = readme.substr(readme.find("### Built-in stages"));
+  ASSERT_NE(readme.find("## Built-in stages"), std::string::npos) << "docs/pipelines.md has no stage table";
+  const std::string table = readme.substr(readme.find("## Built-in stages"));
   const nlohmann::json plugins = nlohmann::json::parse(r.out);
   ASSERT_GT(plugins["stages"].size(), 20u);
   for (const auto& stage : plugins["stages"]) {
     const std::string name = stage["name"];
     const auto row = table.find("`" + name + "`");
-    ASSERT_NE(row, std::string::npos) << name << " is not in README's stage table";
+    ASSERT_NE(row, std::string::npos) << name << " is not in docs/pipelines.md's stage table";
     const std::string line = table.substr(row, table.find('\n', row) - row);
     for (const auto& option : stage["options"]) {
       const std::string o = option["name"];
@@ -157,7 +171,7 @@ TEST(Cli, ReadmeNamesEveryStageAndOption) {
           (name == "fitters.ransac_ray" && o != "keep_inliers" && o != "origin")) {
         continue;
       }
-      EXPECT_NE(line.find("`" + o + "`"), std::string::npos) << name << " option " << o << " is not in README";
+      EXPECT_NE(line.find("`" + o + "`"), std::string::npos) << name << " option " << o << " is not in docs/pipelines.md";
     }
   }
 }

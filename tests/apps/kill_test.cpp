@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "tests/test_data.hpp"
 
 namespace {

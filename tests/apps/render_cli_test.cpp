@@ -67,9 +67,9 @@ TEST(RenderCli, BadArgumentsAreOneLine) {
   EXPECT_EQ(r.err, "hedgefit: missing.json: cannot open the fits file; write one with `hedgefit compare CLOUD "
                    "--format json > FILE`\n");
   // A method the table does not know draws nothing: an error, not an empty picture.
-  r = RunHedgefit("render sample_clouds/cap_z2300_a60_o10.pcd --methods bogus -o x.png", dir);
+  r = RunHedgefit("render sample_clouds/cap_z2300_a60_o10.pcd --method bogus -o x.png", dir);
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.err.rfind("hedgefit: --methods: unknown method 'bogus'", 0), 0u) << r.err;
+  EXPECT_EQ(r.err.rfind("hedgefit: --method: unknown method 'bogus'", 0), 0u) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
   r = RunHedgefit("render sample_clouds/cap_z2300_a60_o10.pcd --size 12x10 -o x.png", dir);
   EXPECT_EQ(r.code, 1);

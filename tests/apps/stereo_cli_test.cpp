@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "cloud/cloud_io.hpp"
-#include "stereo/simulator.hpp"
+#include "sim/simulator.hpp"
 #include "tests/cli_helpers.hpp"
 #include "tests/test_data.hpp"
 
@@ -313,15 +313,15 @@ TEST(ConvertCli, GardenRowGivesOnePcdPerHedgeAndComparePerHedge) {
 // One of the garden presets (hard ones too) at half the paper's resolution into `dir`, as
 // `simulate --preset garden --scale 0.5 --supersample 2` renders the standard ones.
 void WriteHalfScaleGarden(const std::filesystem::path& dir, const std::string& preset) {
-  const hedgefit::stereo::SimRig rig = hedgefit::stereo::PaperRig(0.5);
-  hedgefit::stereo::RenderOptions ro;
+  const hedgefit::sim::SimRig rig = hedgefit::sim::PaperRig(0.5);
+  hedgefit::sim::RenderOptions ro;
   ro.supersample = 2;
   ro.blur_sigma_px = 0.5;
   ro.noise_sigma = 1.0;
-  hedgefit::stereo::WriteGardenWith(
+  hedgefit::sim::WriteGardenWith(
       dir.string(), rig, {preset},
-      [&](const hedgefit::stereo::GardenScene& sc, bool right) { return hedgefit::stereo::RenderGarden(rig, right, sc, ro); },
-      [](const hedgefit::stereo::GardenScene& sc, std::size_t i) { return hedgefit::stereo::GardenHedgeSurfaceRadius(sc, i); });
+      [&](const hedgefit::sim::GardenScene& sc, bool right) { return hedgefit::sim::RenderGarden(rig, right, sc, ro); },
+      [](const hedgefit::sim::GardenScene& sc, std::size_t i) { return hedgefit::sim::GardenHedgeSurfaceRadius(sc, i); });
 }
 
 // A hedge the image's edge cuts says so in its line: the fit saw part of the ball, so its centre

@@ -13,10 +13,11 @@
 #include <fstream>
 #include <random>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::cloud {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 namespace fs = std::filesystem;

@@ -2,6 +2,7 @@
 // clouds with known structure and on PCL's real stereo test cloud.
 
 #include "cloud/filters.hpp"
+#include "cloud/cleaning.hpp"
 
 #include <gtest/gtest.h>
 #include <pcl/filters/radius_outlier_removal.h>
@@ -12,13 +13,14 @@
 #include <random>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "cloud/pcl_adapter.hpp"
-#include "cloud/pipeline.hpp"
+#include "pipeline/pipeline.hpp"
 #include "cloud/voxel_neighbours.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::cloud {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 // A noisy sphere cap (dense), a plane, sparse outliers, exact duplicates (ties in

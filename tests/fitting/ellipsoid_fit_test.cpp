@@ -7,11 +7,12 @@
 
 #include <Eigen/Geometry>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "fitting/methods.hpp"
 #include "tests/fitting/synthetic.hpp"
 
 namespace hedgefit::fitting {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 // Points of an axis-aligned ellipsoid (semi-axes a along x, b along y = down, c along z) on the

@@ -9,12 +9,13 @@
 #include <array>
 #include <cmath>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/methods.hpp"
 #include "tests/fitting/synthetic.hpp"
 
 namespace hedgefit::fitting {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 struct Case {

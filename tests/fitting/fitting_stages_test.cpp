@@ -2,6 +2,7 @@
 // its inliers to a later geometric fit that starts from it, and options are validated.
 
 #include "fitting/fitting_stages.hpp"
+#include "cloud/cloud_stages.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,18 +10,19 @@
 #include <fstream>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/pipeline.hpp"
-#include "fitting/evaluation.hpp"
+#include "pipeline/pipeline.hpp"
+#include "fitting/fit_fields.hpp"
 #include "fitting/methods.hpp"
 #include "tests/fitting/synthetic.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::fitting {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
-cloud::Registry& Registry() {
-  static cloud::Registry* r = [] {
-    auto* reg = new cloud::Registry();
+pipeline::Registry& Registry() {
+  static pipeline::Registry* r = [] {
+    auto* reg = new pipeline::Registry();
     cloud::RegisterCloudStages(*reg);
     RegisterFittingStages(*reg);
     return reg;
@@ -48,8 +50,8 @@ TEST(FittingStages, EachHedgeOfACaptureIsFittedOnItsOwn) {
       {"type": "fitters.ransac", "distance_threshold": 8, "keep_inliers": true},
       {"type": "fitters.geometric", "initial": "previous"},
       {"type": "writers.pcd", "filename": ")" + (dir / "hedge_#.pcd").string() + R"("}])";
-  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", Registry());
-  cloud::Context ctx;
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(json, "p", Registry());
+  pipeline::Context ctx;
   p.Run(ctx);
   const auto& fits = ctx.Get<std::vector<SphereFitResult>>("fits");
   ASSERT_EQ(fits.size(), 4u);
@@ -81,8 +83,8 @@ TEST(FittingStages, OneFilePerHedgeNeedsHedgeIds) {
   cloud::WriteCloud((dir / "plain.pcd").string(), c);
   const std::string json = "[\"" + (dir / "plain.pcd").string() + R"(", {"type": "writers.pcd", "filename": ")" +
                            (dir / "out_#.pcd").string() + R"("}])";
-  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", Registry());
-  cloud::Context ctx;
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(json, "p", Registry());
+  pipeline::Context ctx;
   try {
     p.Run(ctx);
     FAIL() << "expected an error";
@@ -105,9 +107,9 @@ TEST(FittingStages, PipelineAccumulatesFits) {
       {"type": "fitters.algebraic"}, {"type": "fitters.hyper"},
       {"type": "fitters.ransac", "distance_threshold": 9, "min_radius": 100, "max_radius": 1000, "keep_inliers": true},
       {"type": "fitters.geometric", "initial": "previous"}])";
-  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", Registry());
-  cloud::Context ctx;
-  const cloud::RunReport report = p.Run(ctx);
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(json, "p", Registry());
+  pipeline::Context ctx;
+  const pipeline::RunReport report = p.Run(ctx);
   const auto& fits = ctx.Get<std::vector<SphereFitResult>>("fits");
   ASSERT_EQ(fits.size(), 4u);
   EXPECT_EQ(fits[0].method, "kasa");
@@ -128,7 +130,7 @@ TEST(FittingStages, PipelineAccumulatesFits) {
 TEST(FittingStages, OptionsAreValidated) {
   auto error = [](const std::string& json) {
     try {
-      cloud::Pipeline::FromJson(json, "p", Registry());
+      pipeline::Pipeline::FromJson(json, "p", Registry());
     } catch (const Error& e) {
       return std::string(e.what());
     }
@@ -154,7 +156,7 @@ TEST(FittingStages, PreviousWithoutAnEarlierFitFailsClearly) {
   cloud::WriteCloud((dir / "c.pcd").string(), c);
   // Found when the pipeline is built, before anything runs (so no writer has written yet).
   try {
-    cloud::Pipeline::FromJson("[\"" + (dir / "c.pcd").string() +
+    pipeline::Pipeline::FromJson("[\"" + (dir / "c.pcd").string() +
                                   R"(", {"type": "fitters.geometric", "initial": "previous"}])",
                               "p", Registry());
     FAIL();
@@ -164,11 +166,11 @@ TEST(FittingStages, PreviousWithoutAnEarlierFitFailsClearly) {
               "artifact but no earlier stage makes one");
   }
   // An earlier fit that did not converge is still a clear error when the stage runs.
-  cloud::Pipeline q = cloud::Pipeline::FromJson(
+  pipeline::Pipeline q = pipeline::Pipeline::FromJson(
       "[\"" + (dir / "c.pcd").string() +
           R"(", {"type": "fitters.ransac", "min_radius": 2000, "max_radius": 3000}, {"type": "fitters.geometric", "initial": "previous"}])",
       "q", Registry());
-  cloud::Context ctx;
+  pipeline::Context ctx;
   EXPECT_THROW(q.Run(ctx), Error);
 }
 
@@ -194,12 +196,12 @@ TEST(FittingStages, AFailedPipelineClobbersNothing) {
   const std::string before = slurp(in);
   // RANSAC cannot converge with these radius limits, so the geometric fit from 'previous' fails
   // after both writers have run.
-  cloud::Pipeline p = cloud::Pipeline::FromJson(
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(
       "[\"" + in + R"(", {"type": "writers.pcd", "filename": ")" + out + R"("}, {"type": "writers.pcd", "filename": ")" +
           in + R"(", "encoding": "binary"}, {"type": "fitters.ransac", "min_radius": 2000, "max_radius": 3000},
           {"type": "fitters.geometric", "initial": "previous"}])",
       "p", Registry());
-  cloud::Context ctx;
+  pipeline::Context ctx;
   EXPECT_THROW(p.Run(ctx), Error);
   EXPECT_EQ(slurp(out), "precious");
   EXPECT_EQ(slurp(in), before);
@@ -207,42 +209,18 @@ TEST(FittingStages, AFailedPipelineClobbersNothing) {
     EXPECT_EQ(e.path().filename().string().find(".staged"), std::string::npos) << e.path();  // nothing left behind
   }
   // The same pipeline without the failing stage writes both.
-  cloud::Pipeline ok = cloud::Pipeline::FromJson(
+  pipeline::Pipeline ok = pipeline::Pipeline::FromJson(
       "[\"" + in + R"(", {"type": "writers.pcd", "filename": ")" + out + R"("}])", "ok", Registry());
-  cloud::Context ctx2;
+  pipeline::Context ctx2;
   ok.Run(ctx2);
   EXPECT_EQ(cloud::ReadCloud(out).size(), c.size());
-}
-
-TEST(Evaluation, PaperStatistics) {
-  Sphere truth{Eigen::Vector3d(0, 0, 2000), 300};
-  Sphere fit{Eigen::Vector3d(3, 4, 2000), 301.5};
-  const FitError e = Evaluate(fit, truth);
-  EXPECT_DOUBLE_EQ(e.aer_mm, 1.5);
-  EXPECT_DOUBLE_EQ(e.rer_percent, 0.5);
-  EXPECT_DOUBLE_EQ(e.ld_mm, 5.0);
-  SummaryBuilder b;
-  SphereFitResult r1, r2, failed;
-  r1.converged = r2.converged = true;
-  r1.sphere = fit;
-  r2.sphere = Sphere{Eigen::Vector3d(0, 0, 2000), 298.5};
-  b.Add("m", r1, truth);
-  b.Add("m", r2, truth);
-  b.Add("m", failed, truth);
-  const MethodSummary s = b.Finish().at("m");
-  EXPECT_EQ(s.clouds, 2u);
-  EXPECT_EQ(s.failures, 1u);
-  EXPECT_DOUBLE_EQ(s.mean_abs_aer_mm, 1.5);
-  EXPECT_DOUBLE_EQ(s.rmse_radius_mm, 1.5);
-  EXPECT_DOUBLE_EQ(s.mean_ld_mm, 2.5);
-  EXPECT_DOUBLE_EQ(s.max_ld_mm, 5.0);
 }
 
 // The method table is the one list: every row has its stage, compare's names are the table's,
 // and an unknown name is an error with a suggestion.
 TEST(MethodTable, EveryMethodIsAStageAndUnknownNamesAreErrors) {
   for (const FitMethod& m : FitMethods()) {
-    const cloud::StageDescriptor* d = Registry().Find(m.stage);
+    const pipeline::StageDescriptor* d = Registry().Find(m.stage);
     ASSERT_NE(d, nullptr) << m.name;
     EXPECT_EQ(d->info.description, m.description);
     for (const auto& spec : m.options) EXPECT_NE(d->info.FindOption(spec.name), nullptr) << m.name << " " << spec.name;
@@ -280,14 +258,14 @@ TEST(MethodTable, RunFitMethodMatchesTheStage) {
   c.Flatten();
   cloud::WriteCloud((dir / "cap.pcd").string(), c);
   const std::vector<Eigen::Vector3d> as_read = ToDouble(c.points_mm);
-  const std::map<std::string, cloud::OptionValue> given = {
+  const std::map<std::string, pipeline::OptionValue> given = {
       {"distance_threshold", 8.0}, {"min_radius", 100.0}, {"max_radius", 1000.0}, {"loss", std::string("huber")}};
   const SphereFitResult direct = RunFitMethod("ransac_geometric", as_read, given, 42);
-  cloud::Pipeline p = cloud::Pipeline::FromJson(
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(
       "[\"" + (dir / "cap.pcd").string() +
           R"(", {"type": "fitters.ransac_geometric", "distance_threshold": 8, "min_radius": 100, "max_radius": 1000}])",
       "p", Registry());
-  cloud::Context ctx;
+  pipeline::Context ctx;
   p.Run(ctx);
   const auto& fits = ctx.Get<std::vector<SphereFitResult>>("fits");
   ASSERT_TRUE(direct.converged);

@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "cloud/filters.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/geometric_fit.hpp"
@@ -15,6 +15,7 @@
 #include "tests/test_data.hpp"
 
 namespace hedgefit::fitting {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 using hedgefit::testing::AddOutliers;

@@ -3,18 +3,20 @@
 // with 2 mm of radial noise; the target is the 500 mm sphere.
 
 #include "fitting/trim.hpp"
+#include "cloud/cloud_stages.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "cloud/pipeline.hpp"
+#include "pipeline/pipeline.hpp"
 #include "cloud/point_cloud.hpp"
-#include "cloud/registry.hpp"
+#include "pipeline/registry.hpp"
 #include "fitting/fitting_stages.hpp"
 
 namespace hedgefit::fitting {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 constexpr double kR = 500, kBulgeR = 540, kBulgeDeg = 25, kNoise = 2;
@@ -101,16 +103,16 @@ TEST(Trim, NothingToCutInsideTheTargetAndBadTargetsAreRefused) {
 // The stage: a fit centres the target, the cut depths become a field, and a pipeline without
 // a fit or a radius is refused before it runs.
 TEST(Trim, StageCentresOnTheFitAndWritesTheField) {
-  cloud::Registry reg;
+  pipeline::Registry reg;
   cloud::RegisterCloudStages(reg);
   RegisterFittingStages(reg);
   const Hedge h = MakeHedge(20000, 7);
   cloud::PointCloud c;
   for (const auto& p : h.points) c.points_mm.push_back(p.cast<float>());
   c.Flatten();
-  cloud::Context ctx;
+  pipeline::Context ctx;
   ctx.Put("cloud", c);
-  cloud::Pipeline p = cloud::Pipeline::FromJson(
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(
       R"([{"type": "fitters.ransac_geometric", "distance_threshold": 8}, {"type": "filters.trim_depth", "radius": 500}])",
       "p", reg, {}, {"cloud"});
   p.Run(ctx);
@@ -122,9 +124,9 @@ TEST(Trim, StageCentresOnTheFitAndWritesTheField) {
   EXPECT_NEAR(plans[0].cut_p50_mm, kBulgeR - kR, 1.5);
   const auto& field = ctx.Get<cloud::PointCloud>("cloud").fields.at("cut_depth");
   EXPECT_EQ(field.size(), h.points.size());
-  EXPECT_THROW(cloud::Pipeline::FromJson(R"([{"type": "filters.trim_depth", "radius": 500}])", "p", reg, {}, {"cloud"}),
+  EXPECT_THROW(pipeline::Pipeline::FromJson(R"([{"type": "filters.trim_depth", "radius": 500}])", "p", reg, {}, {"cloud"}),
                Error);  // no fit and no centre
-  EXPECT_THROW(cloud::Pipeline::FromJson(R"([{"type": "filters.trim_depth"}])", "p", reg, {}, {"cloud"}), Error);
+  EXPECT_THROW(pipeline::Pipeline::FromJson(R"([{"type": "filters.trim_depth"}])", "p", reg, {}, {"cloud"}), Error);
 }
 
 }  // namespace

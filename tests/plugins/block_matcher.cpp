@@ -7,13 +7,13 @@
 
 #include <limits>
 
-#include "cloud/plugin.hpp"
+#include "pipeline/plugin.hpp"
 #include "stereo/matching.hpp"
 #include "stereo/rig.hpp"
 
 namespace {
 
-using namespace hedgefit::cloud;
+using namespace hedgefit::pipeline;
 
 void RegisterBlockMatcher(Registry& registry) {
   StageInfo info{"stereo.block_matcher",

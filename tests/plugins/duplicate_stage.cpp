@@ -1,10 +1,10 @@
 // A plugin that tries to take a built-in stage's name: registration must fail cleanly.
-#include "cloud/plugin.hpp"
+#include "pipeline/plugin.hpp"
 
 namespace {
-void Register(hedgefit::cloud::Registry& registry) {
-  registry.Add(hedgefit::cloud::StageInfo{"filters.statistical_outlier", "impostor", {}, {"cloud"}, {"cloud"}, {}},
-               hedgefit::cloud::MakeFactory([](const hedgefit::cloud::Options&, hedgefit::cloud::Context&) {}));
+void Register(hedgefit::pipeline::Registry& registry) {
+  registry.Add(hedgefit::pipeline::StageInfo{"filters.statistical_outlier", "impostor", {}, {"cloud"}, {"cloud"}, {}},
+               hedgefit::pipeline::MakeFactory([](const hedgefit::pipeline::Options&, hedgefit::pipeline::Context&) {}));
 }
 }  // namespace
 

@@ -1,10 +1,10 @@
 // A plugin built for another ABI: the host must refuse it without calling register.
 #include <cstdlib>
 
-#include "cloud/plugin.hpp"
+#include "pipeline/plugin.hpp"
 
 namespace {
-void MustNotBeCalled(hedgefit::cloud::Registry*) { std::abort(); }
+void MustNotBeCalled(hedgefit::pipeline::Registry*) { std::abort(); }
 }  // namespace
 
 extern "C" __attribute__((visibility("default"))) const HedgefitPluginInfo* hedgefit_plugin_entry() {

@@ -8,20 +8,21 @@
 #include <opencv2/imgproc.hpp>
 
 #include "stereo/rectification.hpp"
-#include "stereo/simulator.hpp"
+#include "sim/simulator.hpp"
 
 namespace hedgefit::render {
+using namespace hedgefit::sim;  // the test data's renderer
 namespace {
 
 TEST(Overlay, OutlineFollowsTheRenderedSilhouette) {
-  const stereo::SimRig sim = stereo::PaperRig(0.5);
-  const stereo::StereoRig rig = stereo::RigFromSimulation(sim);
-  stereo::SphereScene scene;
+  const sim::SimRig sim = sim::PaperRig(0.5);
+  const stereo::StereoRig rig = sim::RigFromSimulation(sim);
+  sim::SphereScene scene;
   scene.center = cv::Vec3d(70, 50, 2300);
-  stereo::RenderOptions lo;
+  sim::RenderOptions lo;
   lo.labels = true;
   lo.supersample = 3;
-  const cv::Mat truth = stereo::RectifyLeftMask(rig, stereo::RenderSphere(sim, false, scene, lo) == stereo::kLabelSphere);
+  const cv::Mat truth = stereo::RectifyLeftMask(rig, sim::RenderSphere(sim, false, scene, lo) == sim::kLabelSphere);
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(truth.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   ASSERT_EQ(contours.size(), 1u);

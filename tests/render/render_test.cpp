@@ -11,10 +11,11 @@
 #include <fstream>
 #include <iterator>
 
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::render {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
 namespace {
 
 constexpr int kW = 320, kH = 240;

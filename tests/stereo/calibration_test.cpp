@@ -10,12 +10,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "cloud/error.hpp"
-#include "stereo/camera_model.hpp"
-#include "stereo/simulator.hpp"
+#include "pipeline/error.hpp"
+#include "sim/camera_model.hpp"
+#include "sim/simulator.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
+using namespace hedgefit::sim;  // the test data's renderer
 namespace {
 
 // Simulated paper rig at half size; 14 board poses 0.9-1.5 m away, tilted, spread over

@@ -3,6 +3,7 @@
 // rig's depth resolution, and the segmentation finds the simulated hedge.
 
 #include "stereo/capture.hpp"
+#include "cloud/cloud_stages.hpp"
 
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
@@ -14,15 +15,17 @@
 #include <iostream>
 
 #include "cloud/cloud_io.hpp"
-#include "cloud/error.hpp"
+#include "pipeline/error.hpp"
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
 #include "stereo/image_io.hpp"
-#include "stereo/simulator.hpp"
+#include "sim/simulator.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
+using namespace hedgefit::pipeline;  // the framework's types, as before 0.3
+using namespace hedgefit::sim;  // the test data's renderer
 namespace {
 
 StereoRig TrueRig(const SimRig& sim) { return RigFromSimulation(sim); }
@@ -413,7 +416,7 @@ TEST(ReadCaptureImage, FilesCutShortAreRefused) {
 }  // namespace
 }  // namespace hedgefit::stereo
 
-#include "cloud/pipeline.hpp"
+#include "pipeline/pipeline.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "stereo/stereo_stages.hpp"
 
@@ -435,7 +438,7 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
   const auto dir = hedgefit::testing::ScratchDir();
   const SimRig sim = PaperRig(0.5);
   WriteSimulatedCapture(dir, sim);
-  cloud::Registry registry;
+  pipeline::Registry registry;
   cloud::RegisterCloudStages(registry);
   fitting::RegisterFittingStages(registry);
   RegisterStereoStages(registry);
@@ -444,8 +447,8 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
                            R"(/r.png", "rig": ")" + d + R"(/rig.yaml"}, {"type": "stereo.rectify"},
       {"type": "stereo.segment"}, {"type": "stereo.sgbm"}, {"type": "stereo.reproject"},
       {"type": "fitters.ransac", "distance_threshold": 30, "min_radius": 100, "max_radius": 1000}])";
-  cloud::Pipeline p = cloud::Pipeline::FromJson(json, "p", registry);
-  cloud::Context ctx;
+  pipeline::Pipeline p = pipeline::Pipeline::FromJson(json, "p", registry);
+  pipeline::Context ctx;
   p.Run(ctx);
   EXPECT_GT(ctx.Get<cloud::PointCloud>("cloud").size(), 5000u);
   const auto& fits = ctx.Get<std::vector<fitting::SphereFitResult>>("fits");
@@ -457,8 +460,8 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
   // Matching unrectified images is refused with a clear message.
   const std::string no_rectify = R"([{"type": "readers.stereo", "left": ")" + d + R"(/l.png", "right": ")" + d +
                                  R"(/r.png", "rig": ")" + d + R"(/rig.yaml"}, {"type": "stereo.sgbm"}])";
-  cloud::Pipeline q = cloud::Pipeline::FromJson(no_rectify, "q", registry);
-  cloud::Context ctx2;
+  pipeline::Pipeline q = pipeline::Pipeline::FromJson(no_rectify, "q", registry);
+  pipeline::Context ctx2;
   try {
     q.Run(ctx2);
     FAIL();

@@ -15,10 +15,11 @@
 #include <vector>
 
 #include "stereo/bspline.hpp"
-#include "stereo/middlebury.hpp"
+#include "bench/middlebury.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
+using namespace hedgefit::bench;
 namespace {
 
 // A random-texture background at disparity 8 px with a textured square in front at 24 px:

@@ -13,9 +13,10 @@
 #include "fitting/uncertainty.hpp"
 #include "stereo/calibration.hpp"
 #include "stereo/rig_uncertainty.hpp"
-#include "stereo/simulator.hpp"
+#include "sim/simulator.hpp"
 
 namespace hedgefit::stereo {
+using namespace hedgefit::sim;  // the test data's renderer
 namespace {
 
 constexpr int kTrials = 30;

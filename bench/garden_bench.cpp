@@ -1,0 +1,421 @@
+#include "bench/garden_bench.hpp"
+#include "cloud/cleaning.hpp"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include "bench/lab_bench.hpp"
+#include "cloud/filters.hpp"
+#include "pipeline/pipeline.hpp"
+#include "eval/truth_file.hpp"
+#include "fitting/methods.hpp"
+#include "fitting/uncertainty.hpp"
+#include "sim/povray.hpp"
+#include "stereo/rig_uncertainty.hpp"
+#include "sim/simulator.hpp"
+#include "stereo/image_io.hpp"
+
+namespace hedgefit::bench {
+
+GardenOptions::GardenOptions() : cleaning(cloud::DefaultCleaningJson()) { convert.mode = stereo::SegmentMode::kGarden; }
+
+namespace {
+
+double Ms(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+void LeafLayerErrors::Add(const LeafLayerErrors& o) {
+  if (bins.empty()) {
+    *this = o;
+    return;
+  }
+  const double n = double(points), m = double(o.points);
+  if (n + m > 0) {
+    true_outer_share = (true_outer_share * n + o.true_outer_share * m) / (n + m);
+    measured_outer_share = (measured_outer_share * n + o.measured_outer_share * m) / (n + m);
+  }
+  points += o.points;
+  for (std::size_t b = 0; b < bins.size() && b < o.bins.size(); ++b) {
+    const double k = double(bins[b].points), l = double(o.bins[b].points);
+    if (k + l > 0) bins[b].mean_error_mm = (bins[b].mean_error_mm * k + o.bins[b].mean_error_mm * l) / (k + l);
+    bins[b].points += o.bins[b].points;
+  }
+}
+
+LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, const cv::Mat& surface,
+                                 const sim::SimCamera& camera, const fitting::Sphere& truth) {
+  LeafLayerErrors out;
+  const double edges[] = {0, 2, 5, 10, 15, 20, 30, 60};
+  for (std::size_t b = 0; b + 1 < std::size(edges); ++b) out.bins.push_back({edges[b], edges[b + 1], 0, 0.0});
+  if (points_mm.empty()) return out;
+  std::vector<cv::Point3d> obj;
+  obj.reserve(points_mm.size());
+  for (const auto& p : points_mm) obj.emplace_back(p.x(), p.y(), p.z());
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(camera.K), cv::Mat(camera.dist), px);
+  std::vector<double> sum(out.bins.size(), 0.0);
+  std::size_t outer_true = 0, outer_measured = 0;
+  const double R = truth.radius_mm;
+  for (std::size_t i = 0; i < obj.size(); ++i) {
+    const int u = static_cast<int>(std::lround(px[i].x)), v = static_cast<int>(std::lround(px[i].y));
+    if (u < 0 || v < 0 || u >= surface.cols || v >= surface.rows) continue;
+    const cv::Vec3f t = surface.at<cv::Vec3f>(v, u);
+    if (!std::isfinite(t[2])) continue;
+    const double s_true = (Eigen::Vector3d(t[0], t[1], t[2]) - truth.center_mm).norm();
+    const double depth = R - s_true;
+    if (depth < -5 || depth >= edges[std::size(edges) - 1]) continue;  // not this hedge's leaf
+    std::size_t b = 0;
+    while (b + 1 < out.bins.size() && depth >= out.bins[b].to_mm) ++b;
+    sum[b] += (points_mm[i] - truth.center_mm).norm() - s_true;
+    ++out.bins[b].points;
+    ++out.points;
+    outer_true += depth < 2 ? 1 : 0;
+    outer_measured += R - (points_mm[i] - truth.center_mm).norm() < 2 ? 1 : 0;
+  }
+  for (std::size_t b = 0; b < out.bins.size(); ++b) {
+    out.bins[b].mean_error_mm = out.bins[b].points > 0 ? sum[b] / double(out.bins[b].points) : 0.0;
+  }
+  if (out.points > 0) {
+    out.true_outer_share = double(outer_true) / double(out.points);
+    out.measured_outer_share = double(outer_measured) / double(out.points);
+  }
+  return out;
+}
+
+namespace {
+
+// The presets' captures in a.dir, rendered unless --reuse finds them there.
+void EnsureGardenRenders(const GardenOptions& a, const std::vector<std::string>& presets, bool pov) {
+  namespace fs = std::filesystem;
+  if (!(a.reuse && fs::exists(fs::path(a.dir) / ("garden_" + presets.back() + "_right.png")))) {
+    if (pov) {
+      sim::WritePovrayGarden(a.dir, a.scale,
+                                a.camera == "real" ? sim::CameraModel() : sim::CameraModel::Ideal(), presets);
+    } else {
+      sim::RenderOptions ro;
+      ro.supersample = 3;
+      ro.blur_sigma_px = 0.5;
+      ro.noise_sigma = 1.0;  // independent in each camera
+      sim::WriteGarden(a.dir, a.scale, ro, presets);
+    }
+  }
+}
+
+// What else was taken for a hedge (a shrub): do the envelope fit and the default fit (ransac_ray,
+// what measure prints) tell it is not a ball?
+void ScoreOthers(const cloud::PointCloud& cleaned, const std::vector<cloud::HedgeGroup>& groups, GardenScene* scene) {
+  for (const auto& g : groups) {
+    if (std::any_of(scene->rows.begin(), scene->rows.end(), [&](const GardenHedgeRow& row) { return row.id == g.id; })) continue;
+    const std::vector<Eigen::Vector3d> pts = cloud::PointsAt(cleaned, g.indices);
+    const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
+    const fitting::SphereFitResult f = fitting::RunFitMethod("envelope", pts, {}, 42, true, &pixel_mm);
+    if (!f.converged) continue;
+    scene->others_not_ball += f.not_a_ball ? 1 : 0;
+    scene->others_not_ball_default += fitting::RunFitMethod("ransac_ray", pts, {}, 42, true).not_a_ball ? 1 : 0;
+    scene->others_span_ratio.push_back(2 * f.sphere.radius_mm / std::max(1e-9, fitting::PrincipalSpan(pts)));
+    scene->others_outside_share.push_back(fitting::OutsideShare(pts, f.sphere));
+  }
+}
+
+// The paper's path on the same capture: the colour mask and the algebraic fit.
+void ScoreColourPath(const cv::Mat& left, const cv::Mat& right, const stereo::StereoRig& rig,
+                     const stereo::ConvertOptions& convert, const std::vector<fitting::Sphere>& spheres,
+                     GardenScene* scene) {
+  try {
+    stereo::ConvertOptions colour = convert;
+    colour.mode = stereo::SegmentMode::kColour;
+    const stereo::ConvertResult c = stereo::ConvertCapture(left, right, rig, colour);
+    scene->colour_mask_share = double(cv::countNonZero(c.mask)) / double(c.mask.total());
+    std::vector<Eigen::Vector3d> pts;
+    for (const auto& p : c.cloud.points_mm) {
+      if (cloud::IsFinite(p)) pts.push_back(p.cast<double>());
+    }
+    const fitting::SphereFitResult k = fitting::RunFitMethod("kasa", pts, {});
+    if (!k.converged) {
+      scene->colour_message = k.message;
+    } else {
+      const fitting::Sphere* best = nullptr;
+      for (const auto& s : spheres) {
+        if (!best || (s.center_mm - k.sphere.center_mm).norm() < (best->center_mm - k.sphere.center_mm).norm()) best = &s;
+      }
+      const eval::FitError e = eval::Evaluate(k.sphere, *best);
+      scene->colour_aer_mm = e.aer_mm;
+      scene->colour_ld_mm = e.ld_mm;
+    }
+  } catch (const Error& e) {
+    scene->colour_message = e.what();
+  }
+}
+
+}  // namespace
+
+GardenResult RunGarden(const GardenOptions& a) {
+  namespace fs = std::filesystem;
+  const auto t0 = std::chrono::steady_clock::now();
+  cloud::CheckFilterStages(a.cleaning, "bench garden's cleaning");
+  std::vector<std::string> presets = a.hard ? sim::GardenHardPresetNames() : sim::GardenPresetNames();
+  if (a.random > 0) {
+    presets.clear();
+    for (int i = 1; i <= a.random; ++i) presets.push_back("random" + std::to_string(i));
+  }
+  if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
+  if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
+  const bool pov = a.renderer == "povray";
+  EnsureGardenRenders(a, presets, pov);
+  // No boards in a garden: the renderer's exact rig, so the figures are segmentation, matching
+  // and fitting (the lab bench measures calibration).
+  const sim::SimRig sim = pov ? sim::PovrayRig(a.scale) : sim::PaperRig(a.scale);
+  const stereo::StereoRig rig = sim::RigFromSimulation(sim);
+  // Each fit's stated uncertainty as `measure` states it with this rig: the points' scatter and
+  // the matcher's common offset (the exact rig has no calibration error to carry).
+  const cloud::PointPerturbation matching = stereo::DisparityOffsetPerturbation(rig);
+  GardenResult out;
+  eval::SummaryBuilder summary;
+  stereo::ConvertOptions garden = a.convert;
+  garden.mode = stereo::SegmentMode::kGarden;
+  for (const std::string& name : presets) {
+    const fs::path base = fs::path(a.dir) / ("garden_" + name);
+    const cv::Mat left = stereo::ReadImageFile(base.string() + "_left.png"),
+                  right = stereo::ReadImageFile(base.string() + "_right.png");
+    const std::vector<eval::SphereTruth> truths = eval::ReadSphereTruths(base.string() + ".truth.json");
+    GardenScene scene;
+    scene.name = name;
+    // Every pixel's true leaf, to hold the matcher to (MeasureLeafLayer).
+    const cv::Mat surface = pov ? sim::RenderPovrayGardenSurface(sim, sim::GardenPreset(name), a.dir)
+                                : sim::RenderGardenSurface(sim, sim::GardenPreset(name));
+    scene.hedges_true = truths.size();
+    auto tc = std::chrono::steady_clock::now();
+    const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, garden);
+    scene.convert_ms = Ms(tc);
+    const cloud::PointCloud cleaned = cloud::RunFilterStages(res.cloud, a.cleaning, "bench garden's cleaning");
+    const auto groups = cloud::HedgeGroups(cleaned);
+    const auto raw_groups = cloud::HedgeGroups(res.cloud);  // the written clouds, for the 50 mm share
+    std::vector<fitting::Sphere> spheres;
+    for (const auto& t : truths) spheres.push_back(fitting::Sphere{t.center_mm, t.radius_mm});
+    for (std::size_t ti = 0; ti < truths.size(); ++ti) {
+      GardenHedgeRow row;
+      row.truth = spheres[ti];
+      row.truth_surface_mm = truths[ti].surface_radius_mm.value_or(0);
+      // The hedge hedgefit found for this truth: the group whose points' centroid is nearest.
+      for (const auto& g : groups) {
+        const std::vector<Eigen::Vector3d> pts = cloud::PointsAt(cleaned, g.indices);
+        const auto t = eval::TruthForPoints(spheres, pts);
+        if (!t || (t->center_mm - row.truth.center_mm).norm() > 1e-9) continue;
+        row.id = g.id;
+        row.points = pts.size();
+        row.span_mm = fitting::PrincipalSpan(pts);
+        if (!surface.empty()) {
+          const LeafLayerErrors layer = MeasureLeafLayer(pts, surface, sim.left, row.truth);
+          if (!out.leaf_layer) out.leaf_layer = layer;
+          else out.leaf_layer->Add(layer);
+        }
+        for (const auto& rg : raw_groups) {
+          if (rg.id != g.id) continue;
+          std::size_t outside = 0;
+          for (std::size_t i : rg.indices) {
+            const Eigen::Vector3d p = res.cloud.points_mm[i].cast<double>();
+            outside += (p - row.truth.center_mm).norm() - row.truth.radius_mm > 50 ? 1 : 0;
+          }
+          row.outside_50mm = double(outside) / double(std::max<std::size_t>(1, rg.indices.size()));
+        }
+        const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
+        for (const auto& m : fitting::SphereMethodNames()) {
+          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, &pixel_mm));
+          row.fits.back().hedge_id = g.id;
+          fitting::AddUncertainty(pts, nullptr, &row.fits.back(), &matching);
+          row.outside_share.push_back(fitting::OutsideShare(pts, row.fits.back().sphere));
+          if (m == "envelope") scene.envelope_ms += row.fits.back().wall_ms;
+          summary.Add(m, row.fits.back(), row.truth);
+        }
+      }
+      scene.rows.push_back(std::move(row));
+    }
+    for (const GardenHedgeRow& row : scene.rows) scene.hedges_found += row.id != 0 ? 1 : 0;
+    scene.others_found = res.hedges.size() - std::min(res.hedges.size(), scene.hedges_found);
+    ScoreOthers(cleaned, groups, &scene);
+    ScoreColourPath(left, right, rig, a.convert, spheres, &scene);
+    out.scenes.push_back(std::move(scene));
+  }
+  out.summary = summary.Finish();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+namespace {
+
+// IntervalCoverage per method over every found hedge, in table order.
+std::vector<std::pair<std::string, IntervalCoverage>> Coverage(const GardenResult& r) {
+  std::vector<std::pair<std::string, IntervalCoverage>> out;
+  for (const auto& m : fitting::SphereMethodNames()) {
+    IntervalCoverage c;
+    for (const GardenScene& s : r.scenes) {
+      for (const GardenHedgeRow& h : s.rows) {
+        for (const auto& f : h.fits) {
+          if (f.method == m) c.Add(f, h.truth);
+        }
+      }
+    }
+    if (c.cases > 0) out.emplace_back(m, c);
+  }
+  return out;
+}
+
+}  // namespace
+
+void PrintGarden(const GardenResult& r) {
+  const auto methods = fitting::SphereMethodNames();
+  for (const GardenScene& s : r.scenes) {
+    char others[160] = "";
+    if (s.others_found > 0) {
+      std::snprintf(others, sizeof(others),
+                    " (and %zu not a hedge of the truth, told not a ball: %zu by envelope, %zu by ransac_ray)",
+                    s.others_found, s.others_not_ball, s.others_not_ball_default);
+    }
+    std::printf("garden_%s: %zu of %zu hedges found%s; capture to clouds %.0f ms, envelope fits %.0f ms\n", s.name.c_str(),
+                s.hedges_found, s.hedges_true, others, s.convert_ms, s.envelope_ms);
+    std::printf("  %4s %8s %8s %9s %8s", "id", "true r", "points", ">50mm out", "");
+    for (const auto& m : {"geometric", "ransac", "envelope"}) std::printf(" %17s", (std::string(m) + " AER/LD").c_str());
+    std::printf("   envelope surface r (true)\n");
+    for (const GardenHedgeRow& h : s.rows) {
+      if (h.id == 0) {
+        std::printf("  %4s %8.0f  not found\n", "-", h.truth.radius_mm);
+        continue;
+      }
+      std::printf("  %4d %8.0f %8zu %8.2f%% %8s", h.id, h.truth.radius_mm, h.points, 100 * h.outside_50mm, "");
+      const fitting::SphereFitResult* envelope = nullptr;
+      for (const auto& m : {"geometric", "ransac", "envelope"}) {
+        for (const auto& f : h.fits) {
+          if (f.method != m) continue;
+          if (f.method == "envelope") envelope = &f;
+          if (!f.converged) {
+            std::printf(" %17s", "failed");
+          } else {
+            const auto e = eval::Evaluate(f.sphere, h.truth);
+            std::printf("     %6.2f / %5.2f", e.aer_mm, e.ld_mm);
+          }
+        }
+      }
+      if (envelope && envelope->converged && envelope->surface_radius_mm) {
+        std::printf("   %.1f (%.1f)", *envelope->surface_radius_mm, h.truth_surface_mm);
+      }
+      for (const auto& f : h.fits) {
+        if (f.converged && f.not_a_ball) std::printf("   %s: NOT A BALL", f.method.c_str());
+      }
+      std::printf("\n");
+    }
+    if (s.colour_message.empty()) {
+      std::printf("  the paper's path (excess-green mask, %.0f%% of the frame; Kasa): AER %.0f mm, LD %.0f mm\n",
+                  100 * s.colour_mask_share, s.colour_aer_mm, s.colour_ld_mm);
+    } else {
+      std::printf("  the paper's path (excess-green mask; Kasa): %s\n", s.colour_message.c_str());
+    }
+    std::printf("\n");
+  }
+  std::printf("summary over every hedge found (AER and LD against the outer envelope)\n  %-17s %11s %11s %10s %9s %9s\n",
+              "method", "mean|AER|", "max|AER|", "mean RER%", "mean LD", "max LD");
+  for (const auto& m : methods) {
+    auto it = r.summary.find(m);
+    if (it == r.summary.end()) continue;
+    const auto& s = it->second;
+    std::printf("  %-17s %11.2f %11.2f %10.3f %9.2f %9.2f\n", m.c_str(), s.mean_abs_aer_mm, s.max_abs_aer_mm,
+                s.mean_rer_percent, s.mean_ld_mm, s.max_ld_mm);
+  }
+  std::printf("  %-17s %11.2f %11s %10s %9.2f %9s   (published, outdoor, 4 hedges r 880-960 mm)\n", "paper outdoor", 4.02,
+              "-", "-", 18.29, "-");
+  // Do the stated 95 % intervals hold the truth (found hedges x cx, cy, cz, r)?
+  std::printf("95 %% intervals (points' scatter, matcher's common offset; the exact rig) against the truth\n"
+              "  %-17s %9s %14s %14s %11s\n",
+              "method", "inside", "stated se mm", "actual rms mm", "matching %");
+  for (const auto& [m, c] : Coverage(r)) {
+    std::printf("  %-17s %4d/%-4d %14.2f %14.2f %11.0f\n", m.c_str(), c.inside, c.cases, c.StatedRms(), c.ErrorRms(),
+                c.MatchingPercent());
+  }
+  if (r.leaf_layer && r.leaf_layer->points > 0) {
+    const LeafLayerErrors& l = *r.leaf_layer;
+    std::printf("the matcher against the renderer's own leaves (%zu points of the found hedges, cleaned)\n"
+                "  true depth below the envelope    share   radial error (measured - true)\n",
+                l.points);
+    for (const LeafDepthBin& b : l.bins) {
+      std::printf("  %5.0f - %-5.0f mm             %6.1f%%   %+7.2f mm\n", b.from_mm, b.to_mm,
+                  100.0 * double(b.points) / double(l.points), b.mean_error_mm);
+    }
+    std::printf("  within 2 mm of the envelope: %.1f%% of the true leaves, %.1f%% of the measured points\n",
+                100 * l.true_outer_share, 100 * l.measured_outer_share);
+  }
+  std::printf("whole run %.1f s\n", r.seconds);
+}
+
+std::string GardenJson(const GardenResult& r) {
+  using nlohmann::json;
+  json j;
+  j["scenes"] = json::array();
+  for (const GardenScene& s : r.scenes) {
+    json js = {{"name", s.name},           {"hedges_true", s.hedges_true}, {"hedges_found", s.hedges_found},
+               {"others_found", s.others_found}, {"others_not_ball", s.others_not_ball},
+               {"others_not_ball_default", s.others_not_ball_default},
+               {"others_sphere_to_span", s.others_span_ratio}, {"others_outside_share", s.others_outside_share},
+               {"convert_ms", s.convert_ms}, {"envelope_ms", s.envelope_ms}};
+    js["hedges"] = json::array();
+    for (const GardenHedgeRow& h : s.rows) {
+      json jh = {{"id", h.id},
+                 {"true_center_mm", {h.truth.center_mm.x(), h.truth.center_mm.y(), h.truth.center_mm.z()}},
+                 {"true_radius_mm", h.truth.radius_mm},
+                 {"true_surface_radius_mm", h.truth_surface_mm},
+                 {"points", h.points},
+                 {"outside_50mm_share", h.outside_50mm}};
+      jh["fits"] = json::array();
+      for (std::size_t fi = 0; fi < h.fits.size(); ++fi) {
+        const auto& f = h.fits[fi];
+        json jf = {{"method", f.method}, {"converged", f.converged}};
+        if (f.converged) {
+          const auto e = eval::Evaluate(f.sphere, h.truth);
+          jf["radius_mm"] = f.sphere.radius_mm;
+          jf["aer_mm"] = e.aer_mm;
+          jf["ld_mm"] = e.ld_mm;
+          if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
+          jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
+          jf["outside_share"] = h.outside_share[fi];
+          for (const auto& [key, value] : StatedUncertainty(f)) jf[key] = value;
+        }
+        jh["fits"].push_back(jf);
+      }
+      js["hedges"].push_back(jh);
+    }
+    js["paper_path"] = s.colour_message.empty()
+                           ? json{{"mask_share", s.colour_mask_share}, {"kasa_aer_mm", s.colour_aer_mm},
+                                  {"kasa_ld_mm", s.colour_ld_mm}}
+                           : json{{"message", s.colour_message}};
+    j["scenes"].push_back(js);
+  }
+  j["summary"] = json::object();
+  for (const auto& [m, s] : r.summary) {
+    j["summary"][m] = {{"hedges", s.clouds},          {"failures", s.failures},   {"mean_abs_aer_mm", s.mean_abs_aer_mm},
+                       {"max_abs_aer_mm", s.max_abs_aer_mm}, {"mean_ld_mm", s.mean_ld_mm}, {"max_ld_mm", s.max_ld_mm}};
+  }
+  j["paper_outdoor"] = {{"mean_abs_aer_mm", 4.02}, {"mean_ld_mm", 18.29}};
+  j["intervals"] = json::object();
+  for (const auto& [m, c] : Coverage(r)) {
+    j["intervals"][m] = {{"inside", c.inside}, {"cases", c.cases}, {"stated_se_rms_mm", c.StatedRms()},
+                         {"actual_rms_mm", c.ErrorRms()}, {"matching_percent", c.MatchingPercent()}};
+  }
+  if (r.leaf_layer) {
+    json bins = json::array();
+    for (const LeafDepthBin& b : r.leaf_layer->bins) {
+      bins.push_back({{"from_mm", b.from_mm}, {"to_mm", b.to_mm}, {"points", b.points}, {"mean_error_mm", b.mean_error_mm}});
+    }
+    j["leaf_layer"] = {{"points", r.leaf_layer->points}, {"bins", bins},
+                       {"true_outer_share", r.leaf_layer->true_outer_share},
+                       {"measured_outer_share", r.leaf_layer->measured_outer_share}};
+  }
+  return j.dump(2) + "\n";
+}
+
+}  // namespace hedgefit::bench

@@ -1,0 +1,77 @@
+#include "cloud/describe.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+
+namespace hedgefit::cloud {
+
+std::string GuessUnits(double extent) {
+  if (extent <= 0) return "unknown";
+  return extent < kMetreExtentLimit ? "m" : "mm";
+}
+
+CloudDescription DescribeCloud(const std::string& path) {
+  CloudDescription d;
+  d.file = path;
+  const PointCloud c = ReadCloud(path, {}, &d.header);
+  d.points = c.size();
+  d.nonfinite = CountNonFinite(c);
+  d.organized = c.IsOrganized();
+  d.has_color = c.HasColor();
+  d.width = c.width;
+  d.height = c.height;
+  d.has_bounds = Bounds(c, &d.min, &d.max);
+  d.extent = d.has_bounds ? (d.max - d.min).maxCoeff() : 0.0;
+  return d;
+}
+
+std::string DescriptionJson(const CloudDescription& d) {
+  nlohmann::json j;
+  j["file"] = d.file;
+  j["format"] = d.header.format;
+  j["encoding"] = d.header.encoding;
+  j["points"] = d.points;
+  j["fields"] = d.header.fields;
+  j["organized"] = d.organized;
+  j["width"] = d.width;
+  j["height"] = d.height;
+  j["has_color"] = d.has_color;
+  j["nonfinite"] = d.nonfinite;
+  if (d.has_bounds) {
+    j["bounds"] = {{"min", {d.min.x(), d.min.y(), d.min.z()}}, {"max", {d.max.x(), d.max.y(), d.max.z()}}};
+  }
+  j["units_guess"] = GuessUnits(d.extent);
+  return j.dump(2);
+}
+
+void PrintDescription(std::ostream& out, const CloudDescription& d) {
+  std::string fields;
+  for (const auto& f : d.header.fields) fields += (fields.empty() ? "" : " ") + f;
+  char buf[512];
+  out << "file        " << d.file << "\n";
+  out << "format      " << d.header.format << " (" << d.header.encoding << ")\n";
+  out << "points      " << d.points << " ("
+      << (d.organized ? "organised " + std::to_string(d.width) + " x " + std::to_string(d.height) : "unorganised")
+      << ")\n";
+  out << "fields      " << fields << "\n";
+  out << "colour      " << (d.has_color ? "yes" : "no") << "\n";
+  out << "non-finite  " << d.nonfinite << "\n";
+  if (d.has_bounds) {
+    std::snprintf(buf, sizeof(buf), "bounds      x [%.3f, %.3f]  y [%.3f, %.3f]  z [%.3f, %.3f]\n", d.min.x(),
+                  d.max.x(), d.min.y(), d.max.y(), d.min.z(), d.max.z());
+    out << buf;
+  } else {
+    out << "bounds      none (no finite points)\n";
+  }
+  const std::string units = GuessUnits(d.extent);
+  if (units == "unknown") {
+    out << "units       unknown (all points coincide)\n";
+  } else if (units == "m") {
+    out << "units       m (largest extent " << std::to_string(d.extent) << "; read with scale 1000 for mm)\n";
+  } else {
+    out << "units       mm\n";
+  }
+}
+
+}  // namespace hedgefit::cloud

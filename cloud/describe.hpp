@@ -1,0 +1,43 @@
+#pragma once
+/// What a cloud file holds, as `hedgefit info` (like `pdal info`) reports it: format, encoding,
+/// points, fields, organisation, colour, non-finite points, bounds, and a guess at its units.
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <cstdint>
+#include <ostream>
+#include <string>
+
+#include "cloud/cloud_io.hpp"
+
+namespace hedgefit::cloud {
+
+/// Clouds in metres rarely span more than ~200 units; in millimetres, rarely less than ~50.
+constexpr double kMetreExtentLimit = 50.0;
+
+/// "m" when the largest extent is under kMetreExtentLimit units, "mm" otherwise, "unknown" when
+/// every point coincides.
+std::string GuessUnits(double extent);
+
+struct CloudDescription {
+  std::string file;
+  CloudFileHeader header;
+  std::size_t points = 0, nonfinite = 0;
+  bool organized = false, has_color = false;
+  std::uint32_t width = 0, height = 0;
+  bool has_bounds = false;  ///< false when no point is finite
+  Eigen::Vector3f min = Eigen::Vector3f::Zero(), max = Eigen::Vector3f::Zero();
+  double extent = 0;        ///< the bounds' largest side
+};
+
+/// Reads `path` and describes it; throws Error as ReadCloud does.
+CloudDescription DescribeCloud(const std::string& path);
+
+/// As `info --json` prints it.
+std::string DescriptionJson(const CloudDescription& d);
+
+/// As `info` prints it.
+void PrintDescription(std::ostream& out, const CloudDescription& d);
+
+}  // namespace hedgefit::cloud

@@ -1,0 +1,494 @@
+#include "sim/povray.hpp"
+#include "stereo/stereo_stages.hpp"
+
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <unordered_map>
+
+#include "cloud/cloud_io.hpp"
+#include "pipeline/error.hpp"
+#include "eval/truth_file.hpp"
+#include "stereo/rig.hpp"
+#include "stereo/image_io.hpp"
+
+namespace hedgefit::sim {
+
+using stereo::ReadImageFile;
+using stereo::WriteImageAtomic;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// OpenCV's camera frame (x right, y down, z forward; right-handed) to POV-Ray's (x right,
+// y up, z forward; left-handed): flip y. A reflection keeps POV-Ray's right = up x direction.
+std::string Pov(const cv::Vec3d& v) {
+  char buf[128];
+  std::snprintf(buf, sizeof(buf), "<%.6f, %.6f, %.6f>", v[0], -v[1], v[2]);
+  return buf;
+}
+
+// Whole-pixel principal point offsets from the image centre, and the canvas that holds them.
+struct Canvas {
+  int dx = 0, dy = 0;
+  cv::Size size;
+};
+
+Canvas CanvasOf(const SimCamera& cam) {
+  Canvas c;
+  c.dx = static_cast<int>(std::lround(cam.K(0, 2) - (cam.size.width - 1) / 2.0));
+  c.dy = static_cast<int>(std::lround(cam.K(1, 2) - (cam.size.height - 1) / 2.0));
+  c.size = cv::Size(cam.size.width + 2 * std::abs(c.dx), cam.size.height + 2 * std::abs(c.dy));
+  return c;
+}
+
+std::string Camera(const SimRig& rig, bool right, cv::Size canvas) {
+  const SimCamera& cam = right ? rig.right : rig.left;
+  // World = left camera frame; the right camera's axes are the rows of R, its centre -R^T T.
+  const cv::Matx33d R = right ? rig.R : cv::Matx33d::eye();
+  const cv::Vec3d centre = right ? cv::Vec3d(-(rig.R.t() * rig.T)) : cv::Vec3d(0, 0, 0);
+  const cv::Vec3d x(R(0, 0), R(0, 1), R(0, 2)), y(R(1, 0), R(1, 1), R(1, 2)), z(R(2, 0), R(2, 1), R(2, 2));
+  std::ostringstream s;
+  s << "camera {\n  perspective\n  location " << Pov(centre) << "\n  right " << Pov(x * double(canvas.width))
+    << "\n  up " << Pov(-y * double(canvas.height)) << "\n  direction " << Pov(z * cam.K(0, 0)) << "\n}\n";
+  return s.str();
+}
+
+// Lights and settings shared by every scene: an area light above, left and in front of the
+// rig (soft shadows, uneven light over a board), a weaker fill from the right, linear output.
+const char* kCommon = R"(#version 3.7;
+global_settings { assumed_gamma 1.0 max_trace_level 5 }
+light_source { <-1800, 2600, -900> color rgb 1.05
+  area_light <700, 0, 0>, <0, 0, 700>, 5, 5 adaptive 1 jitter circular orient }
+light_source { <1600, 600, -1200> color rgb 0.30 shadowless }
+)";
+
+std::string Matrix(const cv::Matx33d& R, const cv::Vec3d& t) {
+  // POV-Ray's matrix < r00, r01, r02, r10, ... > maps row vectors: p' = p M. With the y flip
+  // F on both sides, world = F (R F q + t) for a point q given in POV-Ray's board frame.
+  const cv::Matx33d F(1, 0, 0, 0, -1, 0, 0, 0, 1);
+  const cv::Matx33d M = F * R * F;
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), "matrix <%.9f, %.9f, %.9f, %.9f, %.9f, %.9f, %.9f, %.9f, %.9f, %.6f, %.6f, %.6f>",
+                M(0, 0), M(1, 0), M(2, 0), M(0, 1), M(1, 1), M(2, 1), M(0, 2), M(1, 2), M(2, 2), t[0], -t[1], t[2]);
+  return buf;
+}
+
+}  // namespace
+
+SimRig PovrayRig(double scale) {
+  SimRig rig = PaperRig(scale);
+  for (SimCamera* c : {&rig.left, &rig.right}) {
+    c->dist = cv::Vec<double, 5>(0, 0, 0, 0, 0);
+    c->K(0, 2) = (c->size.width - 1) / 2.0;
+    c->K(1, 2) = (c->size.height - 1) / 2.0;
+  }
+  // Principal points off the centre by whole pixels, differently in the two cameras.
+  rig.left.K(1, 2) += std::lround(2 * scale);
+  rig.right.K(0, 2) += std::lround(3 * scale);
+  rig.right.K(1, 2) -= std::lround(1 * scale);
+  return rig;
+}
+
+std::string PovrayBoardScene(const SimRig& rig, bool right, const BoardScene& b, cv::Size canvas) {
+  const double s = b.square_mm;
+  const double x_lo = -s - b.margin_mm, x_hi = (b.squares.width - 1) * s + b.margin_mm;
+  const double y_lo = -s - b.margin_mm, y_hi = (b.squares.height - 1) * s + b.margin_mm;
+  std::ostringstream o;
+  o << kCommon << Camera(rig, right, canvas);
+  // In the board's frame (OpenCV axes, y flipped for POV-Ray): the squares on z = 0, the white
+  // margin a hair behind, the board's body behind that. Square (ix, iy), ix = floor(q0 / s) + 1,
+  // is dark when ix + iy is even: POV-Ray's checker gives colour 1 where floor(x) + floor(y) +
+  // floor(z) is even; in POV-Ray's y (= -q1) floor(y / s) has the parity of iy, so the pattern
+  // moves one square in x (parity of ix) and half a square in z (floor 0 on the face).
+  o << "union {\n"
+    << "  box { <" << -s << ", " << -((b.squares.height - 1) * s) << ", 0>, <" << (b.squares.width - 1) * s << ", " << s
+    << ", 2>\n"
+    << "    texture { pigment { checker color rgb 0.06 color rgb 0.88 translate <1, 0, -0.5> scale " << s << " }\n"
+    << "      finish { ambient 0.12 diffuse 0.85 specular 0.04 roughness 0.05 } } }\n"
+    << "  box { <" << x_lo << ", " << -y_hi << ", 0.05>, <" << x_hi << ", " << -y_lo << ", 8>\n"
+    << "    texture { pigment { color rgb 0.9 } finish { ambient 0.12 diffuse 0.85 } } }\n"
+    << "  " << Matrix(b.rotation, b.translation) << "\n}\n";
+  // A dim room behind the board.
+  o << "plane { z, 6000 texture { pigment { color rgb <0.45, 0.42, 0.4> } finish { ambient 0.3 diffuse 0.4 } } }\n";
+  return o.str();
+}
+
+std::string PovraySphereScene(const SimRig& rig, bool right, const SphereScene& sc, cv::Size canvas) {
+  const double ground_y = sc.ground_y != 0 ? sc.ground_y : sc.center[1] + sc.radius;
+  const double wall_z = sc.wall_z != 0 ? sc.wall_z : sc.center[2] + 2000;
+  std::ostringstream o;
+  o << kCommon << Camera(rig, right, canvas);
+  // Foliage: a solid granite pattern in greens (both views see the same surface), small-scale
+  // bumps for the light, a little specular sheen of leaves.
+  o << "sphere { " << Pov(sc.center) << ", " << sc.radius << "\n"
+    << "  texture {\n"
+    << "    pigment { granite turbulence 0.35 color_map { [0.0 rgb <0.03, 0.12, 0.02>] [0.3 rgb <0.08, 0.30, 0.05>]\n"
+    << "      [0.55 rgb <0.16, 0.46, 0.09>] [0.8 rgb <0.30, 0.60, 0.14>] [1.0 rgb <0.55, 0.75, 0.30>] } scale 70 }\n"
+    << "    normal { bumps 0.45 scale 6 }\n"
+    << "    finish { ambient 0.12 diffuse 0.8 specular 0.08 roughness 0.04 } } }\n";
+  // Soil with stones and a brick wall, each with its own solid texture.
+  o << "plane { y, " << -ground_y << "\n"
+    << "  texture { pigment { bozo turbulence 0.8 color_map { [0.0 rgb <0.22, 0.16, 0.10>] [0.5 rgb <0.38, 0.29, 0.19>]\n"
+    << "    [1.0 rgb <0.52, 0.45, 0.36>] } scale 25 } normal { granite 0.3 scale 20 } finish { ambient 0.12 diffuse 0.8 } } }\n";
+  o << "plane { z, " << wall_z << "\n"
+    << "  texture { pigment { brick color rgb <0.62, 0.60, 0.56> color rgb <0.55, 0.24, 0.16> brick_size <240, 90, 120>\n"
+    << "    mortar 12 } normal { granite 0.2 scale 15 } finish { ambient 0.15 diffuse 0.7 } } }\n";
+  return o.str();
+}
+
+bool HavePovray() { return std::system("command -v povray > /dev/null 2>&1") == 0; }
+
+namespace {
+
+// Renders `scene(canvas)` with POV-Ray in `work_dir` and crops the camera's image from the canvas.
+cv::Mat RenderPovrayText(const SimRig& rig, bool right, const std::function<std::string(cv::Size)>& scene,
+                         const std::string& work_dir, bool depth = false) {
+  namespace fs = std::filesystem;
+  if (!HavePovray()) throw Error("povray: not found; install Debian's povray package (scripts/setup.sh does)");
+  const SimCamera& cam = right ? rig.right : rig.left;
+  const Canvas canvas = CanvasOf(cam);
+  const std::string stem = (fs::path(work_dir) / (std::string(".pov_") + (right ? "right" : "left"))).string();
+  cloud::WriteTextFileAtomic(stem + ".pov", scene(canvas.size));
+  // Adaptive anti-aliasing (method 2, threshold 0.05, depth 3), both cores, no display.
+  std::ostringstream cmd;
+  cmd << "cd '" << work_dir << "' && povray +I'" << fs::path(stem).filename().string() << ".pov' +O'"
+      << fs::path(stem).filename().string() << ".png' +W" << canvas.size.width << " +H" << canvas.size.height
+      << (depth ? " -A +FN16 File_Gamma=1.0" : " +A0.05 +AM2 +R3 +FN8") << " +Q9 -D -V -GA +WT2 > '"
+      << fs::path(stem).filename().string() << ".log' 2>&1";
+  if (std::system(cmd.str().c_str()) != 0) throw Error(stem + ".log: POV-Ray failed; see its log");
+  cv::Mat full;
+  try {
+    full = ReadImageFile(stem + ".png", depth ? cv::IMREAD_UNCHANGED : cv::IMREAD_COLOR);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + ": POV-Ray wrote no image; see " + stem + ".log");
+  }
+  // The camera's image within the canvas: its principal point lands where K puts it.
+  const int ox = std::abs(canvas.dx) - canvas.dx, oy = std::abs(canvas.dy) - canvas.dy;
+  return full(cv::Rect(ox, oy, cam.size.width, cam.size.height)).clone();
+}
+
+}  // namespace
+
+cv::Mat RenderPovray(const SimRig& rig, bool right, const std::string& kind, const BoardScene& board,
+                     const SphereScene& sphere, const std::string& work_dir) {
+  return RenderPovrayText(
+      rig, right,
+      [&](cv::Size canvas) {
+        return kind == "board" ? PovrayBoardScene(rig, right, board, canvas) : PovraySphereScene(rig, right, sphere, canvas);
+      },
+      work_dir);
+}
+
+std::vector<std::string> WritePovrayLab(const std::string& dir, double scale, const CameraModel& camera,
+                                        std::uint64_t seed, const std::string& as_rendered_dir) {
+  namespace fs = std::filesystem;
+  const SimRig rig = PovrayRig(scale);
+  std::vector<std::string> written = StartSimulationDir(dir, rig);
+  std::uint64_t view = seed * 1000;
+  auto save = [&](const std::string& name, bool right, const std::string& kind, const BoardScene& b,
+                  const SphereScene& s) {
+    const cv::Mat rendered = RenderPovray(rig, right, kind, b, s, dir);
+    if (kind == "sphere" && !as_rendered_dir.empty()) {
+      fs::create_directories(as_rendered_dir);
+      WriteImageAtomic((fs::path(as_rendered_dir) / name).string(), rendered);
+    }
+    const cv::Mat img = ApplyCameraModel(rendered, camera, right, view++ / 2);
+    const std::string path = (fs::path(dir) / name).string();
+    WriteImageAtomic(path, img);
+    written.push_back(path);
+  };
+  const std::vector<BoardScene> boards = PaperLabBoards();
+  for (std::size_t i = 0; i < boards.size(); ++i) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "board_%02zu", i + 1);
+    save(std::string(name) + "_left.png", false, "board", boards[i], {});
+    save(std::string(name) + "_right.png", true, "board", boards[i], {});
+    WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), boards[i]);
+  }
+  for (const SphereScene& sc : PaperLabSpheres()) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "sphere_%04d", static_cast<int>(std::lround(sc.center[2])));
+    save(std::string(name) + "_left.png", false, "sphere", {}, sc);
+    save(std::string(name) + "_right.png", true, "sphere", {}, sc);
+    WriteSphereTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), sc);
+    written.push_back((fs::path(dir) / (std::string(name) + ".truth.json")).string());
+  }
+  return written;
+}
+
+std::vector<std::string> WriteWideBoards(const std::string& dir, const std::string& renderer, double scale,
+                                         const RenderOptions& options, const CameraModel& camera, std::uint64_t seed) {
+  namespace fs = std::filesystem;
+  if (renderer != "hedgefit" && renderer != "povray") throw Error("renderer: use hedgefit or povray");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir, ec)) throw Error(dir + ": cannot create the output directory");
+  const SimRig rig = renderer == "povray" ? PovrayRig(scale) : PaperRig(scale);
+  std::vector<std::string> written;
+  const std::vector<BoardScene> boards = WideBoards();
+  std::uint64_t view = seed * 1000 + 500;  // other draws than the lab's boards
+  for (std::size_t i = 0; i < boards.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "board_%02zu", i + 17);
+    for (bool right : {false, true}) {
+      const cv::Mat img = renderer == "povray" ? RenderPovray(rig, right, "board", boards[i], {}, dir)
+                                               : RenderBoard(rig, right, boards[i], options);
+      const std::string path = (fs::path(dir) / (std::string(name) + (right ? "_right.png" : "_left.png"))).string();
+      WriteImageAtomic(path, ApplyCameraModel(img, camera, right, view / 2));
+      ++view;
+      written.push_back(path);
+    }
+    WriteBoardTruth((fs::path(dir) / (std::string(name) + ".truth.json")).string(), boards[i]);
+  }
+  cloud::WriteTextFileAtomic((fs::path(dir) / "rig_truth.json").string(), RigJson(rig) + "\n");
+  return written;
+}
+
+namespace {
+
+// A leaf of a POV-Ray hedge: a disc (level frame), its radius and one of the scene's 9 leaf
+// textures L0..L8 (3 depth bands x 3 hues).
+struct PovLeaf {
+  cv::Vec3d c, n;
+  double a = 8;
+  int texture = 0;
+};
+
+// The garden hedge of POV-Ray: real leaves, where hedgefit's own renderer has a noise-shaded
+// shell. Discs of radius 6-10 mm tilted up to 55 degrees from the surface, a third of them
+// clipped to touch the envelope (a clipped boxwood), the rest spread through the shell's depth,
+// about 3.5 layers deep so gaps show the dark inside. Leaves facing away from the camera are
+// left out (the inside body still casts the ball's shadow).
+std::vector<PovLeaf> GardenLeaves(const GardenHedge& g, const cv::Vec3d& centre, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss;
+  std::uniform_real_distribution<double> uni;
+  const double R = g.radius_mm, L = g.leaf_depth_mm, layers = 3.5, a_mean = 8;
+  const cv::Vec3d to_cam = -centre / cv::norm(centre);
+  const auto n = static_cast<std::size_t>(layers * 4 * R * R / (a_mean * a_mean));
+  std::vector<PovLeaf> leaves;
+  leaves.reserve(n * 2 / 3);
+  for (std::size_t k = 0; k < n; ++k) {
+    const cv::Vec3d u = cv::normalize(cv::Vec3d(gauss(rng), gauss(rng), gauss(rng)));
+    const double a = 6 + 4 * uni(rng), tilt = 55 * kPi / 180 * std::sqrt(uni(rng));
+    const double clipped = uni(rng), deep = uni(rng), hue = uni(rng);
+    const cv::Vec3d w = cv::normalize(cv::Vec3d(gauss(rng), gauss(rng), gauss(rng)).cross(u));
+    if (u.dot(to_cam) < -0.3) continue;
+    const double d = clipped < 1.0 / 3 ? 0.0 : std::pow(deep, 1.3);
+    PovLeaf leaf;
+    leaf.a = a;
+    leaf.n = std::cos(tilt) * u + std::sin(tilt) * w;
+    leaf.c = centre + (R - a * std::sin(tilt) - L * d) * u;  // its rim reaches R - L d
+    leaf.texture = std::min(2, static_cast<int>(d * 3)) * 3 + std::min(2, static_cast<int>(hue * 3));
+    leaves.push_back(leaf);
+  }
+  return leaves;
+}
+
+// The body inside the leaves: dark twigs, seen through the gaps.
+double InnerRadius(const GardenHedge& g) { return g.radius_mm - g.leaf_depth_mm - 8; }
+
+// The mean leaf-surface radius of a POV-Ray hedge: radial rays from outside, over the part of the
+// ball the leaves cover, the first leaf (or the inner body) each meets.
+double PovLeafSurfaceRadius(const GardenHedge& g, const cv::Vec3d& centre, const std::vector<PovLeaf>& leaves) {
+  const double cell = 16;
+  auto key = [&](const cv::Vec3d& p) {
+    const auto q = [&](double v) { return static_cast<std::int64_t>(std::floor(v / cell)) & 0x1fffff; };
+    return (q(p[0]) << 42) | (q(p[1]) << 21) | q(p[2]);
+  };
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid;
+  for (std::size_t i = 0; i < leaves.size(); ++i) grid[key(leaves[i].c)].push_back(i);
+  const cv::Vec3d to_cam = -centre / cv::norm(centre);
+  const int n = 6000;
+  double sum = 0;
+  int used = 0;
+  for (int k = 0; k < n; ++k) {
+    const double z = 1 - (2.0 * k + 1) / n, r = std::sqrt(1 - z * z), phi = k * kPi * (3 - std::sqrt(5.0));
+    const cv::Vec3d u(r * std::cos(phi), z, r * std::sin(phi));
+    if (u.dot(to_cam) < 0) continue;  // well inside the covered part
+    double best = InnerRadius(g);
+    for (double t = g.radius_mm; t >= InnerRadius(g); t -= cell / 2) {
+      const cv::Vec3d p = centre + t * u;
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto it = grid.find(key(p + cell * cv::Vec3d(dx, dy, dz)));
+            if (it == grid.end()) continue;
+            for (std::size_t i : it->second) {
+              const PovLeaf& l = leaves[i];
+              const double den = l.n.dot(u);
+              if (std::abs(den) < 1e-9) continue;
+              const double rr = l.n.dot(l.c - centre) / den;
+              if (rr > best && cv::norm(centre + rr * u - l.c) <= l.a) best = rr;
+            }
+          }
+    }
+    sum += best;
+    ++used;
+  }
+  return sum / std::max(1, used);
+}
+
+}  // namespace
+
+namespace {
+
+// The depth render's scale: a grey level is kDepthRangeMm / 65535 (0.12 mm) of distance from the
+// camera's centre; farther (the trees) saturates.
+constexpr double kDepthRangeMm = 8000;
+
+// The garden; with `depth`, every surface's texture is its distance from the camera (no light,
+// no sky) for RenderPovrayGardenSurface.
+std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas, bool depth) {
+  const cv::Matx33d level_from_camera = GardenLevelFromCamera(sc);
+  const double H = sc.camera_height_mm;  // the lawn: y = H in the level frame
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(2);
+  o << "#version 3.7;\nglobal_settings { assumed_gamma 1.0 max_trace_level 6 }\n" << Camera(rig, right, canvas);
+  // In the depth render every texture below is this one (the union's rotation about the camera
+  // keeps distances from it).
+  const std::string depth_texture = "texture { pigment { function { sqrt(x * x + y * y + z * z) / " +
+                                    std::to_string(kDepthRangeMm) +
+                                    " } color_map { [0 rgb 0] [1 rgb 1] } } finish { ambient 1 diffuse 0 } }";
+  auto tex = [&](const std::string& texture) { return depth ? depth_texture : texture; };
+  if (!depth) o << "sky_sphere { pigment { gradient y color_map { [0.0 rgb <0.80, 0.85, 0.92>] [0.25 rgb <0.50, 0.66, 0.90>]\n"
+       "  [1.0 rgb <0.30, 0.45, 0.82>] } } }\n";
+  // Leaf textures: three depth bands (the deeper, the darker) x three greens; boxwood is glossy.
+  const double band[3] = {1.0, 0.72, 0.5};
+  const cv::Vec3d hue[3] = {{0.06, 0.19, 0.035}, {0.09, 0.25, 0.045}, {0.16, 0.33, 0.07}};
+  for (int b = 0; b < 3; ++b)
+    for (int h = 0; h < 3; ++h) {
+      const cv::Vec3d c = hue[h] * band[b];
+      std::ostringstream leaf;
+      leaf << "texture { pigment { rgb <" << c[2] << ", " << c[1] << ", " << c[0]
+           << "> } normal { wrinkles 0.25 scale 4 } finish { ambient 0.10 diffuse 0.75 specular 0.25 roughness 0.015 } }";
+      o << "#declare L" << b * 3 + h << " = " << tex(leaf.str()) << "\n";
+    }
+  o.precision(6);
+  // Everything below is written in the level frame and turned into the camera's by one matrix.
+  o << "union {\n";
+  // A low sun from the right and behind (hard shadows), and the sky's fill light.
+  if (!depth) {
+    o << "  light_source { " << Pov(cv::normalize(cv::Vec3d(0.65, -0.6, -0.45)) * 1e7)
+      << " color rgb 1.3 parallel point_at <0, 0, 0> }\n";
+    o << "  light_source { " << Pov(cv::Vec3d(-3000, -8000, 1000)) << " color rgb 0.22 shadowless }\n";
+  }
+  // Mown lawn: blades as a fine bumpy pattern (14 mm), mowing stripes 1 m wide; the stripes'
+  // scale of 2000 applies to the inner patterns too, hence their 0.007 and 0.005.
+  o << "  plane { y, " << -H << "\n    "
+    << tex("texture { gradient x texture_map {\n"
+           "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.04, 0.13, 0.02>]\n"
+           "        [0.5 rgb <0.10, 0.27, 0.05>] [1 rgb <0.22, 0.40, 0.09>] } scale 0.007 }\n"
+           "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ]\n"
+           "      [0.5 pigment { bozo turbulence 0.8 octaves 6 lambda 2.5 color_map { [0 rgb <0.05, 0.16, 0.03>]\n"
+           "        [0.5 rgb <0.13, 0.31, 0.06>] [1 rgb <0.26, 0.46, 0.11>] } scale 0.007 }\n"
+           "        normal { granite 0.5 scale 0.005 } finish { ambient 0.10 diffuse 0.8 } ] } scale 2000 }")
+    << " }\n";
+  if (sc.background && !depth) {  // behind every hedge: left out of the depth render
+    // A clipped hedge row at 5.3 m, a wooden fence behind it, two round trees.
+    o << "  box { <-9000, " << -H << ", 5300>, <9000, " << -H + 1400 << ", 6100>\n"
+      << "    texture { pigment { granite turbulence 0.4 color_map { [0 rgb <0.03, 0.10, 0.02>] [0.6 rgb <0.08, 0.24, 0.05>]\n"
+      << "      [1 rgb <0.20, 0.36, 0.08>] } scale 40 } normal { bumps 0.9 scale 9 } finish { ambient 0.1 diffuse 0.75 } } }\n";
+    o << "  box { <-12000, " << -H << ", 6800>, <12000, " << -H + 1800 << ", 6860>\n"
+      << "    texture { pigment { gradient x color_map { [0 rgb <0.30, 0.20, 0.11>] [0.93 rgb <0.42, 0.30, 0.18>]\n"
+      << "      [0.95 rgb <0.08, 0.06, 0.04>] [1 rgb <0.08, 0.06, 0.04>] } scale 140 } normal { wood 0.3 scale 30 }\n"
+      << "      finish { ambient 0.12 diffuse 0.7 } } }\n";
+    const double trees[2][4] = {{-3100, 9400, 1700, 3400}, {2700, 8800, 1500, 3000}};  // x, z, crown r, crown height
+    for (const auto& t : trees) {
+      o << "  sphere { <" << t[0] << ", " << t[3] - H << ", " << t[1] << ">, " << t[2] << "\n"
+        << "    texture { pigment { granite turbulence 0.5 color_map { [0 rgb <0.02, 0.08, 0.02>] [1 rgb <0.15, 0.32, 0.07>] }\n"
+        << "      scale 90 } normal { bumps 1.0 scale 25 } finish { ambient 0.1 diffuse 0.7 } } }\n";
+      o << "  cylinder { <" << t[0] << ", " << -H << ", " << t[1] << ">, <" << t[0] << ", " << t[3] - H << ", " << t[1]
+        << ">, 170 texture { pigment { rgb <0.18, 0.13, 0.09> } normal { bumps 0.6 scale 20 } } }\n";
+    }
+  }
+  if (sc.pot) {
+    o << "  cylinder { <" << sc.pot_x_mm << ", " << -H << ", " << sc.pot_z_mm << ">, <" << sc.pot_x_mm << ", " << -H + 380
+      << ", " << sc.pot_z_mm << ">, 180\n    "
+      << tex("texture { pigment { bozo color_map { [0 rgb <0.45, 0.17, 0.07>] [1 rgb <0.60, 0.26, 0.12>] } scale 20 }\n"
+             "      finish { ambient 0.1 diffuse 0.75 } }")
+      << " }\n";
+  }
+  // Other shrubs: the same leaves, one lobe at a time (GardenScene::shrub_lobes), on a dark body.
+  for (std::size_t i = 0; i < sc.shrub_lobes.size(); ++i) {
+    const GardenHedge& g = sc.shrub_lobes[i];
+    const cv::Vec3d c = GardenLevelCenter(sc, g);
+    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g) << " "
+      << tex("texture { pigment { rgb <0.03, 0.05, 0.02> } finish { ambient 0.05 diffuse 0.6 } }") << " }\n";
+    o.precision(2);
+    for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + 500 + i)) {
+      o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a * 1.4 << " texture { L" << l.texture << " } }\n";
+    }
+    o.precision(6);
+  }
+  for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
+    const GardenHedge& g = sc.hedges[i];
+    const cv::Vec3d c = level_from_camera * GardenHedgeCenter(sc, i);
+    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g) << " "
+      << tex("texture { pigment { granite color_map { [0 rgb <0.02, 0.03, 0.01>] [1 rgb <0.06, 0.09, 0.03>] } scale 15 }"
+             " finish { ambient 0.05 diffuse 0.6 } }")
+      << " }\n";
+    o.precision(2);
+    for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + i)) {
+      o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a << " texture { L" << l.texture << " } }\n";
+    }
+    o.precision(6);
+  }
+  o << "  " << Matrix(level_from_camera.t(), cv::Vec3d(0, 0, 0)) << "\n}\n";
+  return o.str();
+}
+
+}  // namespace
+
+std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas) {
+  return GardenSceneText(rig, right, sc, canvas, false);
+}
+
+cv::Mat RenderPovrayGardenSurface(const SimRig& rig, const GardenScene& sc, const std::string& work_dir) {
+  const cv::Mat grey = RenderPovrayText(
+      rig, false, [&](cv::Size canvas) { return GardenSceneText(rig, false, sc, canvas, true); }, work_dir, true);
+  if (grey.depth() != CV_16U) throw Error(work_dir + ": POV-Ray's depth render is not 16-bit");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat out(grey.size(), CV_32FC3, cv::Scalar(nan, nan, nan));
+  const cv::Matx33d K_inv = rig.left.K.inv();
+  for (int v = 0; v < grey.rows; ++v) {
+    for (int u = 0; u < grey.cols; ++u) {
+      const cv::Vec3w g = grey.channels() == 3 ? grey.at<cv::Vec3w>(v, u) : cv::Vec3w::all(grey.at<std::uint16_t>(v, u));
+      if (g[1] == 0 || g[1] == 65535) continue;  // nothing hit, or beyond the range
+      const double d = g[1] * kDepthRangeMm / 65535.0;
+      const cv::Vec3d ray = cv::normalize(K_inv * cv::Vec3d(u, v, 1));
+      out.at<cv::Vec3f>(v, u) = cv::Vec3f(float(d * ray[0]), float(d * ray[1]), float(d * ray[2]));
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale, const CameraModel& camera,
+                                           const std::vector<std::string>& presets, std::uint64_t seed) {
+  const SimRig rig = PovrayRig(scale);
+  std::uint64_t view = seed * 1000 + 800;
+  return WriteGardenWith(
+      dir, rig, presets,
+      [&](const GardenScene& sc, bool right) {
+        const cv::Mat img = RenderPovrayText(
+            rig, right, [&](cv::Size canvas) { return PovrayGardenScene(rig, right, sc, canvas); }, dir);
+        return ApplyCameraModel(img, camera, right, view++ / 2);
+      },
+      [](const GardenScene& sc, std::size_t i) {
+        const cv::Vec3d c = GardenLevelFromCamera(sc) * GardenHedgeCenter(sc, i);
+        return PovLeafSurfaceRadius(sc.hedges[i], c, GardenLeaves(sc.hedges[i], c, sc.texture_seed * 7919 + i));
+      });
+}
+
+}  // namespace hedgefit::sim

@@ -1,0 +1,52 @@
+#pragma once
+/// What `convert` does around each capture's pipeline: the captures of a directory or manifest,
+/// a shard of them for one machine of several, the per-hedge output names, the debug pictures,
+/// the one-line summary of a converted capture, and the hints a run's user should act on.
+
+#include <string>
+#include <vector>
+
+#include "pipeline/pipeline.hpp"
+
+namespace hedgefit::stereo {
+
+struct CaptureFiles {
+  std::string name, left, right;
+};
+
+/// A directory's NAME_left.* / NAME_right.* pairs in name order, or a manifest's
+/// 'LEFT RIGHT [NAME]' lines (NAME defaults to LEFT's stem). Throws Error when there are none.
+std::vector<CaptureFiles> ListCaptures(const std::string& directory_or_manifest);
+
+/// Every n-th capture starting at i, for `shard` = "i/n" (0 <= i < n); throws Error naming --shard.
+std::vector<CaptureFiles> Shard(const std::vector<CaptureFiles>& captures, const std::string& shard);
+
+/// Output names with several hedges: '#' stands for the hedge's id ("row_#.pcd" -> row_1.pcd, ...).
+/// PerHedgePath adds "_#" before the extension when `several` and the path has no '#';
+/// HedgePath puts `id` in place of the '#'; StemWithoutHedgeMark is the path's stem without it
+/// ("row_#.pcd" -> "row").
+std::string PerHedgePath(const std::string& path, bool several);
+std::string HedgePath(const std::string& path, int id);
+std::string StemWithoutHedgeMark(const std::string& path);
+
+/// BASE_rectified.png (the pair side by side), BASE_mask.png and BASE_disparity.png (coloured)
+/// from a capture pipeline's context.
+void WriteDebugPictures(const std::string& base, pipeline::Context& ctx);
+
+/// One line for a converted capture: points, time, share of the frame matched, the output; then
+/// a line per hedge the depth segmentation found (its box, rough size and distance, points, file).
+std::string CaptureSummary(const std::string& name, const std::string& output, pipeline::Context& ctx,
+                           const pipeline::RunReport& report);
+
+/// What a run saw that its user should act on, in one line ("" when nothing):
+/// - The paper's colour mask covers most of a garden (lawn, hedge rows and trees are green too)
+///   and a fit may then find one ball of a row, or the lawn. When a run's colour mask covers
+///   more than half the frame: use --garden. Half the frame: the paper's largest hedge (r 960
+///   mm) from 1 m away covers about a quarter.
+/// - The rectified rows disagree by more than 0.5 px (stereo.sgbm's estimate): the rig file is
+///   not these cameras', or they moved since calibration. The refinement removes it, SGBM's
+///   integer search does not (Middlebury Motorcycle, rows already 0.31 px apart: another 0.25 px
+///   raises its bad-0.5 from 18.6 to 23.9 %).
+std::string CaptureHint(pipeline::Context& ctx);
+
+}  // namespace hedgefit::stereo
