@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Regenerates what README.md and docs/ show from today's code (run after a build):
+#   docs/cli/COMMAND.txt      each command's --help as the build prints it;
+#   README.md's quick start   runs the quick start's commands exactly as README.md gives them, in a
+#                             scratch folder, and puts their output between the quickstart markers;
+#   docs/quickstart_output.txt  the same output, whole.
+# The pictures in docs/ come from scripts/make_docs_pictures.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+H=./build/apps/hedgefit
+[ -x "$H" ] || { echo "make_docs: build first ($H is missing)" >&2; exit 1; }
+mkdir -p docs/cli
+for c in info pipeline plugins compare simulate calibrate render convert measure stream trim rig check-rig \
+         "bench lab" "bench garden"; do
+  "$H" $c --help > "docs/cli/${c// /-}.txt"
+done
+
+# The quick start: the first ```sh block after "## Quick start" in README.md, run as written.
+Q=build/docs/quickstart
+rm -rf "$Q" && mkdir -p "$Q/build"
+ln -s "$PWD/build/apps" "$Q/build/apps"
+/usr/bin/python3 - README.md > "$Q/quickstart.sh" <<'PY'
+import re, sys
+text = open(sys.argv[1]).read()
+start = text.index("## Quick start")
+print(re.search(r"```sh\n(.*?)```", text[start:], re.S).group(1))
+PY
+(cd "$Q" && bash -e quickstart.sh > output.txt 2> stderr.txt) || {
+  echo "make_docs: the quick start failed:" >&2; cat "$Q/stderr.txt" >&2; exit 1; }
+cp "$Q/output.txt" docs/quickstart_output.txt
+/usr/bin/python3 - "$Q/output.txt" README.md <<'PY'
+import json, re, sys
+out, readme = sys.argv[1], sys.argv[2]
+keep = ("hedge", "method", "converged", "center_mm", "radius_mm", "ci95_mm", "points_used")
+shown = []
+for line in open(out):
+    line = line.strip()
+    if line.startswith("{"):
+        d = json.loads(line)
+        shown.append(json.dumps({k: d[k] for k in keep if k in d}, separators=(",", ":")))
+text = open(readme).read()
+block = "<!-- quickstart:begin -->\n```\n" + "\n".join(shown) + "\n```\n<!-- quickstart:end -->"
+text = re.sub(r"<!-- quickstart:begin -->.*?<!-- quickstart:end -->", lambda m: block, text, flags=re.S)
+open(readme, "w").write(text)
+PY
+echo "make_docs: docs/cli/ ($(ls docs/cli | wc -l) commands), README quick start and docs/quickstart_output.txt"
