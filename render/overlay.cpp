@@ -64,6 +64,7 @@ cv::Mat DrawOverlay(const cv::Mat& left_rect, const stereo::StereoRig& rig, cons
   }
   std::size_t fitted = 0;
   std::vector<std::pair<std::string, cv::Scalar>> legend;
+  if (!mask.empty()) legend.emplace_back("magenta: the hedge's mask (the pixels matched)", cv::Scalar(255, 0, 255));
   std::vector<cv::Point2f> drawn;
   for (const auto& s : spheres) {
     const cv::Scalar colour = s.truth ? cv::Scalar(0, 0, 0) : Bgr(OverlayColor(fitted++));
@@ -90,7 +91,7 @@ cv::Mat DrawOverlay(const cv::Mat& left_rect, const stereo::StereoRig& rig, cons
       cv::drawMarker(out, cv::Point(cvRound(centre.x), cvRound(centre.y)), colour, cv::MARKER_CROSS, 8 * line_px, line_px);
     }
     char text[200];
-    std::snprintf(text, sizeof(text), "%zu %s  r %.1f mm  c (%.0f, %.0f, %.0f) mm", legend.size() + 1, s.label.c_str(),
+    std::snprintf(text, sizeof(text), "%s: r %.1f mm, centre (%.0f, %.0f, %.0f) mm", s.label.c_str(),
                   s.sphere.radius_mm, c.x(), c.y(), c.z());
     legend.emplace_back(text, colour);
   }
@@ -101,8 +102,9 @@ cv::Mat DrawOverlay(const cv::Mat& left_rect, const stereo::StereoRig& rig, cons
     box &= cv::Rect(0, 0, out.cols, out.rows);
     if (box.area() > 0) out = out(box).clone();
   }
-  // The legend, one line per sphere, top left on a light band so it reads on any image.
-  const double font = std::max(0.4, std::min(out.cols, out.rows) / 900.0);
+  // The legend, one line per sphere, top left on a light band so it reads on any image; Hershey
+  // simplex at 0.6 draws capitals 14 px tall, the least that reads at the picture's own size.
+  const double font = std::max(0.6, std::min(out.cols, out.rows) / 900.0);
   int baseline = 0;
   const int line_h = cv::getTextSize("Ag", cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline).height + baseline + 4;
   for (std::size_t i = 0; i < legend.size(); ++i) {

@@ -22,11 +22,13 @@
 #include <vtkSmartPointer.h>
 #include <vtkScalarBarActor.h>
 #include <vtkSphereSource.h>
+#include <vtkTextActor.h>
 #include <vtkTextProperty.h>
 #include <vtkUnsignedCharArray.h>
 #include <vtkWindowToImageFilter.h>
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -182,6 +184,14 @@ struct CloudLayer {
   std::array<double, 6> bounds = {1e300, -1e300, 1e300, -1e300, 1e300, -1e300};
 };
 
+// A field's name with its unit where hedgefit knows it, for the colour bar's title.
+std::string FieldTitle(const std::string& field) {
+  static const std::map<std::string, std::string> kFieldTitles = {
+      {"cut_depth", "cut depth (mm, + = cut)"}, {"pixel_mm", "pixel footprint (mm)"}, {"hedge_id", "hedge"}};
+  const auto known = kFieldTitles.find(field);
+  return known != kFieldTitles.end() ? known->second : field;
+}
+
 CloudLayer MakeCloudLayer(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
                           const RenderOptions& options, const std::string& png_path) {
   CloudLayer layer;
@@ -281,7 +291,7 @@ CloudLayer MakeCloudLayer(const cloud::PointCloud& cloud, const std::vector<Sphe
       layer.lut->AddRGBPoint(0.0, 0.87, 0.87, 0.87);
       layer.lut->AddRGBPoint(hi, 0.71, 0.02, 0.15);
       layer.lut->SetNanColor(0.5, 0.5, 0.5);
-      layer.bar_title = options.field;
+      layer.bar_title = FieldTitle(options.field);
     } else {
       lo = bounds[4], hi = std::max(bounds[4] + 1, bounds[5]);
       const double pts[5][3] = {{0.27, 0.00, 0.33}, {0.23, 0.32, 0.55}, {0.13, 0.57, 0.55}, {0.37, 0.79, 0.38},
@@ -347,27 +357,69 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
     legend->SetEntry(static_cast<int>(i), symbol->GetOutput(), text, col);
   }
   legend->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
-  legend->GetPositionCoordinate()->SetValue(0.01, 0.99 - 0.045 * double(spheres.size()));
+  // An entry about 24 px tall at the default size, so its text (scaled to the entry) reads at
+  // 14 px or more.
+  const double entry = std::max(0.045, 24.0 / double(options.height));
+  legend->GetPositionCoordinate()->SetValue(0.01, 0.99 - entry * double(spheres.size()));
   legend->GetPosition2Coordinate()->SetCoordinateSystemToNormalizedViewport();
-  legend->GetPosition2Coordinate()->SetValue(0.55, 0.045 * double(spheres.size()));
+  legend->GetPosition2Coordinate()->SetValue(0.62, entry * double(spheres.size()));
   legend->BorderOff();
   legend->GetEntryTextProperty()->SetColor(1 - options.background[0], 1 - options.background[1], 1 - options.background[2]);
   return layer;
+}
+
+// Text on a picture: at least 14 px at the default size, in the background's contrasting grey.
+constexpr int kTitlePx = 16;
+constexpr int kLabelPx = 14;
+
+double TextGrey(const RenderOptions& options) {
+  return options.background[0] + options.background[1] + options.background[2] > 1.5 ? 0.0 : 1.0;
+}
+
+// Each view says which it is, at its top right.
+vtkSmartPointer<vtkTextActor> ViewLabel(View view, const RenderOptions& options) {
+  static const char* const kLabels[] = {"front (as the camera sees it)", "side (from the right)", "top (from above)",
+                                        "iso"};
+  auto label = vtkSmartPointer<vtkTextActor>::New();
+  label->SetInput(kLabels[int(view)]);
+  const double tc = TextGrey(options);
+  label->GetTextProperty()->SetColor(tc, tc, tc);
+  label->GetTextProperty()->SetFontSize(kLabelPx);
+  label->GetTextProperty()->SetJustificationToRight();
+  label->GetTextProperty()->SetVerticalJustificationToBottom();
+  label->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+  label->GetPositionCoordinate()->SetValue(0.98, 0.02);
+  return label;
 }
 
 // The colour bar of a mapped colouring, in the background's contrasting grey.
 vtkSmartPointer<vtkScalarBarActor> MakeScalarBar(const CloudLayer& cloud, const RenderOptions& options) {
   auto bar = vtkSmartPointer<vtkScalarBarActor>::New();
   bar->SetLookupTable(cloud.lut);
-  bar->SetTitle(cloud.bar_title.c_str());
+  // The title over two lines ("signed distance" / "(mm)"), so it fits above the bar at a size
+  // that can be read at the picture's default size.
+  std::string title = cloud.bar_title;
+  if (const auto paren = title.find(" ("); paren != std::string::npos) title.replace(paren, 1, "\n");
+  bar->SetTitle(title.c_str());
   bar->SetNumberOfLabels(5);
+  bar->SetLabelFormat("%.1f");
   bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
-  bar->GetPositionCoordinate()->SetValue(0.87, 0.1);
-  bar->SetWidth(0.11);
-  bar->SetHeight(0.8);
-  const double tc = options.background[0] + options.background[1] + options.background[2] > 1.5 ? 0.0 : 1.0;
-  bar->GetTitleTextProperty()->SetColor(tc, tc, tc);
-  bar->GetLabelTextProperty()->SetColor(tc, tc, tc);
+  bar->GetPositionCoordinate()->SetValue(0.84, 0.08);
+  bar->SetWidth(0.15);
+  bar->SetHeight(0.78);
+  bar->SetBarRatio(0.3);
+  bar->SetVerticalTitleSeparation(6);
+  // Fixed pixel sizes: VTK otherwise scales the text with the bar, which made the title 5 px tall.
+  bar->SetUnconstrainedFontSize(true);
+  const double tc = TextGrey(options);
+  for (vtkTextProperty* text : {bar->GetTitleTextProperty(), bar->GetLabelTextProperty()}) {
+    text->SetColor(tc, tc, tc);
+    text->ItalicOff();
+    text->ShadowOff();
+  }
+  bar->GetTitleTextProperty()->SetFontSize(kTitlePx);
+  bar->GetTitleTextProperty()->BoldOff();
+  bar->GetLabelTextProperty()->SetFontSize(kLabelPx);
   return bar;
 }
 
@@ -402,6 +454,7 @@ void RenderViews(const CloudLayer& cloud, const SphereLayer& spheres, vtkScalarB
       if (!spheres.actors.empty()) ren->AddViewProp(spheres.legend);
       if (bar != nullptr) ren->AddViewProp(bar);
     }
+    ren->AddViewProp(ViewLabel(options.views[std::size_t(k)], options));
     const CameraSetup cam = CameraFor(options.views[std::size_t(k)], cloud.bounds);
     vtkCamera* camera = ren->GetActiveCamera();
     camera->SetPosition(cam.position.data());

@@ -19,7 +19,7 @@ args = ap.parse_args()
 root = pathlib.Path(__file__).resolve().parent.parent
 dirs = args.dirs or ["pipeline", "cloud", "stereo", "fitting", "render", "sim", "bench", "apps", "python", "tools", "fuzz"]
 
-HEAD = re.compile(r"^(?:  )?[A-Za-z_][\w:<>,\*& ~]*?\b([A-Za-z_][\w:~]*)\s*\([^;]*$")
+HEAD = re.compile(r"^(?:  )?(?:[A-Za-z_][\w:<>,\*& ~]*?\s)?([A-Za-z_][\w:~]*)\s*\([^;]*$")
 SKIP = re.compile(r"^\s*(if|for|while|switch|return|else|namespace|struct|class|enum|using|typedef|#)")
 
 

@@ -1,6 +1,7 @@
 #include "stereo/capture_batch.hpp"
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cstdio>
@@ -97,13 +98,49 @@ std::string StemWithoutHedgeMark(const std::string& path) {
   return stem;
 }
 
+namespace {
+
+// The coloured disparity with its scale beside it: a TURBO bar from the smallest to the largest
+// disparity, labelled in px, so the picture says what its colours mean.
+cv::Mat DisparityWithScale(const cv::Mat& disparity) {
+  const cv::Mat colour = ColorizeDisparity(disparity);
+  double lo = 0, hi = 1;
+  cv::minMaxLoc(disparity, &lo, &hi, nullptr, nullptr, disparity == disparity);
+  const int bar_w = 24, pad = 12, text_w = 120;
+  cv::Mat out(colour.rows, colour.cols + pad + bar_w + text_w, CV_8UC3, cv::Scalar(255, 255, 255));
+  colour.copyTo(out(cv::Rect(0, 0, colour.cols, colour.rows)));
+  const int top = 48, bottom = colour.rows - 24, x0 = colour.cols + pad;
+  if (bottom - top < 20) return colour;  // too small a picture for a scale
+  cv::Mat ramp(bottom - top, 1, CV_8U);
+  for (int y = 0; y < ramp.rows; ++y) ramp.at<std::uint8_t>(y) = cv::saturate_cast<std::uint8_t>(255 - 255 * y / (ramp.rows - 1));
+  cv::Mat ramp_colour;
+  cv::applyColorMap(ramp, ramp_colour, cv::COLORMAP_TURBO);
+  cv::resize(ramp_colour, out(cv::Rect(x0, top, bar_w, bottom - top)), cv::Size(bar_w, bottom - top), 0, 0,
+             cv::INTER_NEAREST);
+  const double font = 0.6;  // Hershey simplex: capitals 14 px tall
+  const cv::Scalar ink(0, 0, 0);
+  cv::putText(out, "disparity (px)", cv::Point(colour.cols + pad - 4, 24), cv::FONT_HERSHEY_SIMPLEX, font, ink, 1,
+              cv::LINE_AA);
+  char label[32];
+  for (int k = 0; k <= 4; ++k) {
+    const double v = hi - (hi - lo) * k / 4.0;
+    const int y = top + (bottom - top - 1) * k / 4;
+    std::snprintf(label, sizeof(label), "%.1f", v);
+    cv::line(out, cv::Point(x0 + bar_w, y), cv::Point(x0 + bar_w + 5, y), ink, 1);
+    cv::putText(out, label, cv::Point(x0 + bar_w + 8, y + 6), cv::FONT_HERSHEY_SIMPLEX, font, ink, 1, cv::LINE_AA);
+  }
+  return out;
+}
+
+}  // namespace
+
 void WriteDebugPictures(const std::string& base, pipeline::Context& ctx) {
   const cv::Mat& left_rect = ctx.Get<cv::Mat>("left_image");
   cv::Mat pair;
   cv::hconcat(left_rect, ctx.Get<cv::Mat>("right_image"), pair);
   WriteImageAtomic(base + "_rectified.png", pair);
   WriteImageAtomic(base + "_mask.png", MaskOverlay(left_rect, ctx.Get<cv::Mat>("mask")));
-  WriteImageAtomic(base + "_disparity.png", ColorizeDisparity(ctx.Get<cv::Mat>("disparity")));
+  WriteImageAtomic(base + "_disparity.png", DisparityWithScale(ctx.Get<cv::Mat>("disparity")));
 }
 
 std::string CaptureSummary(const std::string& name, const std::string& out, pipeline::Context& ctx,

@@ -66,6 +66,19 @@ TEST(Overlay, OutlineFollowsTheRenderedSilhouette) {
     if (cv::norm(cv::Vec3i(got) - cv::Vec3i(want)) < 40) ++hits;
   }
   EXPECT_GT(hits, 150);
+  // The legend says what magenta is (its first line, in magenta) and names the fit (its second
+  // line, in the fit's colour), each line of text at least 10 px tall (a 14 px font).
+  auto ink_rows = [&](const cv::Mat& img, int y0, int y1, const cv::Vec3b& colour) {
+    int top = y1, bottom = y0 - 1;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = 0; x < img.cols / 2; ++x) {
+        if (cv::norm(cv::Vec3i(img.at<cv::Vec3b>(y, x)) - cv::Vec3i(colour)) < 60) top = std::min(top, y), bottom = std::max(bottom, y);
+      }
+    }
+    return bottom >= top ? bottom - top + 1 : 0;
+  };
+  EXPECT_GE(ink_rows(picture, 0, 40, cv::Vec3b(255, 0, 255)), 10) << "no magenta legend line for the mask";
+  EXPECT_GE(ink_rows(picture, 30, 80, want), 10) << "no legend line for the fit";
   // Dashed, as a fit told not a ball is drawn: about half of the outline, spread all round it.
   const cv::Mat dashed = DrawOverlay(grey, rig, truth, {SphereOverlay{"geometric", s, false, true}}, 2);
   int dashed_hits = 0, quarters[4] = {0, 0, 0, 0};

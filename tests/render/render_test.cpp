@@ -146,5 +146,52 @@ TEST(Render, BadOptionsAndPathsAreNamed) {
   EXPECT_THROW(ParseView("below"), Error);
 }
 
+// Where text was drawn in `region`: how many pixels are ink (black text: every channel dark; with
+// `coloured`, any channel far from the white background), and how many rows they span (a glyph of
+// a 14 px font spans at least 10; the old colour bar title spanned 5).
+std::pair<int, int> TextIn(const cv::Mat& img, cv::Rect region, bool coloured = false) {
+  region &= cv::Rect(0, 0, img.cols, img.rows);
+  int count = 0, top = region.br().y, bottom = region.y - 1;
+  for (int y = region.y; y < region.br().y; ++y) {
+    for (int x = region.x; x < region.br().x; ++x) {
+      const cv::Vec3b p = img.at<cv::Vec3b>(y, x);
+      if (coloured ? std::min({p[0], p[1], p[2]}) < 160 : std::max({p[0], p[1], p[2]}) < 120) {
+        ++count;
+        top = std::min(top, y);
+        bottom = std::max(bottom, y);
+      }
+    }
+  }
+  return {count, bottom >= top ? bottom - top + 1 : 0};
+}
+
+// At the default size every text reads: the colour bar's two-line title with its unit, each view's
+// name, and the legend's entries are drawn, and tall enough to read (at least 14 px fonts).
+TEST(Render, TextReadsAtTheDefaultSize) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  RenderOptions o;  // the default size, 1024 x 768 per view
+  o.color = ColorMode::kDistance;
+  o.views = {View::kFront, View::kSide};
+  const std::string path = (dir / "text.png").string();
+  RenderToPng(Ring(), RedSphere(), o, path);
+  const cv::Mat img = cv::imread(path);
+  ASSERT_EQ(img.cols, 2 * o.width);
+  const int w = o.width, h = o.height;
+  // Above the bar: "signed distance" / "(mm)" (the bar's top label, "978.5", is lower).
+  const auto title = TextIn(img, cv::Rect(int(0.80 * w), 0, int(0.2 * w), int(0.17 * h)));
+  EXPECT_GT(title.first, 60);
+  EXPECT_GE(title.second, 24) << "the bar's title: two lines of text at least 12 px tall each";
+  // Each view's name at its bottom right.
+  for (int view = 0; view < 2; ++view) {
+    const auto label = TextIn(img, cv::Rect(view * w + int(0.6 * w), int(0.93 * h), int(0.39 * w), int(0.07 * h)));
+    EXPECT_GT(label.first, 40) << "view " << view;
+    EXPECT_GE(label.second, 10) << "view " << view;
+  }
+  // The legend's one entry at the top left.
+  const auto legend = TextIn(img, cv::Rect(0, 0, int(0.6 * w), 40), true);
+  EXPECT_GT(legend.first, 60);
+  EXPECT_GE(legend.second, 10);
+}
+
 }  // namespace
 }  // namespace hedgefit::render
