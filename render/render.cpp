@@ -404,7 +404,7 @@ vtkSmartPointer<vtkScalarBarActor> MakeScalarBar(const CloudLayer& cloud, const 
   bar->SetNumberOfLabels(5);
   bar->SetLabelFormat("%.1f");
   bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
-  bar->GetPositionCoordinate()->SetValue(0.84, 0.08);
+  bar->GetPositionCoordinate()->SetValue(0.80, 0.08);  // room for the title centred above the bar
   bar->SetWidth(0.15);
   bar->SetHeight(0.78);
   bar->SetBarRatio(0.3);
