@@ -303,8 +303,8 @@ void PrintGarden(const GardenResult& r) {
           }
         }
       }
-      if (envelope && envelope->converged && envelope->surface_radius_mm) {
-        std::printf("   %.1f (%.1f)", *envelope->surface_radius_mm, h.truth_surface_mm);
+      if (envelope && envelope->converged && envelope->Extra("surface_radius_mm")) {
+        std::printf("   %.1f (%.1f)", *envelope->Extra("surface_radius_mm"), h.truth_surface_mm);
       }
       for (const auto& f : h.fits) {
         if (f.converged && f.not_a_ball) std::printf("   %s: NOT A BALL", f.method.c_str());
@@ -380,7 +380,7 @@ std::string GardenJson(const GardenResult& r) {
           jf["radius_mm"] = f.sphere.radius_mm;
           jf["aer_mm"] = e.aer_mm;
           jf["ld_mm"] = e.ld_mm;
-          if (f.surface_radius_mm) jf["surface_radius_mm"] = *f.surface_radius_mm;
+          if (const auto surface = f.Extra("surface_radius_mm")) jf["surface_radius_mm"] = *surface;
           jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
           jf["outside_share"] = h.outside_share[fi];
           for (const auto& [key, value] : StatedUncertainty(f)) jf[key] = value;

@@ -35,14 +35,15 @@ std::vector<std::pair<std::string, pipeline::OptionValue>> FitFields(const Spher
     out.emplace_back("total_std_error_mm", std::vector<double>{(*t)[0], (*t)[1], (*t)[2], (*t)[3]});
     out.emplace_back("ci95_mm", std::vector<double>{1.96 * (*t)[0], 1.96 * (*t)[1], 1.96 * (*t)[2], 1.96 * (*t)[3]});
   }
-  if (f.converged && f.surface_radius_mm) out.emplace_back("surface_radius_mm", *f.surface_radius_mm);
-  if (f.converged && f.leaf_depth_mm) out.emplace_back("leaf_depth_mm", *f.leaf_depth_mm);
-  if (f.converged && f.top_bias_mm) out.emplace_back("top_bias_mm", *f.top_bias_mm);
-  if (f.converged && f.axes_mm) {
-    out.emplace_back("axes_mm", std::vector<double>{(*f.axes_mm)[0], (*f.axes_mm)[1], (*f.axes_mm)[2]});
+  if (f.converged) {
+    for (const auto& [name, values] : f.extras) {
+      if (values.size() == 1) {
+        out.emplace_back(name, values.front());
+      } else {
+        out.emplace_back(name, values);
+      }
+    }
   }
-  if (f.converged && f.vertical_axis_mm) out.emplace_back("vertical_axis_mm", *f.vertical_axis_mm);
-  if (f.converged && f.horizontal_axis_mm) out.emplace_back("horizontal_axis_mm", *f.horizontal_axis_mm);
   if (f.converged && f.not_a_ball) out.emplace_back("not_a_ball", *f.not_a_ball);
   return out;
 }

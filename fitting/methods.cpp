@@ -34,9 +34,9 @@ SphereFitResult ShapeResult(const std::string& method, const EllipsoidFit& e, st
     r.sphere.center_mm = e.center_mm;
     r.sphere.radius_mm = std::cbrt(e.axes_mm.prod());
     r.rms_mm = e.rms_mm;
-    r.axes_mm = e.axes_mm;
-    r.vertical_axis_mm = e.vertical_axis_mm;
-    r.horizontal_axis_mm = e.horizontal_axis_mm;
+    r.SetExtra("axes_mm", {e.axes_mm[0], e.axes_mm[1], e.axes_mm[2]});
+    r.SetExtra("vertical_axis_mm", {e.vertical_axis_mm});
+    r.SetExtra("horizontal_axis_mm", {e.horizontal_axis_mm});
   }
   return r;
 }
@@ -188,9 +188,9 @@ SphereFitResult FitEnvelopeFrom(const EnvelopeFitOptions& p, const std::string& 
   SphereFitResult r = e.fit;
   r.wall_ms += start.wall_ms;
   if (r.converged) {
-    r.surface_radius_mm = e.surface_radius_mm;
-    r.leaf_depth_mm = e.leaf_depth_mm;
-    if (e.top_bias_mm > 0) r.top_bias_mm = e.top_bias_mm;
+    r.SetExtra("surface_radius_mm", {e.surface_radius_mm});
+    r.SetExtra("leaf_depth_mm", {e.leaf_depth_mm});
+    if (e.top_bias_mm > 0) r.SetExtra("top_bias_mm", {e.top_bias_mm});
   }
   return r;
 }

@@ -116,4 +116,21 @@ std::vector<Eigen::Vector3d> ToDouble(const std::vector<Eigen::Vector3f>& points
   return out;
 }
 
+std::optional<double> SphereFitResult::Extra(const std::string& name) const {
+  for (const auto& [key, values] : extras) {
+    if (key == name && !values.empty()) return values.front();
+  }
+  return std::nullopt;
+}
+
+void SphereFitResult::SetExtra(const std::string& name, std::vector<double> values) {
+  for (auto& [key, v] : extras) {
+    if (key == name) {
+      v = std::move(values);
+      return;
+    }
+  }
+  extras.emplace_back(name, std::move(values));
+}
+
 }  // namespace hedgefit::fitting

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hedgefit::fitting {
@@ -33,22 +34,23 @@ struct SphereFitResult {
   /// matcher's bias on real images), for clouds from a stereo capture.
   std::optional<Eigen::Vector4d> matching_std_error_mm;
   std::string message;          ///< empty, or why the fit failed, or a warning
-  /// Shell fits (method "envelope"): `sphere` is the outer envelope; these are the mean
-  /// leaf-surface radius and the mean leaf depth below the envelope, mm.
-  std::optional<double> surface_radius_mm;
-  std::optional<double> leaf_depth_mm;
-  /// ... and how far out it moved the envelope for the matcher's reading of the outermost leaves
-  /// (mean over the points, mm; set when the cloud said what a pixel spans: EnvelopeFitOptions).
-  std::optional<double> top_bias_mm;
-  /// Ellipsoid fits (method "ellipsoid"): semi-axes (largest first), the vertical one and the
-  /// horizontal one across the line of sight, mm; `sphere` holds the centre and the axes'
-  /// geometric mean.
-  std::optional<Eigen::Vector3d> axes_mm;
-  std::optional<double> vertical_axis_mm;
-  std::optional<double> horizontal_axis_mm;
+  /// What a method reports beside the sphere, by name and in the order it adds them, written
+  /// out as they are (FitFields): the envelope's surface_radius_mm (the mean leaf surface),
+  /// leaf_depth_mm and top_bias_mm (`sphere` is the outer envelope); the ellipsoid's and
+  /// spheroid's axes_mm (largest first), vertical_axis_mm and horizontal_axis_mm (`sphere` holds
+  /// the centre and the axes' geometric mean). A new method adds its own without a new field here.
+  std::vector<std::pair<std::string, std::vector<double>>> extras;
   /// Set when the fitted sphere is far wider than the points (ShallowPatchReason): they are a
   /// shallow patch of it, as a lumpy shrub, a wall or a lawn gives, not a ball; says why.
   std::optional<std::string> not_a_ball;
+
+  /// The first value of extra `name`, when the method reported it.
+  std::optional<double> Extra(const std::string& name) const;
+  /// Sets extra `name` (replacing it when present).
+  void SetExtra(const std::string& name, std::vector<double> values);
+  /// Whether the sphere can be acted on: the fit converged and its points are a ball's (in the
+  /// spirit of Ceres' Summary::IsSolutionUsable): the one place that says so.
+  bool IsUsable() const { return converged && !not_a_ball; }
 };
 
 /// Why a point set cannot determine a sphere, or nullopt if it can: fewer than 4

@@ -61,8 +61,8 @@ TEST(EllipsoidFit, MovesWithTheHedge) {
   EXPECT_LT((b.axes_mm - a.axes_mm).norm(), 1e-6);
   // Through the method table: the axes are reported beside the sphere.
   const SphereFitResult r = RunFitMethod("ellipsoid", pts);
-  ASSERT_TRUE(r.converged && r.axes_mm && r.vertical_axis_mm);
-  EXPECT_NEAR(*r.vertical_axis_mm, 430, 5.0);
+  ASSERT_TRUE(r.converged && r.Extra("axes_mm") && r.Extra("vertical_axis_mm"));
+  EXPECT_NEAR(*r.Extra("vertical_axis_mm"), 430, 5.0);
   EXPECT_EQ(FitEllipsoid({Eigen::Vector3d(0, 0, 1)}).converged, false);
 }
 
@@ -110,8 +110,8 @@ TEST(SpheroidFit, DomeAndBallAreToldApartOnLeafyCaps) {
   EXPECT_THROW(bad.Check(), Error);
   // Through the method table, by name.
   const SphereFitResult r = RunFitMethod("spheroid", LeafySpheroidCap(centre, 550, 450, 12, 5000, rng));
-  ASSERT_TRUE(r.converged && r.vertical_axis_mm && r.horizontal_axis_mm);
-  EXPECT_LT(*r.vertical_axis_mm, *r.horizontal_axis_mm);
+  ASSERT_TRUE(r.converged && r.Extra("vertical_axis_mm") && r.Extra("horizontal_axis_mm"));
+  EXPECT_LT(*r.Extra("vertical_axis_mm"), *r.Extra("horizontal_axis_mm"));
 }
 
 }  // namespace

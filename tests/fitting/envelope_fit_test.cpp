@@ -194,9 +194,9 @@ TEST(EnvelopeFit, MethodTableRowReportsBothRadii) {
   const auto pts = hedgefit::testing::LeafyCap(centre, 500, 10, 70, 10000, 2, rng);
   const SphereFitResult r = RunFitMethod("envelope", pts);
   ASSERT_TRUE(r.converged) << r.message;
-  ASSERT_TRUE(r.surface_radius_mm.has_value());
+  ASSERT_TRUE(r.Extra("surface_radius_mm").has_value());
   EXPECT_NEAR(r.sphere.radius_mm, 500, 1.5);
-  EXPECT_NEAR(*r.surface_radius_mm, 490, 2.0);
+  EXPECT_NEAR(*r.Extra("surface_radius_mm"), 490, 2.0);
 }
 
 }  // namespace
