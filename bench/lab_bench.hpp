@@ -24,7 +24,7 @@ struct LabOptions {
   /// Also calibrate from the 12 boards of WideBoards() (board_17..28; rendered when missing),
   /// which reach the image's edges where the paper's lab boards leave the principal point loose.
   bool wide_boards = false;
-  /// "hedgefit" (its own simulator) or "povray" (an independent ray tracer, stereo/povray.hpp).
+  /// "hedgefit" (its own simulator) or "povray" (an independent ray tracer, sim/povray.hpp).
   std::string renderer = "hedgefit";
   /// "ideal" (as rendered) or "real": every image through sim::CameraModel's defaults
   /// (gains, white balance, vignetting, Bayer, shot and read noise, independent per camera).

@@ -19,7 +19,7 @@ using fitting::SphereFitResult;
 /// Reads a truth JSON {"center_mm": [x, y, z], "radius_mm": r}; throws hedgefit::Error naming the file.
 Sphere ReadTruthFile(const std::string& path);
 
-/// Every sphere of a truth file (one, or a capture's several hedges, cloud/truth_file.hpp).
+/// Every sphere of a truth file (one, or a capture's several hedges, eval/truth_file.hpp).
 std::vector<Sphere> ReadTruthFiles(const std::string& path);
 
 /// The truth a hedge's points belong to: the sphere whose centre is nearest their centroid, if

@@ -156,7 +156,7 @@ std::vector<std::string> WriteGarden(const std::string& dir, double scale, const
 /// The board's inner corners in the world frame.
 std::vector<cv::Point3d> BoardInnerCornersWorld(const BoardScene& board);
 
-/// The sphere's truth file (cloud/truth_file.hpp), in the left camera frame.
+/// The sphere's truth file (eval/truth_file.hpp), in the left camera frame.
 void WriteSphereTruth(const std::string& path, const SphereScene& scene);
 
 /// A board's truth: squares, square size, left_camera_from_board rotation (matrix and

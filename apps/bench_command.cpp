@@ -1,4 +1,4 @@
-// hedgefit bench lab: parses its flags and runs bench/lab.hpp.
+// hedgefit bench lab and bench garden: parse their flags and run bench/lab_bench.hpp and bench/garden_bench.hpp.
 
 #include "apps/commands.hpp"
 #include "apps/parse.hpp"
