@@ -1,20 +1,27 @@
 #pragma once
 /// printf-style formatting into a stream, for the fixed-width tables and reports hedgefit prints.
+/// The format attribute lets the compiler check each call's arguments against its format.
 
+#include <cstdarg>
 #include <cstdio>
 #include <ostream>
 #include <vector>
 
 namespace hedgefit::pipeline {
 
-/// Formats `args` with `format` (printf's syntax) and writes the result to `out`, however long.
-template <class... Args>
-void Print(std::ostream& out, const char* format, Args... args) {
-  const int n = std::snprintf(nullptr, 0, format, args...);
-  if (n <= 0) return;
-  std::vector<char> buf(std::size_t(n) + 1);
-  std::snprintf(buf.data(), buf.size(), format, args...);
-  out.write(buf.data(), n);
+/// Formats the arguments with `format` (printf's syntax) and writes the result to `out`, however long.
+[[gnu::format(printf, 2, 3)]] inline void Print(std::ostream& out, const char* format, ...) {
+  va_list args, again;
+  va_start(args, format);
+  va_copy(again, args);
+  const int n = std::vsnprintf(nullptr, 0, format, args);
+  va_end(args);
+  if (n > 0) {
+    std::vector<char> buf(std::size_t(n) + 1);
+    std::vsnprintf(buf.data(), buf.size(), format, again);
+    out.write(buf.data(), n);
+  }
+  va_end(again);
 }
 
 }  // namespace hedgefit::pipeline
