@@ -13,7 +13,8 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// An input file that cannot be read (a damaged or cut-short image, say): bad input (exit code 1
+/// An input file that cannot be read (a damaged or cut-short image, say), or an option the input
+/// makes impossible (a nearest depth the rig cannot match in these images): bad input (exit code 1
 /// in the CLI) even when found while a pipeline runs, where other errors are processing failures.
 class InputError : public Error {
  public:

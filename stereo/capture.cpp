@@ -118,6 +118,7 @@ MatchResult MatchHedgeRegion(const StereoRig& rig, const cv::Mat* raw_left, cons
   options.Check();
   MatchResult r;
   SgbmOptions sg = options.sgbm;
+  CheckNearestDepth(rig.P1.at<double>(0, 0), rig.baseline_mm, options.min_z_mm, left_rect->cols);
   DisparityRangeForDepth(rig.P1.at<double>(0, 0), rig.baseline_mm, options.min_z_mm, options.max_z_mm,
                          &sg.min_disparity, &sg.num_disparities);
   if (options.coarse_range && options.region_only && !mask.empty() && cv::countNonZero(mask) > 0) {

@@ -270,6 +270,7 @@ CoarseScene MatchCoarse(const StereoRig& rig, const cv::Mat& left_rect, const cv
                         const GardenSegmentOptions& o, GardenSegmentation* out) {
   CoarseScene s;
   s.k = o.downscale > 0 ? o.downscale : std::max(1, int(std::lround(rig.P1.at<double>(0, 0) / kCoarseFocalPx)));
+  CheckNearestDepth(rig.P1.at<double>(0, 0), rig.baseline_mm, o.min_z_mm, left_rect.cols);
   const int k = s.k;
   cv::Mat small_r;
   cv::resize(left_rect, s.small_left, cv::Size(left_rect.cols / k, left_rect.rows / k), 0, 0, cv::INTER_AREA);

@@ -78,6 +78,20 @@ void SgbmOptions::Check() const {
   if (p2 > 0 && p2 <= p1) throw Error("option 'p1'/'p2': need p1 < p2 (0 = automatic)");
 }
 
+void CheckNearestDepth(double focal_px, double baseline_mm, double min_z_mm, int width_px) {
+  // SGBM's search, its block and the range's rounding up to 16 must fit in the row.
+  constexpr int kSlackPx = 32;
+  const double needed = focal_px * baseline_mm / min_z_mm;
+  if (!(min_z_mm > 0) || needed + kSlackPx < width_px) return;
+  const double nearest = focal_px * baseline_mm / std::max(1.0, double(width_px - kSlackPx));
+  char buf[320];
+  std::snprintf(buf, sizeof(buf),
+                "min_z %g mm (--min-z) needs a disparity of %.0f px; the nearest this rig can match in a %d px wide "
+                "image is %.0f mm; raise it to the nearest depth of the scene (min_z is in mm)",
+                min_z_mm, needed, width_px, std::ceil(nearest));
+  throw InputError(buf);
+}
+
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
                             int* num_disparities) {
   if (!(min_z_mm > 0 && max_z_mm > min_z_mm)) throw Error("min_z/max_z: need 0 < min_z < max_z (mm)");

@@ -147,6 +147,12 @@ int FillHolesFromBackground(cv::Mat* disparity);
 /// 2 m away) have their front leaves about 1.1 m from the cameras. Farthest: a row's last ball.
 inline constexpr double kDefaultMinZmm = 1000, kDefaultMaxZmm = 3500;
 
+/// Throws Error, before any matching, when the nearest depth `min_z_mm` needs a disparity (f b / Z)
+/// that an image `width_px` wide cannot hold: "min_z 10 mm (--min-z) needs a disparity of 13066 px;
+/// the nearest this rig can match in a 1920 px wide image is 69 mm". A search that wide would
+/// otherwise abort inside OpenCV.
+void CheckNearestDepth(double focal_px, double baseline_mm, double min_z_mm, int width_px);
+
 /// Disparity search range [min, min + num) for depths [min_z, max_z] mm: d = f b / Z.
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
                             int* num_disparities);

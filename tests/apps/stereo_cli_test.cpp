@@ -345,6 +345,29 @@ TEST(MeasureCli, AHedgeCutByTheFrameSaysSo) {
 // 2.5). The ball has at most 0.1 % of its points so far out and its sphere is 1.3-1.6 times its
 // points' span, and it is within 10 mm of its truth (half the paper's resolution, as in
 // GardenRowGivesOneJsonLinePerHedgeAndAnOverlay).
+// A nearest depth no disparity search can reach in these images (metres typed for mm, say) is
+// refused before matching, naming the option and the nearest this rig can match; it aborted
+// inside OpenCV (exit 134) before.
+TEST(MeasureCli, ANearestDepthTheRigCannotMatchIsRefused) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  ASSERT_EQ(RunHedgefit("simulate --sphere 70,50,2300,300 --scale 0.5 -o s", dir).code, 0);
+  const std::string measure = "measure --rig s/rig.yaml --left s/sphere_left.png --right s/sphere_right.png ";
+  for (const std::string z : {"1", "10"}) {
+    const Result r = RunHedgefit(measure + "--min-z " + z, dir);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("min_z " + z + " mm (--min-z) needs a disparity of"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("the nearest this rig can match in a 960 px wide image is"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  // The same in convert, and in the depth segmentation (--garden).
+  Result r = RunHedgefit("convert --rig s/rig.yaml --left s/sphere_left.png --right s/sphere_right.png -o o.pcd --min-z 5", dir);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("needs a disparity of"), std::string::npos) << r.err;
+  r = RunHedgefit(measure + "--garden --min-z 5", dir);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("needs a disparity of"), std::string::npos) << r.err;
+}
+
 TEST(MeasureCli, ShrubsTakenForHedgesAreToldNotABall) {
   const auto dir = hedgefit::testing::ScratchDir();
   WriteHalfScaleGarden(dir / "g", "shrubs");
