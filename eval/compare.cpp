@@ -35,6 +35,19 @@ std::string Num(double v, int decimals) {
   return buf;
 }
 
+// The JSON in `path`; Error "PATH: <cannot_open>" or "PATH: invalid JSON; <expected>".
+json ReadJsonFile(const std::string& path, const std::string& cannot_open, const std::string& expected) {
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": " + cannot_open);
+  json j;
+  try {
+    in >> j;
+  } catch (const json::exception&) {
+    throw Error(path + ": invalid JSON; " + expected);
+  }
+  return j;
+}
+
 json SphereJson(const Sphere& s) {
   return {{"center_mm", {s.center_mm.x(), s.center_mm.y(), s.center_mm.z()}}, {"radius_mm", s.radius_mm}};
 }
@@ -99,14 +112,8 @@ void WriteTableRows(std::ostream& out, const CloudReport& r) {
 }  // namespace
 
 std::string ReadCleaningFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the cleaning pipeline; check the path");
-  json j;
-  try {
-    in >> j;
-  } catch (const json::exception&) {
-    throw Error(path + ": invalid JSON; give an array of cleaning stages, e.g. [{\"type\": \"filters.voxel_grid\"}]");
-  }
+  json j = ReadJsonFile(path, "cannot open the cleaning pipeline; check the path",
+                        "give an array of cleaning stages, e.g. [{\"type\": \"filters.voxel_grid\"}]");
   if (j.is_object() && j.contains("pipeline")) j = j["pipeline"];
   if (!j.is_array()) throw Error(path + ": a cleaning pipeline is a JSON array of filter stages");
   for (const auto& s : j) {
@@ -304,14 +311,8 @@ void WriteCompareTable(std::ostream& out, const std::vector<CloudReport>& report
 }
 
 std::vector<FitRecord> ReadCompareFits(const std::string& path, const std::string& cloud_path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the fits file; write one with `hedgefit compare CLOUD --format json > FILE`");
-  json j;
-  try {
-    in >> j;
-  } catch (const json::exception&) {
-    throw Error(path + ": invalid JSON; expected the output of `hedgefit compare --format json`");
-  }
+  const json j = ReadJsonFile(path, "cannot open the fits file; write one with `hedgefit compare CLOUD --format json > FILE`",
+                              "expected the output of `hedgefit compare --format json`");
   if (!j.is_object() || !j.contains("clouds") || !j["clouds"].is_array() || j["clouds"].empty()) {
     throw Error(path + ": has no \"clouds\"; expected the output of `hedgefit compare --format json`");
   }
