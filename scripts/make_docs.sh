@@ -3,7 +3,9 @@
 #   docs/cli/COMMAND.txt      each command's --help as the build prints it;
 #   README.md's quick start   runs the quick start's commands exactly as README.md gives them, in a
 #                             scratch folder, and puts their output between the quickstart markers;
-#   docs/quickstart_output.txt  the same output, whole.
+#   docs/quickstart_output.txt  the same output, whole;
+#   every <!-- shown: COMMAND --> block in README.md and docs/ (scripts/make_docs_shown.py; pass --slow
+#                             to also re-run the POV-Ray benches and bench_middlebury, about an hour).
 # The pictures in docs/ come from scripts/make_docs_pictures.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -43,4 +45,5 @@ block = "<!-- quickstart:begin -->\n```\n" + "\n".join(shown) + "\n```\n<!-- qui
 text = re.sub(r"<!-- quickstart:begin -->.*?<!-- quickstart:end -->", lambda m: block, text, flags=re.S)
 open(readme, "w").write(text)
 PY
+/usr/bin/python3 scripts/make_docs_shown.py "$@"
 echo "make_docs: docs/cli/ ($(ls docs/cli | wc -l) commands), README quick start and docs/quickstart_output.txt"
