@@ -15,6 +15,9 @@ namespace hedgefit::apps {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitBadInput = 1;
 inline constexpr int kExitProcessing = 2;
+/// Results were printed, but at least one cannot be acted on: its inputs failed a check (the rig
+/// no longer fits the cameras); its JSON line's "unusable" says why.
+inline constexpr int kExitUnusable = 3;
 
 /// A subcommand's body; throws hedgefit::Error for bad input.
 using CommandFn = std::function<int()>;

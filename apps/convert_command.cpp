@@ -1,6 +1,7 @@
 // hedgefit convert: stereo captures -> PCD files (rectify, segment, match, reproject). Around
 // each capture's pipeline: stereo/capture_batch.hpp.
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -53,7 +54,8 @@ class Converter {
                   captures_.size(), s, s / double(captures_.size()),
                   failed_ ? "; the skipped ones are listed on stderr" : "");
     }
-    return failed_ ? kExitProcessing : kExitOk;
+    if (failed_) return kExitProcessing;
+    return unusable_ ? kExitUnusable : kExitOk;
   }
 
  private:
@@ -76,6 +78,7 @@ class Converter {
         std::lock_guard<std::mutex> lock(io_);
         std::fprintf(stderr, "hedgefit: warning: %s: %s\n", c.name.c_str(), hint.c_str());
       }
+      if (stereo::CaptureUnusable(ctx)) ++unusable_;
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(io_);
       ++failed_;
@@ -106,6 +109,7 @@ class Converter {
   bool first_error_is_input_ = false;  // a damaged image: bad input (exit 1), not a failure
   std::size_t done_ = 0;
   std::size_t failed_ = 0;
+  std::atomic<std::size_t> unusable_{0};  ///< captures whose rig check found the rig unfit
 };
 
 int RunConvert(const ConvertArgs& a) {

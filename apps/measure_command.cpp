@@ -46,7 +46,9 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       "Prints one JSON line per hedge and method (JSON Lines): hedge id (1, 2, ... left to right), method,\n"
       "centre_mm, radius_mm, std_error_mm (cx, cy, cz, r; from the points' scatter only), inliers, rms_mm,\n"
       "fit and capture times, and with --garden the hedge's image box; not_a_ball (and a warning) when the\n"
-      "points are not a ball's (a shrub taken for a hedge: see README, compare). Exit 2 when no fit converges.\n");
+      "points are not a ball's (a shrub taken for a hedge: see README, compare). Every capture checks its\n"
+      "rig against its own images (rig_check: ok, widened, unusable; docs/commands.md). Exit 2 when no fit\n"
+      "converges, 3 when a result is unusable (its line's \"unusable\" says why).\n");
   auto a = std::make_shared<MeasureArgs>();
   cmd->add_option("--left", a->left, "left image")->required();
   cmd->add_option("--right", a->right, "right image")->required();
@@ -102,7 +104,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       if (converged == 0) throw ProcessingError(a->left + ": no fit converged (" + failure + ")");
       if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());
       for (const std::string& why : m.not_balls) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), why.c_str());
-      return kExitOk;
+      return stereo::CaptureUnusable(ctx) ? kExitUnusable : kExitOk;
     };
   });
 }

@@ -41,6 +41,18 @@ struct StreamArgs {
 
 }  // namespace
 
+// The run's last line on stderr: frames, drops, the mean time per frame and per stage.
+static void PrintStreamSummary(long frames, long dropped_total, double total_ms, const std::map<std::string, double>& stage_ms) {
+  std::string per_stage;
+  for (const auto& [type, ms] : stage_ms) {
+    char buf[96];
+    std::snprintf(buf, sizeof(buf), "%s%s %.0f", per_stage.empty() ? "" : ", ", type.c_str(), ms / double(std::max(1L, frames)));
+    per_stage += buf;
+  }
+  std::fprintf(stderr, "stream: %ld frames, %ld dropped, %.0f ms per frame (%s ms)\n", frames, dropped_total,
+               total_ms / double(std::max(1L, frames)), per_stage.c_str());
+}
+
 void AddStreamCommand(CLI::App& app, CommandFn* run) {
   auto* cmd = app.add_subcommand(
       "stream", "Measure every frame of a stereo camera, two videos or a directory: one JSON line per hedge and frame");
@@ -97,7 +109,7 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
         src = io::OpenVideoPair(a->left, a->right);
       }
       io::Grabber grabber(std::move(src), !a->no_drop);
-      long frames = 0, dropped_total = 0;
+      long frames = 0, dropped_total = 0, unusable_frames = 0;
       double total_ms = 0;
       std::map<std::string, double> stage_ms;
       Frame f;
@@ -119,6 +131,7 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
           for (const auto& s : report.stages) stage_ms[s.type] += s.wall_ms;
           const MeasureLines m = CollectMeasureLines(ctx, report);
           const std::string hint = stereo::CaptureHint(ctx);
+          unusable_frames += stereo::CaptureUnusable(ctx);
           for (const auto& line : m.lines) {
             json j = head;
             for (const auto& [k, v] : line.items()) j[k] = v;
@@ -144,14 +157,12 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
                                                             : "--left " + a->left + ": no frame pair could be read";
         throw ProcessingError(source);
       }
-      std::string per_stage;
-      for (const auto& [type, ms] : stage_ms) {
-        char buf[96];
-        std::snprintf(buf, sizeof(buf), "%s%s %.0f", per_stage.empty() ? "" : ", ", type.c_str(), ms / double(std::max(1L, frames)));
-        per_stage += buf;
+      PrintStreamSummary(frames, dropped_total, total_ms, stage_ms);
+      if (unusable_frames > 0) {
+        std::fprintf(stderr, "hedgefit: warning: stream: %ld of %ld frames gave unusable results (their lines say why)\n",
+                     unusable_frames, frames);
+        return kExitUnusable;
       }
-      std::fprintf(stderr, "stream: %ld frames, %ld dropped, %.0f ms per frame (%s ms)\n", frames, dropped_total,
-                   total_ms / double(std::max(1L, frames)), per_stage.c_str());
       return frames > 0 ? kExitOk : kExitProcessing;
     };
   });

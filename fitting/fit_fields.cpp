@@ -45,6 +45,8 @@ std::vector<std::pair<std::string, pipeline::OptionValue>> FitFields(const Spher
     }
   }
   if (f.converged && f.not_a_ball) out.emplace_back("not_a_ball", *f.not_a_ball);
+  for (const auto& field : f.checks) out.push_back(field);
+  if (f.unusable) out.emplace_back("unusable", *f.unusable);
   return out;
 }
 

@@ -2,6 +2,8 @@
 
 #include "fitting/fitting_stages.hpp"
 
+#include "pipeline/input_check.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -65,6 +67,7 @@ void AddFitters(pipeline::Registry& r) {
               const auto* earlier = ctx.Find<std::vector<SphereFitResult>>("fits");
               const auto* point_perturbation = ctx.Find<cloud::PointPerturbation>("point_perturbation");
               const auto* disparity_perturbation = ctx.Find<cloud::PointPerturbation>("disparity_perturbation");
+              const auto* input_checks = ctx.Find<pipeline::InputChecks>("input_checks");
               std::vector<SphereFitResult> results(groups.size());
               std::vector<std::vector<std::size_t>> inliers(groups.size());
               std::vector<std::string> errors(groups.size());
@@ -99,6 +102,11 @@ void AddFitters(pipeline::Registry& r) {
                   // How far it can be trusted: the points' scatter, and the rig's calibration and
                   // the matcher's common offset when the capture stages left their perturbations.
                   AddUncertainty(pts, point_perturbation, &results[k], disparity_perturbation);
+                  // What the capture's checks found about this hedge's inputs (stereo.rig_check).
+                  if (const pipeline::InputCheck* check = input_checks ? pipeline::CheckFor(*input_checks, g.id) : nullptr) {
+                    results[k].checks = check->fields;
+                    if (!check->unusable.empty()) results[k].unusable = check->unusable;
+                  }
                 }
               });
               for (const std::string& why : errors) {

@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "pipeline/stage.hpp"  // OptionValue
+
 namespace hedgefit::fitting {
 
 struct Sphere {
@@ -43,14 +45,21 @@ struct SphereFitResult {
   /// Set when the fitted sphere is far wider than the points (ShallowPatchReason): they are a
   /// shallow patch of it, as a lumpy shrub, a wall or a lawn gives, not a ball; says why.
   std::optional<std::string> not_a_ball;
+  /// What the checks of the fit's inputs found (pipeline::InputCheck::fields: the capture's rig
+  /// against its own images, "rig_check" ...), written out after the method's extras.
+  std::vector<std::pair<std::string, pipeline::OptionValue>> checks;
+  /// Set when the inputs cannot be trusted (the rig no longer fits the cameras): says why. The
+  /// sphere is still reported, for diagnosis, but must not be acted on.
+  std::optional<std::string> unusable;
 
   /// The first value of extra `name`, when the method reported it.
   std::optional<double> Extra(const std::string& name) const;
   /// Sets extra `name` (replacing it when present).
   void SetExtra(const std::string& name, std::vector<double> values);
-  /// Whether the sphere can be acted on: the fit converged and its points are a ball's (in the
-  /// spirit of Ceres' Summary::IsSolutionUsable): the one place that says so.
-  bool IsUsable() const { return converged && !not_a_ball; }
+  /// Whether the sphere can be acted on: the fit converged, its points are a ball's and its
+  /// inputs passed their checks (in the spirit of Ceres' Summary::IsSolutionUsable): the one
+  /// place that says so.
+  bool IsUsable() const { return converged && !not_a_ball && !unusable; }
 };
 
 /// Why a point set cannot determine a sphere, or nullopt if it can: fewer than 4

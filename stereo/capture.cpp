@@ -182,6 +182,15 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   r.filled.copyTo(filled(roi));
   r.disparity_sigma.copyTo(sigma(roi));
   r.disparity = disparity, r.filled = filled, r.disparity_sigma = sigma;
+  if (!mask.empty()) {
+    HedgeMatch h;
+    h.pixels = cv::countNonZero(mask);
+    h.stride = r.stride;
+    h.measured = cv::countNonZero((disparity == disparity) & (filled == 0) & (mask != 0));
+    h.vertical = r.vertical;
+    h.vertical_max_px = r.vertical_max_px;
+    r.hedges.push_back(h);
+  }
   return r;
 }
 
@@ -221,6 +230,14 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
     m.filled.copyTo(all.filled(roi), inside);
     m.disparity_sigma.copyTo(all.disparity_sigma(roi), inside);
     all.filled_count += cv::countNonZero(m.filled & inside);
+    HedgeMatch h;
+    h.id = id;
+    h.pixels = cv::countNonZero(inside);
+    h.stride = m.stride;
+    h.measured = cv::countNonZero((all.disparity(roi) == all.disparity(roi)) & (all.filled(roi) == 0) & inside);
+    h.vertical = m.vertical;
+    h.vertical_max_px = m.vertical_max_px;
+    all.hedges.push_back(h);
     if (leafy && options.garden_sigma_ratio > 0) {
       // On the full-frame maps, so the squares stay those of the image (from its origin).
       all.less_certain_dropped += DropLessCertain(mask, all.disparity_sigma, all.filled, options.garden_sigma_ratio,
@@ -330,6 +347,7 @@ void ConvertOptions::Check() const {
     case SegmentMode::kGarden: garden.Check(); break;
   }
   match.Check();
+  rig_check.Check();
   reproject.Check();
   if (matcher.empty()) throw Error("option 'matcher': name the matching stage, e.g. stereo.sgbm");
 }
@@ -365,6 +383,8 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
   }
   p.push_back(o.matcher == "stereo.sgbm" ? stage("stereo.sgbm", MatchOptions::Table().Values(o.match))
                                          : json{{"type", o.matcher}});
+  // Every capture checks its rig against its own images (whatever the matcher).
+  p.push_back(stage("stereo.rig_check", RigCheckOptions::Table().Values(o.rig_check)));
   p.push_back(stage("stereo.reproject", ReprojectOptions::Table().Values(o.reproject)));
   if (!output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", output}, {"encoding", "binary_compressed"}});
   return p.dump(2);

@@ -14,6 +14,7 @@
 #include "cloud/point_cloud.hpp"
 #include "stereo/depth_segmentation.hpp"
 #include "stereo/matching.hpp"
+#include "stereo/row_check.hpp"
 #include "stereo/rectification.hpp"
 #include "stereo/reprojection.hpp"
 #include "stereo/rig.hpp"
@@ -82,6 +83,7 @@ struct MatchResult {
   VerticalDisparity vertical;
   double vertical_max_px = 0;
   int less_certain_dropped = 0;  ///< measured pixels left out by garden_sigma_ratio
+  std::vector<HedgeMatch> hedges;  ///< per hedge (one, id 0, for a single mask)
 };
 
 /// Leaves out of `disparity` (sets NaN) each measured pixel of `mask` (not `filled`, finite
@@ -136,6 +138,7 @@ struct ConvertOptions {
   /// rectified pair into 'disparity' (and optionally 'filled', 'disparity_sigma'); it runs
   /// with its default options.
   std::string matcher = "stereo.sgbm";
+  RigCheckOptions rig_check;  ///< stereo.rig_check, after the matcher
   ReprojectOptions reproject;
   void Check() const;
 };

@@ -11,6 +11,7 @@
 
 #include "cloud/point_cloud.hpp"
 #include "pipeline/error.hpp"
+#include "pipeline/input_check.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/segmentation.hpp"
@@ -195,14 +196,40 @@ std::string CaptureHint(pipeline::Context& ctx) {
       }
     }
   }
-  if (const double* rows = ctx.Find<double>("vertical_disparity_px"); rows && *rows > 0.5) {
+  auto add = [&hint](const std::string& text) { hint += (hint.empty() ? "" : "; ") + text; };
+  if (const auto* checks = ctx.Find<pipeline::InputChecks>("input_checks")) {
+    // One message per text: "hedge 1, 2: ..." or, when every hedge shares it, the text alone.
+    std::vector<std::pair<std::string, std::vector<int>>> said;
+    for (const auto& [id, check] : *checks) {
+      const std::string text = !check.unusable.empty() ? "unusable: " + check.unusable : check.warning;
+      if (text.empty()) continue;
+      auto it = std::find_if(said.begin(), said.end(), [&](const auto& s) { return s.first == text; });
+      if (it == said.end()) said.push_back({text, {id}});
+      else it->second.push_back(id);
+    }
+    for (const auto& [text, ids] : said) {
+      if (ids.size() == checks->size() || (ids.size() == 1 && ids[0] == 0)) {
+        add(text);
+        continue;
+      }
+      std::string who = "hedge";
+      for (std::size_t k = 0; k < ids.size(); ++k) who += (k ? ", " : " ") + std::to_string(ids[k]);
+      add(who + ": " + text);
+    }
+  } else if (const double* rows = ctx.Find<double>("vertical_disparity_px"); rows && *rows > 0.5) {
     std::snprintf(buf, sizeof(buf),
                   "the rectified rows disagree by up to %.2f px: the rig file is not these cameras', or they moved "
                   "since calibration; recalibrate (hedgefit calibrate)",
                   *rows);
-    hint += (hint.empty() ? "" : "; ") + std::string(buf);
+    add(buf);
   }
   return hint;
+}
+
+bool CaptureUnusable(pipeline::Context& ctx) {
+  const auto* checks = ctx.Find<pipeline::InputChecks>("input_checks");
+  if (!checks) return false;
+  return std::any_of(checks->begin(), checks->end(), [](const auto& c) { return !c.second.unusable.empty(); });
 }
 
 }  // namespace hedgefit::stereo

@@ -43,10 +43,16 @@ std::string CaptureSummary(const std::string& name, const std::string& output, p
 ///   and a fit may then find one ball of a row, or the lawn. When a run's colour mask covers
 ///   more than half the frame: use --garden. Half the frame: the paper's largest hedge (r 960
 ///   mm) from 1 m away covers about a quarter.
-/// - The rectified rows disagree by more than 0.5 px (stereo.sgbm's estimate): the rig file is
-///   not these cameras', or they moved since calibration. The refinement removes it, SGBM's
-///   integer search does not (Middlebury Motorcycle, rows already 0.31 px apart: another 0.25 px
-///   raises its bad-0.5 from 18.6 to 23.9 %).
+/// - What stereo.rig_check said of each hedge: why it is unusable, or that its interval was
+///   widened because the rig drifted (one message when every hedge shares it). Without that
+///   stage: the rectified rows disagree by more than 0.5 px (stereo.sgbm's estimate over the
+///   hedges). The refinement removes the rows' disagreement, SGBM's integer search does not
+///   (Middlebury Motorcycle, rows already 0.31 px apart: another 0.25 px raises its bad-0.5 from
+///   18.6 to 23.9 %).
 std::string CaptureHint(pipeline::Context& ctx);
+
+/// Whether stereo.rig_check found a hedge of this capture unusable (the rig does not fit the
+/// cameras): `convert`, `measure` and `stream` then exit with 3.
+bool CaptureUnusable(pipeline::Context& ctx);
 
 }  // namespace hedgefit::stereo

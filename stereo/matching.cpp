@@ -166,11 +166,11 @@ bool SampleBSpline2D(const cv::Mat& coeffs, double x, double y, double* v, doubl
 // Gauss-Newton for one window about (x, y): disparity, its slopes, a vertical shift, gain and
 // offset. True with the shift and its standard deviation when it settles.
 bool SolveVerticalWindow(const cv::Mat& L, const cv::Mat& C, const cv::Mat& mask, int x, int y, double d0, int r,
-                         double* dy_out, double* sigma_out) {
+                         double* dy_out, double* sigma_out, double dy0 = 0) {
   using Vec6 = Eigen::Matrix<double, 6, 1>;
   using Mat6 = Eigen::Matrix<double, 6, 6>;
   Vec6 q;
-  q << d0, 0, 0, 0, 0, 0;
+  q << d0, 0, 0, dy0, 0, 0;
   const int side = 2 * r + 1;
   for (int it = 0; it < 8; ++it) {
     Mat6 H = Mat6::Zero();
@@ -201,7 +201,7 @@ bool SolveVerticalWindow(const cv::Mat& L, const cv::Mat& C, const cv::Mat& mask
     if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
     const Vec6 step = ldlt.solve(g);
     q += step;
-    if (!q.allFinite() || std::abs(q[0] - d0) > 1.0 || std::abs(q[3]) > 2.0) return false;
+    if (!q.allFinite() || std::abs(q[0] - d0) > 1.0 || std::abs(q[3] - dy0) > 2.0) return false;
     if (std::abs(step[0]) < 1e-3 && std::abs(step[3]) < 1e-3) {
       *dy_out = q[3];
       *sigma_out = std::sqrt(ssr / std::max(1, used - 6) * ldlt.solve(Vec6::Unit(3))[3]);
@@ -295,6 +295,13 @@ cv::Mat ShiftRows(const cv::Mat& grey, const cv::Mat& coeffs, const VerticalDisp
 }
 
 }  // namespace
+
+cv::Mat GreyLevels(const cv::Mat& image) { return GreyFloat(image); }
+
+bool RefineMatch2D(const cv::Mat& left_grey, const cv::Mat& right_coeffs, int x, int y, double disparity_px,
+                   double dy_px, double* dy_out, double* sigma_out) {
+  return SolveVerticalWindow(left_grey, right_coeffs, cv::Mat(), x, y, disparity_px, 4, dy_out, sigma_out, dy_px);
+}
 
 double VerticalDisparity::MaxAbs(cv::Size size) const {
   double m = 0;

@@ -83,6 +83,19 @@ struct VerticalDisparity {
   double MaxAbs(cv::Size size) const;  ///< the largest |At| over the image (at a corner)
 };
 
+/// How one hedge matched: the share of its pixels the matcher measured (not filled), judged on the
+/// pixels it kept (every stride-th of every stride-th row), and the rows' disagreement its own
+/// refinement found and removed.
+struct HedgeMatch {
+  int id = 0;         ///< hedge id (0: the capture's one mask)
+  int pixels = 0;     ///< the hedge's pixels in the mask
+  int stride = 1;
+  int measured = 0;   ///< pixels kept with a measured disparity (before DropLessCertain's cut)
+  VerticalDisparity vertical;
+  double vertical_max_px = 0;  ///< |vertical| at its largest over the matched region
+  double Share() const { return pixels > 0 ? double(measured) * stride * stride / pixels : 0.0; }
+};
+
 struct DisparityMap {
   cv::Mat disparity;  ///< CV_32F, px; NaN where no disparity is known
   cv::Mat rejected;   ///< CV_8U, 255 where the LRC check (or SGBM) rejected the pixel
@@ -138,6 +151,18 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
 /// at 3 MADs. At least 30 windows must settle, else `samples` is 0.
 VerticalDisparity EstimateVerticalDisparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity,
                                             const cv::Mat& mask = cv::Mat());
+
+/// The grey levels of an 8-bit grey or BGR image as CV_32F, as the refinement reads them.
+cv::Mat GreyLevels(const cv::Mat& image);
+
+/// One left pixel's match in the right view, in two dimensions: Gauss-Newton on a 9 x 9 window for
+/// the disparity, its slopes, the vertical shift, gain and offset (EstimateVerticalDisparity's
+/// window), started at (`disparity_px`, `dy_px`). `left_grey` is GreyLevels of the left view,
+/// `right_coeffs` BSplineCoefficients2D of the right view's. True, with the vertical shift (right
+/// row - left row) and its standard deviation, px, when it settles within 1 px of the disparity
+/// and 2 px of the shift it started from.
+bool RefineMatch2D(const cv::Mat& left_grey, const cv::Mat& right_coeffs, int x, int y, double disparity_px,
+                   double dy_px, double* dy_out, double* sigma_out);
 
 /// Fills NaN pixels row by row with the smaller (farther) of the nearest valid disparities
 /// to the left and right; returns how many pixels were filled.

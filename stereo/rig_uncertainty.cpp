@@ -112,4 +112,40 @@ cloud::PointPerturbation DisparityOffsetPerturbation(const StereoRig& rig, doubl
   return p;
 }
 
+cloud::PointPerturbation DisparityErrorPerturbation(const StereoRig& rig, const DisparityErrorField& field,
+                                                    double sigma_px, int samples, std::uint64_t seed) {
+  cloud::PointPerturbation p = DisparityOffsetPerturbation(rig, sigma_px, samples, seed);
+  if (p.samples == 0) return p;
+  const double f = rig.P1.at<double>(0, 0), cx = rig.P1.at<double>(0, 2), cy = rig.P1.at<double>(1, 2);
+  const double fb = std::abs(rig.P2.at<double>(0, 3));
+  Eigen::Matrix3d r1;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r1(i, j) = rig.R1.at<double>(i, j);
+  }
+  // The same offsets as DisparityOffsetPerturbation (its seed), then the field's scale per draw.
+  cv::RNG rng(seed), more(seed + 1);
+  auto draws = std::make_shared<std::vector<Eigen::Vector4d>>();
+  for (int s = 0; s < samples; ++s) {
+    const double offset = rng.gaussian(sigma_px);
+    const double planar = more.gaussian(1.0), lens = more.gaussian(1.0), which = more.gaussian(1.0);
+    draws->push_back({offset, planar, lens, which});
+  }
+  p.source = "disparity offset and the rows' disagreement";
+  p.apply = [draws, field, r1, f, cx, cy, fb](int s, const std::vector<Eigen::Vector3d>& in,
+                                              std::vector<Eigen::Vector3d>* out) {
+    out->resize(in.size());
+    const Eigen::Vector4d& k = (*draws)[std::size_t(s)];
+    for (std::size_t i = 0; i < in.size(); ++i) {
+      const Eigen::Vector3d q = r1 * in[i];  // rectified frame
+      const double d = fb / q.z();
+      const double u = f * q.x() / q.z() + cx, v = f * q.y() / q.z() + cy;
+      const double delta =
+          k[0] + k[1] * field.Planar(u, v, d) + k[2] * field.OffPlane(u, v) + k[3] * field.ScaleOffset(d);
+      (*out)[i] = d + delta > 0 ? Eigen::Vector3d(in[i] * (d / (d + delta)))
+                                : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+    }
+  };
+  return p;
+}
+
 }  // namespace hedgefit::stereo

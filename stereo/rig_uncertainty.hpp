@@ -8,6 +8,7 @@
 
 #include "cloud/uncertainty.hpp"
 #include "stereo/rig.hpp"
+#include "stereo/row_check.hpp"
 
 namespace hedgefit::stereo {
 
@@ -35,6 +36,14 @@ constexpr double kDisparityOffsetSigmaPx = 0.05;
 /// disparity d = f B / Z becomes d + offset. Empty when the rig has no rectification.
 cloud::PointPerturbation DisparityOffsetPerturbation(const StereoRig& rig, double sigma_px = kDisparityOffsetSigmaPx,
                                                      int samples = 32, std::uint64_t seed = 2);
+
+/// The "disparity_perturbation" artifact of a rig that leaves the capture's rows apart
+/// (stereo.rig_check): each draw adds to the common offset (as DisparityOffsetPerturbation, the
+/// same draws) the horizontal error `field` implies, its pattern scaled by a draw of N(0, 1) (the
+/// sign of a rig's error is not known from the rows), and its off-plane part as a second offset.
+cloud::PointPerturbation DisparityErrorPerturbation(const StereoRig& rig, const DisparityErrorField& field,
+                                                    double sigma_px = kDisparityOffsetSigmaPx, int samples = 32,
+                                                    std::uint64_t seed = 2);
 
 /// The "point_perturbation" artifact of a calibrated rig: `samples` rigs from SampleRigs.
 /// Empty (samples = 0) when the rig carries no covariance.

@@ -17,6 +17,7 @@
 #include "stereo/capture.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/rig_uncertainty.hpp"
+#include "stereo/row_check.hpp"
 
 namespace hedgefit::stereo {
 
@@ -347,10 +348,62 @@ void AddMatcher(pipeline::Registry& r) {
                           "lies outside --min-z/--max-z");
             }
           }
+          ctx.Put("hedge_matches", m.hedges);
           ctx.Put("disparity", m.disparity);
           ctx.Put("filled", m.filled);
           ctx.Put("disparity_sigma", m.disparity_sigma);
           ctx.Put("matched_region", m.matched_region);
+        }));
+}
+
+// Where the rig check starts its search: the hedges' median disparity (every 7th pixel), else the
+// middle of the default working range.
+double ExpectedDisparity(Context& ctx) {
+  const StereoRig& rig = RigOf(ctx);
+  const double fb = rig.P1.at<double>(0, 0) * rig.baseline_mm;
+  const cv::Mat* d = ctx.Find<cv::Mat>("disparity");
+  std::vector<float> v;
+  if (d && d->type() == CV_32F) {
+    for (int y = 0; y < d->rows; y += 7) {
+      const float* row = d->ptr<float>(y);
+      for (int x = 0; x < d->cols; x += 7) {
+        if (row[x] == row[x]) v.push_back(row[x]);
+      }
+    }
+  }
+  if (v.size() < 20) return fb / std::sqrt(kDefaultMinZmm * kDefaultMaxZmm);
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// stereo.rig_check: the rig against the capture's own images
+void AddRigCheck(pipeline::Registry& r) {
+  r.Add(StageInfo{"stereo.rig_check",
+                  "Checks the rig against this capture's own images: how far apart the rectified rows are over the "
+                  "frame (corners tracked in 2-D), over each hedge and how much of each hedge matched; widens each "
+                  "hedge's interval by what a small drift can cost, marks every result unusable when the rig does "
+                  "not fit the cameras",
+                  TableOptions<RigCheckOptions>(), {"left_image", "right_image", "rig"}, {"input_checks"}, {}},
+        TableFactory<RigCheckOptions>("stereo.rig_check", [](const RigCheckOptions& p, const Options&, Context& ctx) {
+          const bool* rectified = ctx.Find<bool>("rectified");
+          if (rectified && !*rectified) {
+            throw Error("stage 'stereo.rig_check': the images are not rectified; add stereo.rectify before it");
+          }
+          const StereoRig& rig = RigOf(ctx);
+          const auto* hedges = ctx.Find<std::vector<HedgeMatch>>("hedge_matches");
+          const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
+          const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
+          const CaptureRigCheck c =
+              CheckCaptureRig(ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), rig,
+                              hedges ? *hedges : std::vector<HedgeMatch>(), labels ? *labels : cv::Mat(),
+                              mask ? *mask : cv::Mat(), ExpectedDisparity(ctx), p);
+          ctx.Note("rig_check", c.verdict);
+          ctx.Note("rig_rows_frame_px", c.rows.max_abs_px);
+          ctx.Note("rig_rows_plane_px", c.rows.plane_max_px);
+          ctx.Note("rig_rows_off_plane_px", c.rows.off_plane_px);
+          ctx.Note("rig_corners", static_cast<std::int64_t>(c.rows.samples.size()));
+          if (c.verdict == "widened") ctx.Put("disparity_perturbation", DisparityErrorPerturbation(rig, c.field));
+          ctx.Put("input_checks", c.checks);
         }));
 }
 
@@ -405,7 +458,7 @@ void AddReprojection(pipeline::Registry& r) {
 
 void RegisterStereoStages(pipeline::Registry& r) {
   // One row per family of stages.
-  for (auto add : {&AddReader, &AddRectification, &AddSegmenters, &AddAutoSegmenter, &AddMatcher, &AddReprojection}) add(r);
+  for (auto add : {&AddReader, &AddRectification, &AddSegmenters, &AddAutoSegmenter, &AddMatcher, &AddRigCheck, &AddReprojection}) add(r);
 }
 
 void CheckCaptureImages(const std::string& left, const std::string& right) {

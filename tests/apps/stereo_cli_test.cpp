@@ -494,11 +494,13 @@ TEST(MeasureCli, MisalignedRowsAreRemovedAndReportedAndCheckRigSaysSo) {
   ASSERT_TRUE(cv::imwrite((dir / "sim" / "moved_right.png").string(), moved));
   r = RunHedgefit("measure" + rig + " --right sim/moved_right.png", dir);
   ASSERT_EQ(r.code, 0) << r.err;
-  const std::string said = "hedgefit: warning: sim/sphere_left.png: the rectified rows disagree by up to ";
+  // The capture's rig check sees it (stereo.rig_check): the rows 1 px apart around the hedge and
+  // in the frame's plane, the interval widened by what that can cost, a warning to recalibrate.
+  const std::string said = "hedgefit: warning: sim/sphere_left.png: the rectified rows are ";
   ASSERT_EQ(r.err.rfind(said, 0), 0u) << r.err;
-  // The rectification turns the image's rows by a fraction of a degree: about 1 px everywhere.
   EXPECT_NEAR(std::stod(r.err.substr(said.size())), 1.0, 0.1) << r.err;
   EXPECT_NE(r.err.find("recalibrate"), std::string::npos) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out.substr(0, r.out.find('\n')))["rig_check"], "widened") << r.out;
   // With the offset removed the fit is as good as with aligned rows: within 1 mm, three times
   // the radius's spread over the lab's seven positions at full size.
   EXPECT_NEAR(radius(r.out), aligned, 1.0);
@@ -572,11 +574,12 @@ TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
   r = RunHedgefit(one + "--box 1,2,30,40 --erode 2 --print-pipeline", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  ASSERT_EQ(j.size(), 6u);
+  ASSERT_EQ(j.size(), 7u);
   EXPECT_EQ(j[2]["type"], "stereo.segment_depth");
   EXPECT_EQ(j[2]["box"], nlohmann::json({1.0, 2.0, 30.0, 40.0}));
   EXPECT_EQ(j[2]["erode"], 2);
-  EXPECT_EQ(j[5]["filename"], "o.pcd");
+  EXPECT_EQ(j[4]["type"], "stereo.rig_check");  // every capture checks its rig
+  EXPECT_EQ(j[6]["filename"], "o.pcd");
 }
 
 // Every number of a rig is checked when it is made or read: non-finite or absurd values are one
@@ -663,3 +666,33 @@ TEST(OutputsCli, AnOutputThatIsAnInputIsRefusedAndTheInputKept) {
 }
 
 }  // namespace
+
+// The nominal rig (the right size and focal length, the principal point at the centre,
+// 140 mm) on a capture of the paper's rig: before, `measure` gave the centre 250-300 mm off inside
+// a +-27 mm interval and exit 0. Every capture now checks its rig against its own images: the
+// rows are over 10 px apart, so the result is unusable (exit 3, the line says why, a warning),
+// and `convert` says so too. The exact rig draws nothing: rig_check "ok", exit 0.
+TEST(MeasureCli, ARigThatNoLongerFitsTheCamerasIsUnusableNotConfident) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  ASSERT_EQ(RunHedgefit("simulate --sphere 70,50,2300,300 -o s", dir).code, 0);
+  ASSERT_EQ(RunHedgefit("rig --size 1920x1200 --focal 933.3 --cx 960 --cy 600 --baseline 140 -o nominal.yaml", dir).code, 0);
+  const std::string pair = " --left s/sphere_left.png --right s/sphere_right.png";
+  Result r = RunHedgefit("measure --rig s/rig.yaml" + pair, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto line = nlohmann::json::parse(r.out.substr(0, r.out.find('\n')));
+  EXPECT_EQ(line.value("rig_check", ""), "ok");
+  EXPECT_FALSE(line.contains("unusable"));
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+
+  r = RunHedgefit("measure --rig nominal.yaml" + pair, dir);
+  ASSERT_EQ(r.code, 3) << r.err;
+  line = nlohmann::json::parse(r.out.substr(0, r.out.find('\n')));
+  EXPECT_EQ(line.value("rig_check", ""), "unusable");
+  EXPECT_NE(line.value("unusable", "").find("does not fit these cameras"), std::string::npos) << line.dump();
+  EXPECT_GT(line.value("rig_rows_frame_px", 0.0), 2.0);
+  EXPECT_NE(r.err.find("warning: s/sphere_left.png: unusable: "), std::string::npos) << r.err;
+
+  r = RunHedgefit("convert --rig nominal.yaml" + pair + " -o o.pcd", dir);
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("does not fit these cameras"), std::string::npos) << r.err;
+}

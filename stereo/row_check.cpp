@@ -1,0 +1,357 @@
+#include "stereo/row_check.hpp"
+
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+#include "pipeline/error.hpp"
+#include "stereo/bspline.hpp"
+
+namespace hedgefit::stereo {
+
+namespace {
+
+constexpr double kMaxSigmaPx = 0.25;  // a refined window's vertical shift must be pinned to this
+
+cv::Mat Grey(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat g;
+  cv::cvtColor(image, g, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  return g;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Corners spread over the frame: the strongest few of each cell, so the edges (where distortion
+// shows) are sampled as well as the textured middle.
+std::vector<cv::Point2f> SpreadCorners(const cv::Mat& grey, const cv::Mat& valid, int max_corners) {
+  std::vector<cv::Point2f> all;
+  const int per_cell = std::max(2, max_corners / (kCellsX * kCellsY));
+  for (int cy = 0; cy < kCellsY; ++cy) {
+    for (int cx = 0; cx < kCellsX; ++cx) {
+      const cv::Rect cell(cx * grey.cols / kCellsX, cy * grey.rows / kCellsY, grey.cols / kCellsX, grey.rows / kCellsY);
+      if (cell.width < 16 || cell.height < 16) continue;
+      std::vector<cv::Point2f> found;
+      cv::goodFeaturesToTrack(grey(cell), found, per_cell, 0.01, std::max(6, cell.width / 8),
+                              valid.empty() ? cv::noArray() : cv::InputArray(valid(cell)), 7);
+      for (const cv::Point2f& p : found) all.emplace_back(p.x + float(cell.x), p.y + float(cell.y));
+    }
+  }
+  return all;
+}
+
+// dy = offset + slope_x (x - W/2) / W + slope_y (y - H/2) / H, least squares on the samples that
+// stay within 3 MADs (at least 0.05 px) of the previous fit.
+VerticalDisparity FitPlane(const std::vector<RowSample>& s, cv::Size size) {
+  VerticalDisparity p;
+  std::vector<char> keep(s.size(), 1);
+  for (int round = 0; round < 3; ++round) {
+    cv::Matx33d ata = cv::Matx33d::zeros();
+    cv::Vec3d atb(0, 0, 0);
+    int n = 0;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      if (!keep[i]) continue;
+      const cv::Vec3d a(1, (s[i].x - 0.5 * size.width) / size.width, (s[i].y - 0.5 * size.height) / size.height);
+      ata += a * a.t();
+      atb += a * double(s[i].dy);
+      ++n;
+    }
+    if (n < 6) return VerticalDisparity{};
+    cv::Vec3d x;
+    if (!cv::solve(cv::Mat(ata), cv::Mat(atb), x, cv::DECOMP_CHOLESKY)) return VerticalDisparity{};
+    p.offset_px = x[0], p.slope_x_px = x[1], p.slope_y_px = x[2], p.samples = n;
+    std::vector<double> res;
+    for (const RowSample& r : s) res.push_back(std::abs(r.dy - p.At(r.x, r.y, size)));
+    const double cut = std::max(0.05, 3 * 1.4826 * Median(res));
+    for (std::size_t i = 0; i < s.size(); ++i) keep[i] = res[i] <= cut;
+  }
+  return p;
+}
+
+}  // namespace
+
+RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
+                               double max_disparity_px, const cv::Mat& valid, int max_corners) {
+  RowAgreement out;
+  if (left_rect.empty() || left_rect.size() != right_rect.size()) return out;
+  const cv::Mat gl = Grey(left_rect), gr = Grey(right_rect);
+  // Found and tracked at half resolution (a quarter of the pixels; the 16x pyramid's reach is the
+  // same), then refined at full resolution, where the precision comes from.
+  cv::Mat hl, hr, hvalid;
+  cv::pyrDown(gl, hl);
+  cv::pyrDown(gr, hr);
+  if (!valid.empty()) cv::resize(valid, hvalid, hl.size(), 0, 0, cv::INTER_NEAREST);
+  const std::vector<cv::Point2f> corners = SpreadCorners(hl, hvalid, max_corners);
+  if (corners.empty()) return out;
+  const cv::Size win(15, 15);
+  const int levels = 3;  // 8x at half size: reaches about 100 px (full size) from the expected disparity
+  std::vector<cv::Mat> pl, pr;
+  cv::buildOpticalFlowPyramid(hl, pl, win, levels);
+  cv::buildOpticalFlowPyramid(hr, pr, win, levels);
+  std::vector<cv::Point2f> there(corners.size()), back = corners;
+  for (std::size_t i = 0; i < corners.size(); ++i) there[i] = corners[i] - cv::Point2f(float(expected_disparity_px / 2), 0);
+  std::vector<unsigned char> ok_there, ok_back;
+  std::vector<float> err;
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.01);
+  cv::calcOpticalFlowPyrLK(pl, pr, corners, there, ok_there, err, win, levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(pr, pl, there, back, ok_back, err, win, levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
+  // Each tracked corner refined at full size in 2-D with the refinement's own window (disparity
+  // slopes, gain, offset): pyramidal tracking moves a square window, which a slanted or leafy
+  // surface and edge-like texture bias by tenths of a pixel; the 9 x 9 affine window does not.
+  // The right view's spline only over a patch about each match (its prefilter forgets the patch's
+  // edge within a few pixels), not over the frame.
+  constexpr int kLeftHalf = 8, kRightHalf = 16;
+  const cv::Rect frame(0, 0, gl.cols, gl.rows);
+  std::vector<RowSample> found(corners.size());
+  std::vector<char> kept(corners.size(), 0);
+  cv::parallel_for_(cv::Range(0, int(corners.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      if (!ok_there[i] || !ok_back[i]) continue;
+      if (cv::norm(back[i] - corners[i]) > kRoundTripPx) continue;
+      const double d0 = 2.0 * (corners[i].x - there[i].x), dy0 = 2.0 * (there[i].y - corners[i].y);
+      if (d0 < -1.0 || d0 > max_disparity_px + 2.0) continue;  // behind the cameras or nearer than searched
+      const int x = int(std::lround(2 * corners[i].x)), y = int(std::lround(2 * corners[i].y));
+      const cv::Rect lroi(x - kLeftHalf, y - kLeftHalf, 2 * kLeftHalf + 1, 2 * kLeftHalf + 1);
+      const cv::Rect rroi(int(std::lround(x - d0)) - kRightHalf, int(std::lround(y + dy0)) - kRightHalf,
+                          2 * kRightHalf + 1, 2 * kRightHalf + 1);
+      if ((lroi & frame) != lroi || (rroi & frame) != rroi) continue;
+      const cv::Mat lf = GreyLevels(gl(lroi)), coeffs = BSplineCoefficients2D(GreyLevels(gr(rroi)));
+      // In the patches' coordinates: the disparity and the shift move by the patches' offset.
+      const int ox = rroi.x - lroi.x, oy = rroi.y - lroi.y;
+      double dy = 0, sigma = 0;
+      if (!RefineMatch2D(lf, coeffs, kLeftHalf, kLeftHalf, d0 + ox, dy0 - oy, &dy, &sigma) || !(sigma <= kMaxSigmaPx)) {
+        continue;
+      }
+      found[std::size_t(i)] = {float(x), float(y), float(-d0), float(dy + oy)};
+      kept[std::size_t(i)] = 1;
+    }
+  });
+  for (std::size_t i = 0; i < corners.size(); ++i) {
+    if (kept[i]) out.samples.push_back(found[i]);
+  }
+  const cv::Size size = gl.size();
+  out.size = size;
+  out.plane = FitPlane(out.samples, size);
+  if (out.plane.samples > 0) out.plane_max_px = out.plane.MaxAbs(size);
+  // Each cell's median: where the rows disagree most, and how far from the plane.
+  std::vector<std::vector<double>> dy(kCellsX * kCellsY);
+  std::vector<cv::Point2d> at(kCellsX * kCellsY);
+  for (const RowSample& s : out.samples) {
+    const int c = std::min(kCellsX - 1, int(s.x) * kCellsX / size.width) +
+                  kCellsX * std::min(kCellsY - 1, int(s.y) * kCellsY / size.height);
+    dy[std::size_t(c)].push_back(s.dy);
+    at[std::size_t(c)] += cv::Point2d(s.x, s.y);
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  out.cell_dy = cv::Mat_<double>(kCellsY, kCellsX, nan);
+  out.cell_off_plane = cv::Mat_<double>(kCellsY, kCellsX, nan);
+  for (std::size_t c = 0; c < dy.size(); ++c) {
+    if (int(dy[c].size()) < kMinCellSamples) continue;
+    ++out.cells;
+    const double m = Median(dy[c]);
+    // A cell says only what its samples pin down: its median less twice the median's standard
+    // error (1.25 sigma / sqrt(n), sigma from the MAD), towards 0. A few samples on a noisy, leafy
+    // patch scatter by half a pixel; a drift moves them all alike.
+    std::vector<double> spread;
+    for (const double v : dy[c]) spread.push_back(std::abs(v - m));
+    const double se = 1.2533 * 1.4826 * Median(spread) / std::sqrt(double(dy[c].size()));
+    auto shrink = [se](double v) { return v > 0 ? std::max(0.0, v - 2 * se) : std::min(0.0, v + 2 * se); };
+    const cv::Point2d centre = at[c] * (1.0 / double(dy[c].size()));
+    const int cx = int(c) % kCellsX, cy = int(c) / kCellsX;
+    out.cell_dy(cy, cx) = shrink(m);
+    out.max_abs_px = std::max(out.max_abs_px, std::abs(shrink(m)));
+    if (out.plane.samples > 0) {
+      const double off = shrink(m - out.plane.At(centre.x, centre.y, size));
+      out.cell_off_plane(cy, cx) = off;
+      out.off_plane_px = std::max(out.off_plane_px, std::abs(off));
+    }
+  }
+  return out;
+}
+
+void RowAgreement::Around(const cv::Rect& box, double* rows_px, double* off_px) const {
+  *rows_px = 0, *off_px = 0;
+  const cv::Rect grown(box.x - box.width, box.y - box.height, 3 * box.width, 3 * box.height);
+  for (int cy = 0; cy < cell_dy.rows; ++cy) {
+    for (int cx = 0; cx < cell_dy.cols; ++cx) {
+      if ((CellRect(cx, cy) & grown).empty()) continue;
+      if (cell_dy(cy, cx) == cell_dy(cy, cx)) *rows_px = std::max(*rows_px, std::abs(cell_dy(cy, cx)));
+      if (cell_off_plane(cy, cx) == cell_off_plane(cy, cx)) *off_px = std::max(*off_px, std::abs(cell_off_plane(cy, cx)));
+    }
+  }
+}
+
+double DisparityErrorField::OffPlane(double u, double v) const {
+  if (off_plane.empty() || size.area() == 0) return 0;
+  // Cell centres at ((i + 0.5) W / kCellsX, (j + 0.5) H / kCellsY); clamp beyond the outer ones.
+  const double gx = std::clamp(u * kCellsX / size.width - 0.5, 0.0, kCellsX - 1.0);
+  const double gy = std::clamp(v * kCellsY / size.height - 0.5, 0.0, kCellsY - 1.0);
+  const int x0 = std::min(int(gx), kCellsX - 2), y0 = std::min(int(gy), kCellsY - 2);
+  const double fx = gx - x0, fy = gy - y0;
+  return (1 - fy) * ((1 - fx) * off_plane(y0, x0) + fx * off_plane(y0, x0 + 1)) +
+         fy * ((1 - fx) * off_plane(y0 + 1, x0) + fx * off_plane(y0 + 1, x0 + 1));
+}
+
+double DisparityErrorField::MeanAbsOver(const cv::Rect& box, double d) const {
+  double sum = 0;
+  for (int j = 0; j < 9; ++j) {
+    for (int i = 0; i < 9; ++i) {
+      const double u = box.x + box.width * i / 8.0, v = box.y + box.height * j / 8.0;
+      sum += std::abs(Planar(u, v, d)) + ScaleOffset(d) + std::abs(OffPlane(u, v));
+    }
+  }
+  return sum / 81;
+}
+
+DisparityErrorField DisparityErrorFromRows(const RowAgreement& rows, double focal_px) {
+  DisparityErrorField f;
+  f.size = rows.size;
+  f.centre = cv::Point2d(0.5 * rows.size.width, 0.5 * rows.size.height);
+  if (rows.plane.samples == 0 || rows.size.area() == 0 || !(focal_px > 0)) return f;
+  f.roll = rows.plane.slope_x_px / rows.size.width;
+  f.scale = rows.plane.slope_y_px / rows.size.height;
+  f.cross = rows.plane.offset_px / (focal_px * focal_px);
+  f.off_plane = rows.cell_off_plane.clone();
+  for (double& v : f.off_plane) {
+    if (v != v) v = 0;
+  }
+  return f;
+}
+
+const pipeline::OptionTable<RigCheckOptions>& RigCheckOptions::Table() {
+  using O = RigCheckOptions;
+  static const auto table =
+      pipeline::OptionTable<O>()
+          .Add("tolerance_px", &O::tolerance_px,
+               "rows further apart than this anywhere in the frame widen each hedge's interval by what they can cost, "
+               "with a warning",
+               "px")
+          .Range(0, 10)
+          .Add("unusable_px", &O::unusable_px,
+               "rows further apart than this anywhere in the frame: the rig does not fit these cameras, every result "
+               "is unusable",
+               "px")
+          .Range(0, 100)
+          .Add("min_matched_share", &O::min_matched_share,
+               "a hedge whose matcher measured less than this share of its pixels is unusable")
+          .Range(0, 1)
+          .Add("corners", &O::corners, "corners tracked over the frame to measure the rows")
+          .Range(48, 5000);
+  return table;
+}
+
+void RigCheckOptions::Check() const {
+  Table().Validate(*this);
+  if (!(unusable_px >= tolerance_px)) throw Error("option 'unusable_px': must be at least 'tolerance_px'");
+}
+
+namespace {
+
+cv::Rect HedgeBox(const HedgeMatch& h, const cv::Mat& labels, const cv::Mat& mask, cv::Size size) {
+  cv::Rect box;
+  if (!labels.empty() && h.id > 0) box = cv::boundingRect(labels == h.id);
+  else if (!mask.empty()) box = cv::boundingRect(mask);
+  return box.empty() ? cv::Rect(0, 0, size.width, size.height) : box;
+}
+
+std::string Format(const char* fmt, double a, double b = 0, double c = 0) {
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), fmt, a, b, c);
+  return buf;
+}
+
+}  // namespace
+
+CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_rect, const StereoRig& rig,
+                                const std::vector<HedgeMatch>& hedges, const cv::Mat& labels, const cv::Mat& mask,
+                                double expected_disparity_px, const RigCheckOptions& o) {
+  CaptureRigCheck c;
+  const cv::Size size = left_rect.size();
+  c.rows = MeasureRowsSparse(left_rect, right_rect, expected_disparity_px, size.width / 3.0, cv::Mat(), o.corners);
+  const RowAgreement& rows = c.rows;
+  c.field = DisparityErrorFromRows(rows, rig.P1.at<double>(0, 0));
+  // A check needs samples spread over a few parts of the frame. A garden of smooth lawn and sky
+  // may leave only the hedges and the hedge row: then each hedge is judged on its own rows (the
+  // refinement's estimate over it) and its matched share, and says the frame was not checked.
+  constexpr int kMinCells = 3, kMinSamples = 30;
+  const bool measured = rows.cells >= kMinCells && int(rows.samples.size()) >= kMinSamples;
+  const bool frame_apart = measured && rows.max_abs_px > o.unusable_px;
+  const bool planar = measured && rows.plane_max_px > o.tolerance_px;
+  std::vector<HedgeMatch> all = hedges;
+  if (all.empty()) all.push_back(HedgeMatch{});  // a plugin matcher: the capture's verdict only
+  int worst = 0;  // 0 ok, 1 widened, 2 unusable, 3 unchecked
+  for (const HedgeMatch& h : all) {
+    pipeline::InputCheck check;
+    const cv::Rect box = HedgeBox(h, labels, mask, size);
+    double near_rows = 0, near_off = 0;
+    if (measured) {
+      rows.Around(box, &near_rows, &near_off);
+    } else if (h.vertical.samples > 0) {
+      near_rows = h.vertical_max_px;
+    }
+    const double share = h.pixels > 0 ? std::min(1.0, h.Share()) : -1;
+    std::string verdict = "ok";
+    if (!measured && h.vertical.samples == 0) {
+      verdict = "unchecked";
+      check.warning = Format("the rig could not be checked against this capture: too few textured places matched "
+                             "(%.0f parts of the frame, %.0f corners) and the hedge's own rows were not measured",
+                             rows.cells, double(rows.samples.size()));
+    } else if (frame_apart) {
+      verdict = "unusable";
+      check.unusable = Format("the rig file does not fit these cameras: the rectified rows are %.1f px apart in this "
+                              "capture (over %.1f px; %.1f px of it not a plane: distortion or intrinsics that are not "
+                              "these cameras', or the left and right files swapped); recalibrate (hedgefit calibrate) "
+                              "or check the rig file (hedgefit check-rig)",
+                              rows.max_abs_px, o.unusable_px, rows.off_plane_px);
+    } else if (near_rows > o.unusable_px) {
+      verdict = "unusable";
+      check.unusable = Format("the rectified rows are %.1f px apart around this hedge (over %.1f px, more than the "
+                              "matcher can correct): the rig file does not fit these cameras; recalibrate (hedgefit "
+                              "calibrate) or check the rig file (hedgefit check-rig)",
+                              near_rows, o.unusable_px);
+    }
+    if (verdict == "ok" && share >= 0 && share < o.min_matched_share) {
+      verdict = "unusable";
+      check.unusable = Format("only %.0f %% of the hedge's pixels matched between the views (under %.0f %%): the rig "
+                              "does not fit these cameras, the views are not a pair, or the hedge lies outside "
+                              "--min-z/--max-z",
+                              100 * share, 100 * o.min_matched_share);
+    }
+    if (verdict == "ok" && (planar || near_rows > o.tolerance_px)) {
+      verdict = "widened";
+      check.warning = Format("the rectified rows are %.2f px apart around this hedge and up to %.2f px in the plane "
+                             "through the frame (over %.2f px): the rig has drifted since calibration; its interval is "
+                             "widened by what that can cost; recalibrate (hedgefit calibrate)",
+                             near_rows, rows.plane_max_px, o.tolerance_px);
+    }
+    worst = std::max(worst, verdict == "unchecked" ? 3 : verdict == "unusable" ? 2 : verdict == "widened" ? 1 : 0);
+    auto round3 = [](double v) { return std::round(v * 1000) / 1000; };
+    check.fields.emplace_back("rig_check", verdict);
+    check.fields.emplace_back("rig_rows_px", round3(near_rows));
+    if (measured) {
+      check.fields.emplace_back("rig_rows_frame_px", round3(rows.max_abs_px));
+      check.fields.emplace_back("rig_rows_plane_px", round3(rows.plane_max_px));
+      check.fields.emplace_back("rig_rows_off_plane_px", round3(rows.off_plane_px));
+    }
+    if (h.vertical.samples > 0) check.fields.emplace_back("rig_rows_hedge_px", round3(h.vertical_max_px));
+    if (share >= 0) check.fields.emplace_back("rig_matched_share", round3(share));
+    if (verdict == "widened") {
+      check.fields.emplace_back("rig_widening_px", round3(c.field.MeanAbsOver(box, expected_disparity_px)));
+    }
+    c.checks[h.id] = check;
+  }
+  c.verdict = worst == 3 ? "unchecked" : worst == 2 ? "unusable" : worst == 1 ? "widened" : "ok";
+  return c;
+}
+
+}  // namespace hedgefit::stereo

@@ -1,0 +1,100 @@
+// Every capture checks its rig against its own images (stereo.rig_check): the drifted-rig suite
+// on a rendered lab capture whose exact rig is known.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "bench/rig_drift.hpp"
+#include "sim/rig_drift.hpp"
+#include "sim/single_scene.hpp"
+#include "stereo/rectification.hpp"
+#include "stereo/rig.hpp"
+#include "stereo/row_check.hpp"
+#include "tests/test_data.hpp"
+
+namespace {
+
+using hedgefit::sim::RigDrift;
+
+// One full-size lab capture (the paper's rig, a 300 mm sphere 2.3 m away, hedgefit's renderer),
+// with its exact rig as rig.yaml.
+std::string LabCapture(const std::filesystem::path& dir) {
+  hedgefit::sim::SphereScene scene;
+  scene.center = {70, 50, 2300};
+  scene.radius = 300;
+  hedgefit::sim::RenderOptions options;
+  options.blur_sigma_px = 0.5;
+  hedgefit::sim::WriteSphereCapture(dir.string(), hedgefit::sim::PaperRig(1.0), scene, options,
+                                    hedgefit::sim::CameraModel(), false, 1);
+  return (dir / "sphere_left.png").string();
+}
+
+RigDrift Drift(const std::string& name, void (*set)(RigDrift&)) {
+  RigDrift d;
+  d.name = name;
+  set(d);
+  return d;
+}
+
+// The rows measured on a pair whose rig is exact are the measurement's own noise: a few
+// hundredths of a pixel per cell (the refinement's 9 x 9 windows settle to 0.02-0.05 px), so
+// 0.15 px anywhere would be a wrong measurement. A drift that moves the right camera's rows by a
+// known amount reads as that amount: a principal point moved 1.5 px down moves every row 1.5 px
+// (to within 0.2 px: the rectification rotates the cameras by a little of it too).
+TEST(RigCheck, RowsReadZeroOnTheExactRigAndTheDriftWhereItMovesThem) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const std::string left = LabCapture(dir);
+  const auto rig = hedgefit::stereo::ReadRig((dir / "rig.yaml").string());
+  auto rows_of = [&](const hedgefit::stereo::StereoRig& r) {
+    cv::Mat l = cv::imread(left), rt = cv::imread((dir / "sphere_right.png").string()), lr, rr;
+    hedgefit::stereo::RectifyPair(r, l, rt, &lr, &rr);
+    return hedgefit::stereo::MeasureRowsSparse(lr, rr, 57, 640);
+  };
+  const auto exact = rows_of(rig);
+  ASSERT_GE(exact.cells, 20) << "a textured lab scene speaks in most of its 48 cells";
+  EXPECT_LT(exact.max_abs_px, 0.15);
+  EXPECT_LT(exact.plane_max_px, 0.15);
+  const auto moved = rows_of(hedgefit::sim::DriftRig(rig, Drift("cy", [](RigDrift& d) { d.right_cy_px = 1.5; })));
+  EXPECT_NEAR(std::abs(moved.plane.offset_px), 1.5, 0.2);
+}
+
+// The suite on the capture: the exact rig draws no warning and every result of a drift that
+// moves the rows more than 0.5 px apart is inside its (widened) interval or said to be unusable.
+// The nominal rig of the issue (f 933.3, c at the centre, 140 mm) and the cameras' files swapped
+// put the centre 100-300 mm off: both must be unusable, not widened.
+TEST(RigCheck, NoDriftThatMovesTheRowsGivesAResultOutsideItsIntervalUnsaid) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  hedgefit::bench::DriftOptions o;
+  o.lefts = {LabCapture(dir)};
+  o.rig = (dir / "rig.yaml").string();
+  o.drifts = {Drift("calibrated", [](RigDrift&) {}), Drift("pitch", [](RigDrift& d) { d.pitch_deg = 0.05; }),
+              Drift("roll", [](RigDrift& d) { d.roll_deg = 0.1; }),
+              Drift("cy", [](RigDrift& d) { d.right_cy_px = 1.0; }),
+              Drift("focal", [](RigDrift& d) { d.right_focal = 0.005; }),
+              Drift("distortion", [](RigDrift& d) { d.no_distortion = true; }),
+              Drift("swapped", [](RigDrift& d) { d.swapped = true; }),
+              Drift("nominal", [](RigDrift& d) { d.nominal = true; })};
+  const auto rows = hedgefit::bench::RunRigDrift(o);
+  ASSERT_EQ(rows.size(), o.drifts.size());
+  for (const auto& r : rows) {
+    SCOPED_TRACE(r.drift + ": " + r.verdict + " " + r.message);
+    if (r.drift == "calibrated") {
+      EXPECT_EQ(r.verdict, "ok");
+      EXPECT_TRUE(r.inside);
+      continue;
+    }
+    if (r.rows_px > 0.5) {
+      EXPECT_TRUE(r.inside || r.said);
+    }
+    if (r.drift == "swapped" || r.drift == "nominal") {
+      EXPECT_TRUE(r.verdict == "unusable" || r.verdict == "refused");
+    }
+  }
+}
+
+}  // namespace
