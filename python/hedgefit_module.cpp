@@ -27,6 +27,7 @@
 #include "fitting/trim.hpp"
 #include "render/render_stages.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/capture_batch.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "stereo/rig_check.hpp"
@@ -243,6 +244,11 @@ void AddCaptureFunctions(py::module_& m) {
         ctx.quiet = true;
         stereo::PutCapture(ImageFrom(left, "left"), ImageFrom(right, "right"), stereo::ReadRig(rig_path), &ctx);
         py::dict run = RunAndCollect(p, ctx);
+        // What `hedgefit measure` prints as warnings (the rig check's, the colour mask's) as a
+        // Python warning; an unusable hedge's dict also says why under "unusable".
+        if (const std::string hint = stereo::CaptureHint(ctx); !hint.empty()) {
+          if (PyErr_WarnEx(PyExc_RuntimeWarning, ("hedgefit.measure: " + hint).c_str(), 1) != 0) throw py::error_already_set();
+        }
         return py::list(run["fits"]);
       },
       py::arg("left"), py::arg("right"), py::arg("rig"), py::arg("method") = "ransac_ray",
@@ -251,7 +257,9 @@ void AddCaptureFunctions(py::module_& m) {
       "the rig file from `hedgefit calibrate`. Runs what `hedgefit measure` runs; keyword arguments set capture "
       "options (min_z=1000, max_z=3500, erode=3, ...). Hedges are found by the colour mask where it isolates them and "
       "by depth where it does not (a garden; garden_above=0.4 of the frame), or always by depth with garden=True. "
-      "Returns one dict per hedge (hedge, center_mm, radius_mm, std_error_mm, inliers, rms_mm, wall_ms, ...).");
+      "Returns one dict per hedge (hedge, center_mm, radius_mm, std_error_mm, inliers, rms_mm, wall_ms, ...), with "
+      "the capture's rig check (rig_check: ok, widened, unusable; 'unusable' says why, and a RuntimeWarning is "
+      "raised: a robot must not act on such a hedge).");
   m.def(
       "check_rig",
       [](const py::array& left, const py::array& right, const std::string& rig_path,

@@ -47,6 +47,17 @@ void CheckModel(const std::vector<PairCorners>& corners, cv::Size size, const Ca
 // The principal point is what moves a hedge sideways: say when the poses leave it loose.
 std::vector<std::string> Warnings(const CalibrationReport& r) {
   std::vector<std::string> warnings;
+  // hedgefit reads the rig in mm: a baseline outside what a stereo rig for hedges can be is
+  // --square given in another unit (metres: 0.03 for 30 mm gives a 0.14 "mm" baseline).
+  if (!(r.rig.baseline_mm >= kMinPlausibleBaselineMm && r.rig.baseline_mm <= kMaxPlausibleBaselineMm)) {
+    char buf[320];
+    std::snprintf(buf, sizeof(buf),
+                  "the baseline is %.4g in --square's unit, and hedgefit reads it as mm: a stereo rig for hedges is "
+                  "%.0f-%.0f mm wide; give --square in mm (30 for a 30 mm square), or every depth will be off by "
+                  "that factor",
+                  r.rig.baseline_mm, kMinPlausibleBaselineMm, kMaxPlausibleBaselineMm);
+    warnings.emplace_back(buf);
+  }
   if (r.std_devs.empty()) return warnings;
   if (std::min(r.corner_coverage.first, r.corner_coverage.second) < kMinCornerCoverage) {
     warnings.emplace_back("the corners cover under 60 % of the image: show the board near the corners and edges, "

@@ -32,6 +32,10 @@ std::vector<std::pair<std::string, std::string>> PairsFromGlobs(const std::strin
 /// Pairs from a file of 'LEFT RIGHT' lines (blank lines and # comments skipped).
 std::vector<std::pair<std::string, std::string>> ReadPairList(const std::string& path);
 
+/// A stereo rig for hedges is this wide, mm (hand-held pairs from 20 mm, a robot's up to 2 m):
+/// outside it, --square was given in another unit, and calibrate warns.
+constexpr double kMinPlausibleBaselineMm = 20, kMaxPlausibleBaselineMm = 2000;
+
 struct CalibrationReport {
   StereoRig rig;
   std::vector<double> std_devs;      ///< RigStdDevs(rig)

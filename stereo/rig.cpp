@@ -4,6 +4,7 @@
 #include <opencv2/core/persistence.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -313,6 +314,14 @@ StereoRig ReadRigKeys(const cv::FileStorage& fs, const std::string& path) {
       m.convertTo(m, CV_64F);
       return m;
     };
+    // Another file given for the rig (a pipeline's JSON, a camera's own YAML): say so, not which
+    // key is wrong.
+    bool any = false;
+    for (const char* key : {"image_width", "image_height", "K1", "K2", "D1", "D2", "R", "T"}) any = any || !fs[key].empty();
+    if (!any) {
+      throw Error(path + ": not a rig file (it has none of image_width, K1, K2, R, T); give the file `hedgefit "
+                         "calibrate` or `hedgefit rig` wrote");
+    }
     rig.image_size = cv::Size(static_cast<int>(fs["image_width"]), static_cast<int>(fs["image_height"]));
     if (rig.image_size.width <= 0 || rig.image_size.height <= 0) {
       throw Error(path + ": image_width and image_height must be positive");
@@ -369,6 +378,19 @@ StereoRig ReadRig(const std::string& path) {
   StereoRig rig = ReadRigKeys(fs, path);
   if (const std::string why = RigProblem(rig); !why.empty()) {
     throw Error(path + ": " + why + "; recalibrate with `hedgefit calibrate` or fix the file");
+  }
+  // baseline_mm is |T|, written for readers: one that disagrees (or is not a number) means the
+  // file was edited by hand and one of the two is wrong.
+  if (!fs["baseline_mm"].empty()) {
+    double written = 0;
+    fs["baseline_mm"] >> written;
+    if (!(std::abs(written - rig.baseline_mm) <= 1e-3 * rig.baseline_mm + 1e-9)) {
+      char buf[200];
+      const std::string value = std::isfinite(written) ? std::to_string(written) : std::string("not a number");
+      std::snprintf(buf, sizeof(buf), ": key 'baseline_mm' is %s but |T| is %.6g mm; they must agree (fix or remove "
+                    "baseline_mm)", value.c_str(), rig.baseline_mm);
+      throw Error(path + buf);
+    }
   }
   return rig;
 }

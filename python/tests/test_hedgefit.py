@@ -7,6 +7,7 @@ import os
 import subprocess
 import tempfile
 import unittest
+import warnings
 
 import numpy as np
 
@@ -144,6 +145,15 @@ class Measure(unittest.TestCase):
             moved = np.ascontiguousarray(np.roll(right, 1, axis=0))  # every row one down
             rows = hedgefit.check_rig(left, moved, os.path.join(tmp, "rig.yaml"))
             self.assertAlmostEqual(rows["offset_px"], 1.0, delta=0.1)
+            # measure checks the rig on every capture: the exact rig is "ok" and says nothing; rows
+            # 1 px apart (more than 0.5) widen the interval, say so in the dict and warn.
+            self.assertEqual(f["rig_check"], "ok")
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                drifted = hedgefit.measure(left, moved, os.path.join(tmp, "rig.yaml"), min_z=1500, max_z=3500)[0]
+            self.assertEqual(drifted["rig_check"], "widened")
+            self.assertAlmostEqual(drifted["rig_rows_px"], 1.0, delta=0.15)
+            self.assertTrue(any("recalibrate" in str(w.message) for w in said), [str(w.message) for w in said])
 
 
 class Pipelines(unittest.TestCase):

@@ -696,3 +696,44 @@ TEST(MeasureCli, ARigThatNoLongerFitsTheCamerasIsUnusableNotConfident) {
   EXPECT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("does not fit these cameras"), std::string::npos) << r.err;
 }
+
+// --square in metres (0.025 for 25 mm) used to write a 0.08 "mm" baseline without a word, and the
+// next measure matched nothing. hedgefit reads rigs in mm: a baseline outside 20 mm-2 m draws a
+// warning naming --square's unit; the same boards at 25 mm give an 83 mm baseline and none.
+TEST(CalibrateCli, ASquareInMetresGetsAWarningNamingItsUnit) {
+  HEDGEFIT_REQUIRE_DATA("calib_chessboard/left01.jpg");
+  const auto dir = hedgefit::testing::ScratchDir();
+  const std::string data = hedgefit::testing::DataPath("calib_chessboard");
+  const std::string boards = "calibrate --left '" + data + "/left*.jpg' --right '" + data + "/right*.jpg' --board 9x6 -o rig.yaml";
+  Result r = RunHedgefit(boards + " --square 0.025", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("warning: the baseline is 0.08323 in --square's unit"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("give --square in mm"), std::string::npos) << r.out;
+  r = RunHedgefit(boards + " --square 25", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ((r.out + r.err).find("give --square in mm"), std::string::npos) << r.out;
+}
+
+// Some other file given as the rig: "image_width and image_height must be positive" before; now
+// it says it is not a rig file. A baseline_mm that disagrees with |T| (.nan, edited by hand) was
+// read without a word; now it names the key.
+TEST(RigCli, AFileThatIsNotARigSaysSoAndABaselineThatDisagreesIsNamed) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  std::ofstream(dir / "pipeline.json") << R"({"pipeline": [{"type": "readers.pcd", "filename": "a.pcd"}]})";
+  std::ofstream(dir / "camera.yaml") << "%YAML:1.0\n---\ncamera_name: left\nexposure_us: 1200\n";
+  for (const std::string file : {"pipeline.json", "camera.yaml"}) {
+    const Result r = RunHedgefit("measure --rig " + file + " --left l.png --right r.png", dir);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_EQ(r.err, "hedgefit: " + file + ": not a rig file (it has none of image_width, K1, K2, R, T); give the file "
+                     "`hedgefit calibrate` or `hedgefit rig` wrote\n");
+  }
+  ASSERT_EQ(RunHedgefit("rig --size 640x480 --focal 368 --cx 318 --cy 224 --baseline 140 -o rig.yaml", dir).code, 0);
+  std::string text = Slurp(dir / "rig.yaml");
+  const auto at = text.find("baseline_mm: ");
+  ASSERT_NE(at, std::string::npos) << text;
+  text.replace(at, text.find('\n', at) - at, "baseline_mm: .nan");
+  std::ofstream(dir / "nan.yaml") << text;
+  const Result r = RunHedgefit("check-rig --rig nan.yaml --left l.png --right r.png", dir);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("nan.yaml: key 'baseline_mm' is not a number but |T| is 140 mm"), std::string::npos) << r.err;
+}
