@@ -7,6 +7,7 @@
 
 #include "apps/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "cloud/describe.hpp"
 #include "pipeline/output_check.hpp"
 #include "apps/stage_flags.hpp"
 #include "apps/parse.hpp"
@@ -89,6 +90,12 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
       cloud::ReadOptions ro;
       ro.scale = a->scale;
       const cloud::PointCloud cloud = cloud::ReadCloud(a->cloud, ro);
+      if (a->scale == 1.0) {
+        if (const std::string why = cloud::MetresReason(cloud::LargestExtent(cloud), "read it with --scale 1000");
+            !why.empty()) {
+          throw InputError(a->cloud + ": " + why);
+        }
+      }
       std::vector<render::SphereOverlay> spheres;
       if (!a->fits.empty()) spheres = ReadFits(a->fits, a->cloud);
       for (const auto& m : a->methods) fitting::FindFitMethod(m, "--method");

@@ -27,12 +27,14 @@ using json = nlohmann::ordered_json;
 
 struct TrimArgs {
   std::string cloud, center, method = "ransac_geometric", output, render, format = "table";
-  double radius = 0, tolerance = 5;
+  double radius = 0, tolerance = 5, scale = 1;
   bool no_clean = false, print_pipeline = false;
 };
 
 json Stages(const TrimArgs& a, const std::vector<double>& center) {
-  json p = json::array({{{"filename", a.cloud}}});  // the reader chosen by extension
+  json reader = {{"filename", a.cloud}};  // the reader chosen by extension
+  if (a.scale != 1) reader["scale"] = a.scale;
+  json p = json::array({reader});
   if (!a.no_clean) {
     for (const auto& stage : DefaultCleaning()) p.push_back(json(stage));
   }
@@ -62,6 +64,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("cloud", a->cloud, "cloud file (.pcd, .ply, .xyz); a hedge_id field gives one plan per hedge")->required();
   cmd->add_option("--radius", a->radius, "target radius, mm (up to 100 m)")->required()->check(CLI::Range(1e-3, 1e5));
   cmd->add_option("--center", a->center, "target centre X,Y,Z in mm (default: each hedge's fitted centre)");
+  cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
   cmd->add_option("--method", a->method, "fit that centres the target (without --center)")->capture_default_str();
   cmd->add_option("--tolerance", a->tolerance, "cut depths up to this count as on target, mm")
       ->check(CLI::NonNegativeNumber)
@@ -71,7 +74,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
   cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and outlier removal (filters.hedge_outlier) before the fit");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
-  GroupFlags(cmd, {{"Inputs", {"cloud", "--no-clean"}}, {"Target", {"--radius", "--center", "--method", "--tolerance"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
+  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--center", "--method", "--tolerance"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);

@@ -1,10 +1,33 @@
 #include "cloud/describe.hpp"
 
+#include <cstdio>
+#include <limits>
+
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
 
 namespace hedgefit::cloud {
+
+std::string MetresReason(double extent, const std::string& fix) {
+  if (!(extent > 0) || extent >= kMetreExtentLimit) return "";
+  char buf[200];
+  std::snprintf(buf, sizeof(buf),
+                "the points span %.3g units end to end: a cloud in metres (hedgefit measures in mm, and a hedge spans "
+                "over %.0f mm); ",
+                extent, kMetreExtentLimit);
+  return buf + fix;
+}
+
+double LargestExtent(const PointCloud& cloud) {
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+  bool any = false;
+  for (const Eigen::Vector3f& p : cloud.points_mm) {
+    if (!p.allFinite()) continue;
+    lo = lo.cwiseMin(p), hi = hi.cwiseMax(p), any = true;
+  }
+  return any ? double((hi - lo).maxCoeff()) : 0.0;
+}
 
 std::string GuessUnits(double extent) {
   if (extent <= 0) return "unknown";

@@ -20,6 +20,16 @@ constexpr double kMetreExtentLimit = 50.0;
 /// every point coincides.
 std::string GuessUnits(double extent);
 
+/// The units policy, written once: hedgefit measures in millimetres, and points that span less
+/// than kMetreExtentLimit units end to end (the largest side of their bounds) are in metres: a
+/// hedge of 300 mm or more spans more. Returns "" when `extent` is fine, else why, ending in
+/// "; " + `fix` (e.g. "read it with --scale 1000"). compare, render and trim refuse such a cloud
+/// unless --scale was given, the fit stages refuse such points (so does Python's fit).
+std::string MetresReason(double extent, const std::string& fix);
+
+/// The largest side of the bounds of the finite points of `cloud` (0 when none).
+double LargestExtent(const PointCloud& cloud);
+
 struct CloudDescription {
   std::string file;
   CloudFileHeader header;

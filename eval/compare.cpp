@@ -1,5 +1,7 @@
 #include "eval/compare.hpp"
 
+#include "cloud/describe.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -140,6 +142,13 @@ std::vector<CloudReport> CompareCloud(const std::string& file, const CompareOpti
   const pipeline::RunReport run_report = p.Run(ctx);
   const std::size_t points_read = std::size_t(std::max<std::int64_t>(0, run_report.stages.front().points_out));
   const cloud::PointCloud& cleaned = ctx.Get<cloud::PointCloud>("cloud");
+  // Units: a cloud in metres is refused with the fix, unless --scale says what it is.
+  if (o.scale == 1.0) {
+    if (const std::string why = cloud::MetresReason(cloud::LargestExtent(cleaned), "read it with --scale 1000");
+        !why.empty()) {
+      throw InputError(file + ": " + why);
+    }
+  }
   std::vector<Sphere> truths = o.truth;
   if (truths.empty()) {
     if (auto t = TruthFileFor(file)) truths = ReadTruthFiles(*t);
@@ -326,8 +335,10 @@ std::vector<FitRecord> ReadCompareFits(const std::string& path, const std::strin
   }
   std::vector<FitRecord> out;
   try {
-    for (const auto& f : (*entry)["fits"]) {
-      if (!f.value("converged", false)) continue;
+    const json fits = entry->value("fits", json::array());
+    for (const auto& f : fits) {
+      // A fit that says it did not converge has no sphere to draw; one that does not say is read.
+      if (!f.value("converged", true)) continue;
       FitRecord o;
       o.label = f.at("method").get<std::string>();
       o.sphere.center_mm = Eigen::Vector3d(f.at("center_mm")[0], f.at("center_mm")[1], f.at("center_mm")[2]);
@@ -345,6 +356,11 @@ std::vector<FitRecord> ReadCompareFits(const std::string& path, const std::strin
     }
   } catch (const json::exception&) {
     throw Error(path + ": a fit lacks center_mm or radius_mm; expected the output of `hedgefit compare --format json`");
+  }
+  // Nothing to draw is not a picture of the fits: say so rather than draw the points alone.
+  if (out.empty()) {
+    throw Error(path + ": no converged fit and no truth for " + cloud_path + "; expected the output of `hedgefit compare "
+                "--format json` for this cloud");
   }
   return out;
 }

@@ -2,6 +2,7 @@
 
 #include "fitting/fitting_stages.hpp"
 
+#include "cloud/describe.hpp"
 #include "pipeline/input_check.hpp"
 
 #include <algorithm>
@@ -23,6 +24,13 @@ using pipeline::Context;
 using pipeline::Options;
 
 // Notes: the fit's fields; with several hedges, prefixed "hedgeN." so none overwrites another.
+// The units policy (cloud/describe.hpp): points in metres are refused with the fix.
+void RequireMillimetres(const cloud::PointCloud& c, const std::string& stage) {
+  const std::string why = cloud::MetresReason(
+      cloud::LargestExtent(c), "read it with scale 1000 (\"scale\": 1000 on the reader, --scale 1000 in compare, render and trim)");
+  if (!why.empty()) throw InputError("stage '" + stage + "': " + why);
+}
+
 void Record(Context& ctx, const SphereFitResult& r, bool per_hedge) {
   const std::string prefix = per_hedge ? "hedge" + std::to_string(r.hedge_id) + "." : "";
   for (auto& [key, value] : FitFields(r)) {
@@ -59,6 +67,7 @@ void AddFitters(pipeline::Registry& r) {
             return std::make_unique<LambdaStage>(o, [m, fit, keep](const Options&, Context& ctx) {
               PointCloud& c = ctx.Get<PointCloud>("cloud");
               // A capture with several hedges (a hedge_id field): one fit per hedge.
+              RequireMillimetres(c, m.stage);
               const std::vector<HedgeGroup> groups = HedgeGroups(c);
               if (groups.empty()) throw Error("stage '" + m.stage + "': no point of the cloud belongs to a hedge (hedge_id >= 1)");
               // Every hedge is fitted on its own (in parallel: a row of hedges costs about what its
@@ -166,6 +175,7 @@ void AddTrimDepth(pipeline::Registry& r) {
           to.min_bin_points = int(o.GetInt("min_bin_points"));
           return std::make_unique<LambdaStage>(o, [trim, to, center](const Options& opts, Context& ctx) {
             PointCloud& c = ctx.Get<PointCloud>("cloud");
+            RequireMillimetres(c, trim);
             const std::vector<HedgeGroup> groups = HedgeGroups(c);
             if (groups.empty()) throw Error("stage '" + trim + "': no point of the cloud belongs to a hedge (hedge_id >= 1)");
             std::vector<float> depth(c.size(), std::numeric_limits<float>::quiet_NaN());
