@@ -36,7 +36,7 @@ void CaptureFlags::Add(CLI::App* cmd) {
   flags_.Add(cmd, stereo::GardenSegmentOptions::Table().Specs(), {}, garden);
   flags_.Add(cmd, stereo::SegmentOptions::Table().Specs(), {}, find);
   flags_.Add(cmd, stereo::ReprojectOptions::Table().Specs(), {}, other);
-  cmd->add_flag("--full-frame", full_frame_, "match the whole image, not just the hedge's region")->group(match);
+  cmd->add_flag("--full-frame", full_frame_, "match the whole image, not just the hedge's region (with --organized: every pixel, unless --max-points)")->group(match);
 }
 
 stereo::ConvertOptions CaptureFlags::Resolve(const pipeline::Registry& registry) const {
@@ -68,6 +68,9 @@ stereo::ConvertOptions CaptureFlags::Resolve(const pipeline::Registry& registry)
     o.garden_above = a.garden_above;
   }
   if (full_frame_) o.match.region_only = false;
+  // A whole organised frame is a dense map: thinning it to every s-th pixel (max_points) without a
+  // word defeated it. Unless --max-points says otherwise, it keeps every pixel.
+  if (full_frame_ && o.reproject.organized && !given.count("max_points")) o.match.max_points = 0;
   o.matcher = matcher_;
   if (int(!mask_.empty()) + int(given.count("box")) + int(garden_) > 1) {
     throw Error("--mask, --box and --garden: give one way to find the hedge, not several");

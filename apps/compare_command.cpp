@@ -122,7 +122,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
     if (spec.name != "seed") robust.push_back(spec);
   }
   a->fit_flags.Add(cmd, robust, {}, "Fitting (RANSAC, for every method that uses it)", {{"method", "--estimator"}});
-  cmd->add_option("--seed", a->seed, "RANSAC sampler seed")->capture_default_str();
+  cmd->add_option("--seed", a->seed, "RANSAC sampler seed")->check(Seed())->capture_default_str();
   cmd->add_option("--rig", a->rig,
                   "the rig the clouds were measured with (hedgefit calibrate's YAML): each fit's uncertainty then "
                   "includes the rig's calibration");

@@ -18,6 +18,7 @@
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
 #include "fitting/methods.hpp"
+#include "fitting/sphere_fit.hpp"
 #include "stereo/capture.hpp"
 
 namespace hedgefit::apps {
@@ -88,8 +89,16 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       } catch (const InputError&) {
         throw;  // a damaged image: bad input, and its message names the file
       } catch (const Error& e) {
-        // Name the capture, unless the message already names the file it is about.
         const std::string what = e.what();
+        // An output that could not be written after the fits: the measurements are printed all
+        // the same, and the error says that no overlay was kept.
+        if (!a->overlay.empty() && what.find(a->overlay) != std::string::npos &&
+            ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
+          for (const auto& j : CollectMeasureLines(ctx, report).lines) std::printf("%s\n", j.dump().c_str());
+          std::fflush(stdout);
+          throw ProcessingError("--overlay " + what + "; the measurements were printed, no overlay was kept");
+        }
+        // Name the capture, unless the message already names the file it is about.
         const bool named = what.rfind(a->left + ":", 0) == 0 || what.rfind(a->right + ":", 0) == 0;
         throw ProcessingError(named ? what : a->left + ": " + what);
       }

@@ -28,7 +28,7 @@ void AddPipelineCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("FILE", a->file, "pipeline JSON file")->required();
   cmd->add_option("--set", a->sets, "override an option: stage.option=value (stage = tag or type)");
   cmd->add_option("--metadata", a->metadata, "write the run's metadata JSON here");
-  cmd->add_option("--seed", a->seed, "base random seed for stages that sample");
+  cmd->add_option("--seed", a->seed, "base random seed for stages that sample")->check(Seed());
   cmd->add_flag("-q,--quiet", a->quiet, "print nothing on success");
   GroupFlags(cmd, {{"Input", {"FILE", "--set", "--seed"}}, {"Output", {"--metadata", "--quiet"}}});
   cmd->callback([=]() {

@@ -139,7 +139,7 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--supersample", a->supersample, "rays per pixel per axis")->check(CLI::Range(1, 8))->capture_default_str();
   cmd->add_option("--blur", a->blur, "Gaussian blur sigma, px")->check(CLI::Range(0.0, 10.0))->capture_default_str();
   cmd->add_option("--noise", a->noise, "sensor noise sigma, grey levels")->check(CLI::Range(0.0, 100.0))->capture_default_str();
-  cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
+  cmd->add_option("--seed", a->seed, "noise seed")->check(Seed())->capture_default_str();
   cmd->add_option("--camera", a->camera,
                   "ideal (as rendered) or real: each image as a camera records it (exposure and white balance per "
                   "camera, vignetting, Bayer + demosaicing, shot and read noise independent per camera)")

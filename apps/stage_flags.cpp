@@ -24,9 +24,16 @@ std::string Help(const pipeline::OptionSpec& spec) {
 
 std::string AsFlagMessage(const std::string& msg) {
   if (msg.rfind("option '", 0) != 0) return msg;
-  const auto end = msg.find('\'', 8);
-  if (end == std::string::npos) return msg;
-  return pipeline::FlagName(msg.substr(8, end - 8)) + msg.substr(end + 1);
+  // Every option the message names, as the command line spells it ("... beyond option 'min_z'").
+  std::string out;
+  std::size_t at = 0;
+  for (std::size_t k; (k = msg.find("option '", at)) != std::string::npos;) {
+    const auto end = msg.find('\'', k + 8);
+    if (end == std::string::npos) break;
+    out += msg.substr(at, k - at) + pipeline::FlagName(msg.substr(k + 8, end - k - 8));
+    at = end + 1;
+  }
+  return out + msg.substr(at);
 }
 
 void StageFlags::Add(CLI::App* cmd, const std::vector<pipeline::OptionSpec>& specs, const std::vector<std::string>& only,

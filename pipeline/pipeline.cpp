@@ -77,8 +77,21 @@ namespace {
 // The pipeline's JSON: an array of stages, or {"pipeline": [...]}.
 json ParseDocument(const std::string& json_text, const std::string& source) {
   json doc;
+  // JSON keeps the last of two equal keys without a word ({"mean_k": 10, "mean_k": 50}): one of
+  // them is a mistake, so name it.
+  std::vector<std::set<std::string>> keys;
+  std::string twice;
+  const json::parser_callback_t duplicates = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) keys.emplace_back();
+    if (event == json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
+    if (event == json::parse_event_t::key && !keys.empty() && !keys.back().insert(parsed.get<std::string>()).second &&
+        twice.empty()) {
+      twice = parsed.get<std::string>();
+    }
+    return true;
+  };
   try {
-    doc = json::parse(json_text);
+    doc = json::parse(json_text, duplicates);
   } catch (const json::parse_error& e) {
     std::string msg = e.what();
     const auto colon = msg.find("]: ");
@@ -89,6 +102,10 @@ json ParseDocument(const std::string& json_text, const std::string& source) {
     std::string msg = e.what();
     const auto colon = msg.find("] ");
     throw Error(source + ": invalid JSON: " + (colon == std::string::npos ? msg : msg.substr(colon + 2)));
+  }
+  if (!twice.empty()) {
+    throw Error(source + ": key '" + twice + "' appears twice in one object; JSON keeps only the last, so remove the "
+                "one you did not mean");
   }
   if (doc.is_object() && doc.contains("pipeline")) doc = doc["pipeline"];
   if (!doc.is_array()) throw Error(source + ": a pipeline is a JSON array of stages (or {\"pipeline\": [...]})");
@@ -254,8 +271,19 @@ RunReport Pipeline::Run(Context& ctx) {
     const auto t0 = Clock::now();
     try {
       s.stage->Run(ctx);
-    } catch (const Error&) {
-      throw;
+    } catch (const Error& e) {
+      // A writer that failed names its hidden staged file: the user gave the final path.
+      std::string what = e.what();
+      bool renamed = false;
+      for (const auto& [staged, final_path] : ctx.staged_outputs) {
+        for (std::size_t at; (at = what.find(staged)) != std::string::npos; renamed = true) {
+          what.replace(at, staged.size(), final_path);
+        }
+      }
+      if (!renamed) throw;
+      if (dynamic_cast<const InputError*>(&e)) throw InputError(what);
+      if (dynamic_cast<const ProcessingError*>(&e)) throw ProcessingError(what);
+      throw Error(what);
     } catch (const std::exception& e) {
       throw ProcessingError("stage '" + s.label + "' failed: " + e.what());
     }

@@ -15,7 +15,7 @@
 #include "pipeline/registry.hpp"
 
 /// Bumped whenever Registry, Stage, Context or PointCloud change layout.
-#define HEDGEFIT_PLUGIN_ABI_VERSION 2
+#define HEDGEFIT_PLUGIN_ABI_VERSION 3
 
 extern "C" {
 struct HedgefitPluginInfo {

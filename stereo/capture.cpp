@@ -54,7 +54,7 @@ const pipeline::OptionTable<MatchOptions>& MatchOptions::Table() {
 void MatchOptions::Check() const {
   Table().Validate(*this);
   sgbm.Check();
-  if (!(max_z_mm > min_z_mm)) throw Error("option 'min_z'/'max_z': need min_z < max_z (mm)");
+  CheckDepthRange(min_z_mm, max_z_mm);
 }
 
 namespace {

@@ -177,7 +177,7 @@ std::string CaptureHint(pipeline::Context& ctx) {
   std::string hint;
   char buf[256];
   const cv::Mat* mask = ctx.Find<cv::Mat>("mask");
-  if (!ctx.Find<std::vector<HedgeRegion>>("hedges") && mask && !mask->empty()) {
+  if (!ctx.Find<std::vector<HedgeRegion>>("hedges") && !ctx.Find<bool>("mask_given") && mask && !mask->empty()) {
     const double share = double(cv::countNonZero(*mask)) / double(mask->total());
     if (share > 0.5) {
       std::snprintf(buf, sizeof(buf),

@@ -47,7 +47,7 @@ const pipeline::OptionTable<GardenSegmentOptions>& GardenSegmentOptions::Table()
 
 void GardenSegmentOptions::Check() const {
   Table().Validate(*this);
-  if (!(max_z_mm > min_z_mm)) throw Error("option 'min_z'/'max_z': need min_z < max_z (mm)");
+  CheckDepthRange(min_z_mm, max_z_mm);
   if (!(max_radius_mm > min_radius_mm)) throw Error("option 'min_radius'/'max_radius': need min_radius < max_radius (mm)");
   if (block_size % 2 == 0) throw Error("option 'coarse_block_size': must be odd");
 }

@@ -94,7 +94,7 @@ void CheckNearestDepth(double focal_px, double baseline_mm, double min_z_mm, int
 
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
                             int* num_disparities) {
-  if (!(min_z_mm > 0 && max_z_mm > min_z_mm)) throw Error("min_z/max_z: need 0 < min_z < max_z (mm)");
+  CheckDepthRange(min_z_mm, max_z_mm);
   const double d_max = focal_px * baseline_mm / min_z_mm, d_min = focal_px * baseline_mm / max_z_mm;
   *min_disparity = std::max(0, static_cast<int>(std::floor(d_min)) - 2);
   const int span = static_cast<int>(std::ceil(d_max)) + 2 - *min_disparity;
@@ -301,6 +301,26 @@ cv::Mat GreyLevels(const cv::Mat& image) { return GreyFloat(image); }
 bool RefineMatch2D(const cv::Mat& left_grey, const cv::Mat& right_coeffs, int x, int y, double disparity_px,
                    double dy_px, double* dy_out, double* sigma_out) {
   return SolveVerticalWindow(left_grey, right_coeffs, cv::Mat(), x, y, disparity_px, 4, dy_out, sigma_out, dy_px);
+}
+
+void CheckDepthRange(double min_z_mm, double max_z_mm) {
+  char buf[320];
+  // A depth typed in metres (3.5 for 3500 mm) is the usual cause: say the unit, and the value it
+  // likely meant.
+  auto hint = [](double v) {
+    char h[96] = "";
+    if (v > 0 && v < 100) std::snprintf(h, sizeof(h), "; depths are in mm (%g for %g m)", v * 1000, v);
+    return std::string(h);
+  };
+  if (!(min_z_mm > 0)) {
+    std::snprintf(buf, sizeof(buf), "option 'min_z': %g mm; give the nearest depth to search, in mm, above 0", min_z_mm);
+    throw Error(buf);
+  }
+  if (!(max_z_mm > min_z_mm)) {
+    std::snprintf(buf, sizeof(buf), "option 'max_z': %g mm is not beyond option 'min_z' (%g mm)%s", max_z_mm, min_z_mm,
+                  hint(max_z_mm).c_str());
+    throw Error(buf);
+  }
 }
 
 double VerticalDisparity::MaxAbs(cv::Size size) const {

@@ -178,6 +178,10 @@ inline constexpr double kDefaultMinZmm = 1000, kDefaultMaxZmm = 3500;
 /// otherwise abort inside OpenCV.
 void CheckNearestDepth(double focal_px, double baseline_mm, double min_z_mm, int width_px);
 
+/// Throws Error naming option 'min_z' or 'max_z' unless 0 < min_z_mm < max_z_mm, with the unit and,
+/// for a depth under 100, the value in mm it likely meant ("3.5 ... (3500 for 3.5 m)").
+void CheckDepthRange(double min_z_mm, double max_z_mm);
+
 /// Disparity search range [min, min + num) for depths [min_z, max_z] mm: d = f b / Z.
 void DisparityRangeForDepth(double focal_px, double baseline_mm, double min_z_mm, double max_z_mm, int* min_disparity,
                             int* num_disparities);

@@ -71,7 +71,7 @@ void DepthSegmentOptions::Check() const {
   if (box.size() != 4) throw Error("option 'box': give the box around the hedge as [X, Y, W, H] px");
   Table().Validate(*this);
   if (box[2] < 3 || box[3] < 3) throw Error("option 'box': width and height must be >= 3 px");
-  if (!(max_z_mm > min_z_mm)) throw Error("option 'min_z'/'max_z': need min_z < max_z (mm)");
+  CheckDepthRange(min_z_mm, max_z_mm);
   if (block_size % 2 == 0) throw Error("option 'block_size': must be odd");
 }
 

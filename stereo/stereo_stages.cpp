@@ -203,6 +203,7 @@ void AddSegmenters(pipeline::Registry& r) {
                   TableOptions<MaskOptions>(), {"left_image", "rig"}, {"mask"}, {}},
         TableFactory<MaskOptions>("stereo.mask", [](const MaskOptions& p, const Options&, Context& ctx) {
           PutMask(ctx, SegmentFromMaskFile(RigOf(ctx), p));
+          ctx.Put("mask_given", true);  // the user's own: no hint about what the colour mask covers
         }));
   r.Add(StageInfo{"stereo.segment_depth",
                   "The hedge mask by depth inside a box: coarse match of the box, the connected region at the depth of "

@@ -177,3 +177,41 @@ TEST(Cli, DocsNameEveryStageAndOption) {
 }
 
 }  // namespace
+
+// A cloud in metres (the bundled 300 mm cap at 2.3 m, divided by 1000): compare fitted r = 0.30
+// "mm" and trim said 0 % to cut, exit 0. One units policy now (cloud/describe.hpp): points that
+// span under 50 units are refused with the fix, in compare, render, trim and the fit stages;
+// --scale 1000 reads the same file right (the cap's truth is r 300 mm; 5 mm covers its noise).
+TEST(Cli, ACloudInMetresIsRefusedWithTheFix) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  auto cap = hedgefit::cloud::ReadCloud(std::string(HEDGEFIT_SOURCE_DIR) + "/sample_clouds/cap_z2300_a60_o10.pcd");
+  for (auto& p : cap.points_mm) p /= 1000.f;
+  hedgefit::cloud::WriteCloud((dir / "m.pcd").string(), cap);
+  for (const std::string command : {"compare m.pcd", "trim m.pcd --radius 280", "render m.pcd -o m.png"}) {
+    SCOPED_TRACE(command);
+    ExpectOneLineError(RunHedgefit(command, dir), 1, "a cloud in metres");
+    EXPECT_NE(RunHedgefit(command, dir).err.find("--scale 1000"), std::string::npos);
+  }
+  ExpectOneLineError(RunHedgefit("pipeline --set fitters.ransac.distance_threshold=10 p.json", dir), 1, "p.json");
+  std::ofstream(dir / "p.json") << R"(["m.pcd", {"type": "fitters.geometric"}])";
+  ExpectOneLineError(RunHedgefit("pipeline p.json", dir), 1, "stage 'fitters.geometric': the points span 0.");
+  const Result r = RunHedgefit("compare m.pcd --scale 1000 --method ransac_geometric --format json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(nlohmann::json::parse(r.out)["clouds"][0]["fits"][0]["radius_mm"].get<double>(), 300.0, 5.0) << r.out;
+}
+
+// Inputs that were accepted without a word and did something the user did not mean: a key given
+// twice in a pipeline's stage (JSON keeps the last), --seed -1 (read as 2^64 - 1), and a fits
+// file with nothing to draw (render drew the points alone).
+TEST(Cli, InputsThatMeanSomethingElseAreRefused) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  hedgefit::cloud::WriteCloud((dir / "c.pcd").string(), SmallCloud());
+  std::ofstream(dir / "twice.json") << R"([{"type": "readers.pcd", "filename": "c.pcd", "filename": "d.pcd"}])";
+  ExpectOneLineError(RunHedgefit("pipeline twice.json", dir), 1,
+                     "twice.json: key 'filename' appears twice in one object; JSON keeps only the last");
+  ExpectOneLineError(RunHedgefit("compare c.pcd --seed -1", dir), 1, "--seed: -1: give a whole number of 0 or more");
+  ExpectOneLineError(RunHedgefit("pipeline twice.json --seed -3", dir), 1, "--seed: -3: give a whole number of 0 or more");
+  std::ofstream(dir / "fits.json") << R"({"clouds": [{"file": "c.pcd", "fits": [{"method": "kasa", "converged": false}]}]})";
+  ExpectOneLineError(RunHedgefit("render c.pcd --fits fits.json -o r.png", dir), 1,
+                     "fits.json: no converged fit and no truth for c.pcd");
+}

@@ -737,3 +737,32 @@ TEST(RigCli, AFileThatIsNotARigSaysSoAndABaselineThatDisagreesIsNamed) {
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("nan.yaml: key 'baseline_mm' is not a number but |T| is 140 mm"), std::string::npos) << r.err;
 }
+
+// Smaller confident or confusing answers of the issue, each as a user meets it:
+// - --max-z in metres said "--min-z/'max_z': need min_z < max_z (mm)"; now it names the flag as
+//   typed, the unit and the value it likely meant;
+// - an overlay that cannot be written (/proc takes no new files, even for root) named the input
+//   image and a hidden staged file, and the measurement was lost; now it names --overlay's path,
+//   the JSON lines are printed and the error says no overlay was kept;
+// - convert --mask (the user's own mask) warned that "the colour mask covers 96 % of the frame".
+TEST(MeasureCli, MessagesNameWhatTheUserTypedAndKeepWhatWasMeasured) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  ASSERT_EQ(RunHedgefit("simulate --sphere 70,50,2300,300 --scale 0.5 -o s", dir).code, 0);
+  const std::string measure = "measure --rig s/rig.yaml --left s/sphere_left.png --right s/sphere_right.png";
+  Result r = RunHedgefit(measure + " --max-z 3.5", dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.err, "hedgefit: --max-z: 3.5 mm is not beyond --min-z (1000 mm); depths are in mm (3500 for 3.5 m)\n");
+  r = RunHedgefit(measure + " --overlay /proc/hedgefit_overlay.png", dir);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("hedgefit: --overlay /proc/hedgefit_overlay.png: cannot be written"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("the measurements were printed, no overlay was kept"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(".staged"), std::string::npos) << r.err;
+  ASSERT_FALSE(r.out.empty());
+  EXPECT_NEAR(nlohmann::json::parse(r.out.substr(0, r.out.find('\n')))["radius_mm"].get<double>(), 300.0, 3.0);
+  // A mask covering most of the frame, the user's own: no hint about the colour mask.
+  cv::Mat mask(600, 960, CV_8U, cv::Scalar(255));
+  ASSERT_TRUE(cv::imwrite((dir / "mask.png").string(), mask));
+  r = RunHedgefit("convert --rig s/rig.yaml --left s/sphere_left.png --right s/sphere_right.png --mask mask.png -o o.pcd",
+                  dir);
+  EXPECT_EQ(r.err.find("colour mask covers"), std::string::npos) << r.err;
+}
