@@ -33,7 +33,7 @@ cp "$Q/output.txt" docs/quickstart_output.txt
 /usr/bin/python3 - "$Q/output.txt" README.md <<'PY'
 import json, re, sys
 out, readme = sys.argv[1], sys.argv[2]
-keep = ("hedge", "method", "converged", "center_mm", "radius_mm", "ci95_mm", "points_used")
+keep = ("hedge", "method", "converged", "center_mm", "radius_mm", "ci95_mm", "points_used", "rig_check")
 shown = []
 for line in open(out):
     line = line.strip()

@@ -52,7 +52,7 @@ std::vector<std::string> Warnings(const CalibrationReport& r) {
   if (!(r.rig.baseline_mm >= kMinPlausibleBaselineMm && r.rig.baseline_mm <= kMaxPlausibleBaselineMm)) {
     char buf[320];
     std::snprintf(buf, sizeof(buf),
-                  "the baseline is %.4g in --square's unit, and hedgefit reads it as mm: a stereo rig for hedges is "
+                  "the baseline is %.4g in --square's unit, which a rig file holds as mm: a stereo rig for hedges is "
                   "%.0f-%.0f mm wide; give --square in mm (30 for a 30 mm square), or every depth will be off by "
                   "that factor",
                   r.rig.baseline_mm, kMinPlausibleBaselineMm, kMaxPlausibleBaselineMm);
