@@ -19,15 +19,23 @@ std::string MetresReason(double extent, const std::string& fix) {
   return buf + fix;
 }
 
-double LargestExtent(const PointCloud& cloud) {
-  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+namespace {
+
+template <typename Point>
+double Extent(const std::vector<Point>& points) {
+  Point lo = Point::Constant(std::numeric_limits<typename Point::Scalar>::max()), hi = -lo;
   bool any = false;
-  for (const Eigen::Vector3f& p : cloud.points_mm) {
+  for (const Point& p : points) {
     if (!p.allFinite()) continue;
     lo = lo.cwiseMin(p), hi = hi.cwiseMax(p), any = true;
   }
   return any ? double((hi - lo).maxCoeff()) : 0.0;
 }
+
+}  // namespace
+
+double LargestExtent(const PointCloud& cloud) { return Extent(cloud.points_mm); }
+double LargestExtent(const std::vector<Eigen::Vector3d>& points_mm) { return Extent(points_mm); }
 
 std::string GuessUnits(double extent) {
   if (extent <= 0) return "unknown";

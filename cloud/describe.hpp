@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "cloud/cloud_io.hpp"
 
@@ -29,6 +30,7 @@ std::string MetresReason(double extent, const std::string& fix);
 
 /// The largest side of the bounds of the finite points of `cloud` (0 when none).
 double LargestExtent(const PointCloud& cloud);
+double LargestExtent(const std::vector<Eigen::Vector3d>& points_mm);
 
 struct CloudDescription {
   std::string file;

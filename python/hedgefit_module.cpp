@@ -184,15 +184,10 @@ void AddFitFunctions(py::module_& m) {
           given[name] = FromPython(name, value);
         }
         const std::vector<Eigen::Vector3d> pts = Points(xyz);
-        {  // the units policy (cloud/describe.hpp): points in metres are refused with the fix
-          Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
-          for (const auto& q : pts) {
-            if (q.allFinite()) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
-          }
-          const double extent = hi.x() >= lo.x() ? (hi - lo).maxCoeff() : 0.0;
-          if (const std::string why = cloud::MetresReason(extent, "multiply the points by 1000"); !why.empty()) {
-            throw Error("fit: " + why);
-          }
+        // The units policy (cloud/describe.hpp): points in metres are refused with the fix.
+        if (const std::string why = cloud::MetresReason(cloud::LargestExtent(pts), "multiply the points by 1000");
+            !why.empty()) {
+          throw Error("fit: " + why);
         }
         std::vector<double> pixel;
         if (!pixel_mm.is_none()) {

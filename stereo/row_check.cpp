@@ -179,16 +179,16 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
   return out;
 }
 
-void RowAgreement::Around(const cv::Rect& box, double* rows_px, double* off_px) const {
-  *rows_px = 0, *off_px = 0;
+double RowAgreement::Around(const cv::Rect& box) const {
+  double rows_px = 0;
   const cv::Rect grown(box.x - box.width, box.y - box.height, 3 * box.width, 3 * box.height);
   for (int cy = 0; cy < cell_dy.rows; ++cy) {
     for (int cx = 0; cx < cell_dy.cols; ++cx) {
       if ((CellRect(cx, cy) & grown).empty()) continue;
-      if (cell_dy(cy, cx) == cell_dy(cy, cx)) *rows_px = std::max(*rows_px, std::abs(cell_dy(cy, cx)));
-      if (cell_off_plane(cy, cx) == cell_off_plane(cy, cx)) *off_px = std::max(*off_px, std::abs(cell_off_plane(cy, cx)));
+      if (cell_dy(cy, cx) == cell_dy(cy, cx)) rows_px = std::max(rows_px, std::abs(cell_dy(cy, cx)));
     }
   }
+  return rows_px;
 }
 
 double DisparityErrorField::OffPlane(double u, double v) const {
@@ -233,8 +233,8 @@ const pipeline::OptionTable<RigCheckOptions>& RigCheckOptions::Table() {
   static const auto table =
       pipeline::OptionTable<O>()
           .Add("tolerance_px", &O::tolerance_px,
-               "rows further apart than this anywhere in the frame widen each hedge's interval by what they can cost, "
-               "with a warning",
+               "rows further apart than this around a hedge, or in the plane through the frame, widen the hedge's "
+               "interval by what they can cost, with a warning",
                "px")
           .Range(0, 10)
           .Add("unusable_px", &O::unusable_px,
@@ -293,9 +293,9 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
   for (const HedgeMatch& h : all) {
     pipeline::InputCheck check;
     const cv::Rect box = HedgeBox(h, labels, mask, size);
-    double near_rows = 0, near_off = 0;
+    double near_rows = 0;
     if (measured) {
-      rows.Around(box, &near_rows, &near_off);
+      near_rows = rows.Around(box);
     } else if (h.vertical.samples > 0) {
       near_rows = h.vertical_max_px;
     }

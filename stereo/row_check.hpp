@@ -49,9 +49,9 @@ struct RowAgreement {
   cv::Rect CellRect(int cx, int cy) const {
     return {cx * size.width / kCellsX, cy * size.height / kCellsY, size.width / kCellsX, size.height / kCellsY};
   }
-  /// The cells that meet `box` grown by its own size on every side: a hedge's surroundings.
-  /// The largest |median dy| and |off-plane| there (0 when no cell speaks).
-  void Around(const cv::Rect& box, double* rows_px, double* off_plane_px) const;
+  /// The largest |median dy| of the cells that meet `box` grown by its own size on every side (a
+  /// hedge's surroundings); 0 when no cell there speaks.
+  double Around(const cv::Rect& box) const;
 };
 
 /// The round trip (left -> right -> left) a tracked corner must close within, px at half size:
