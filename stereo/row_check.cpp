@@ -78,6 +78,65 @@ VerticalDisparity FitPlane(const std::vector<RowSample>& s, cv::Size size) {
   return p;
 }
 
+// A periodic texture (a brick wall, a fence, tiles, a trellis) tracks to the next brick over, or
+// the next course up, as readily as to its match; and the next brick over is not on quite the same
+// row (perspective), so a wall "reads" rows a pixel apart on a rig that fits. A tracked corner
+// counts only when its match is unique along its row: normalised cross-correlation of the tracking
+// window (15 x 15 at half size) along the match's row (within a pixel, kTwinReachPx either side),
+// and no second peak, beyond the slopes of the match's own, within kTwinMargin of it. A match
+// more than kTwinRowPx off its own row must also have no such twin on that row (within a pixel):
+// a real drift of a few pixels leaves none on leaves, lawn or gravel.
+constexpr int kTwinReachPx = 40;  // half size: the 80 px either side of the match in full size
+constexpr double kTwinMargin = 0.05, kTwinRowPx = 3.0;
+
+// The best correlation of `tpl` centred on each column of [x - reach, x + reach] (clipped to the
+// image) within a pixel of row `y` of `img`; `*first` is the column of the first. Empty when the
+// band leaves the image above or below.
+std::vector<float> CorrelationAlongRow(const cv::Mat& img, const cv::Mat& tpl, int x, int y, int* first) {
+  const int hw = tpl.cols / 2, hh = tpl.rows / 2;
+  const int x0 = std::max(hw, x - kTwinReachPx), x1 = std::min(img.cols - 1 - hw, x + kTwinReachPx);
+  if (y - 1 - hh < 0 || y + 1 + hh >= img.rows || x1 < x0) return {};
+  cv::Mat ncc;
+  cv::matchTemplate(img(cv::Rect(x0 - hw, y - 1 - hh, x1 - x0 + tpl.cols, tpl.rows + 2)), tpl, ncc, cv::TM_CCOEFF_NORMED);
+  std::vector<float> best(std::size_t(ncc.cols), -1.0f);
+  for (int r = 0; r < ncc.rows; ++r) {
+    for (int c = 0; c < ncc.cols; ++c) best[std::size_t(c)] = std::max(best[std::size_t(c)], ncc.at<float>(r, c));
+  }
+  *first = x0;
+  return best;
+}
+
+// Whether the half-size corner `at` of `left`, matched at `to` in `right`, has a twin (above).
+bool HasTwin(const cv::Mat& left, const cv::Mat& right, cv::Point2f at, cv::Point2f to) {
+  constexpr int kHalf = 7;
+  const cv::Point a(int(std::lround(at.x)), int(std::lround(at.y))), m(int(std::lround(to.x)), int(std::lround(to.y)));
+  const cv::Rect t(a.x - kHalf, a.y - kHalf, 2 * kHalf + 1, 2 * kHalf + 1);
+  if ((t & cv::Rect(0, 0, left.cols, left.rows)) != t) return false;
+  const cv::Mat tpl = left(t);
+  int first = 0;
+  const std::vector<float> p = CorrelationAlongRow(right, tpl, m.x, m.y, &first);
+  const int n = int(p.size());
+  if (m.x - first < 0 || m.x - first >= n) return false;
+  // The match's peak (within 2 px of where tracking put it) and its hill: the slopes down from it.
+  int peak = m.x - first;
+  for (int k = std::max(0, m.x - first - 2); k <= std::min(n - 1, m.x - first + 2); ++k) {
+    if (p[std::size_t(k)] > p[std::size_t(peak)]) peak = k;
+  }
+  int lo = peak, hi = peak;
+  while (lo > 0 && p[std::size_t(lo - 1)] <= p[std::size_t(lo)]) --lo;
+  while (hi + 1 < n && p[std::size_t(hi + 1)] <= p[std::size_t(hi)]) ++hi;
+  const float match = p[std::size_t(peak)];
+  for (int k = 0; k < n; ++k) {
+    if ((k < lo || k > hi) && p[std::size_t(k)] >= match - kTwinMargin) return true;
+  }
+  if (std::abs(2.0 * (to.y - at.y)) > kTwinRowPx) {
+    for (const float v : CorrelationAlongRow(right, tpl, m.x, a.y, &first)) {
+      if (v >= match - kTwinMargin) return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
@@ -120,6 +179,7 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
       if (cv::norm(back[i] - corners[i]) > kRoundTripPx) continue;
       const double d0 = 2.0 * (corners[i].x - there[i].x), dy0 = 2.0 * (there[i].y - corners[i].y);
       if (d0 < -1.0 || d0 > max_disparity_px + 2.0) continue;  // behind the cameras or nearer than searched
+      if (HasTwin(hl, hr, corners[i], there[i])) continue;  // a periodic texture: no one match
       const int x = int(std::lround(2 * corners[i].x)), y = int(std::lround(2 * corners[i].y));
       const cv::Rect lroi(x - kLeftHalf, y - kLeftHalf, 2 * kLeftHalf + 1, 2 * kLeftHalf + 1);
       const cv::Rect rroi(int(std::lround(x - d0)) - kRightHalf, int(std::lround(y + dy0)) - kRightHalf,
