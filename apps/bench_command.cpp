@@ -1,7 +1,8 @@
 // hedgefit bench lab and bench garden: parse their flags and run bench/lab_bench.hpp and bench/garden_bench.hpp.
 
 #include "apps/commands.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
+#include "cli/stage_flags.hpp"
 #include "cloud/cleaning.hpp"
 #include "bench/garden_bench.hpp"
 #include "bench/lab_bench.hpp"
@@ -39,64 +40,24 @@ void AddLabBench(CLI::App* bench, CommandFn* run) {
       "cloud, as the paper fits it), the garden's --clean.\n");
   struct Args {
     bench::LabOptions lab;
+    StageFlags flags;  // bench::LabOptions::Table()'s options
     bool clean = false;
-    std::string pipeline;
-    std::string json;
+    std::string pipeline, json;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("--dir", a->lab.dir, "where the simulated captures go")->capture_default_str();
-  cmd->add_option("--scale", a->lab.scale, "image scale of the simulated rig")->check(CLI::Range(0.25, 2.0))->capture_default_str();
-  cmd->add_option("--erode", a->lab.convert.segment.erode_px, "mask erosion, px (drops the silhouette ring)")
-      ->check(CLI::Range(0, 200))
-      ->capture_default_str();
-  cmd->add_option("--refine-radius", a->lab.convert.match.sgbm.refine_radius,
-                  "sub-pixel refinement window half-size, px (0 = off)")
-      ->check(CLI::Range(0, 15))
-      ->capture_default_str();
-  cmd->add_option("--refine-curvature", a->lab.convert.match.sgbm.refine_curvature,
-                  "curvature correction grid half-size, steps of 2 px (0 = off)")
-      ->check(CLI::Range(0, 10))
-      ->capture_default_str();
-  cmd->add_option("--alpha", a->lab.alpha,
-                  "rectification scaling (0 = only valid pixels, -1 = OpenCV's default): a rectified focal length "
-                  "that differs from the camera's varies the resampling phase over the hedge")
-      ->check(CLI::Range(-1.0, 1.0))
-      ->capture_default_str();
-  cmd->add_flag("--reuse", a->lab.reuse, "reuse captures already in --dir");
-  cmd->add_flag("--wide-boards", a->lab.wide_boards,
-                "also calibrate from 12 boards near the image's edges (simulate --preset wide-boards; rendered if missing)");
-  cmd->add_flag("--true-rig", a->lab.true_rig,
-                "use the simulator's exact rig instead of calibrating from the boards (separates calibration "
-                "error from matching error)");
-  cmd->add_option("--renderer", a->lab.renderer,
-                  "hedgefit (its own simulator) or povray (an independent ray tracer: its own camera, textures, "
-                  "lights, anti-aliasing)")
-      ->check(CLI::IsMember({"hedgefit", "povray"}))
-      ->capture_default_str();
-  cmd->add_option("--camera", a->lab.camera,
-                  "ideal (as rendered) or real (gains, white balance, vignetting, Bayer, shot and read noise per camera)")
-      ->check(CLI::IsMember({"ideal", "real"}))
-      ->capture_default_str();
-  cmd->add_option("--noise-draws", a->lab.noise_draws,
-                  "with --camera real: record each sphere N times, each with its own draw of the cameras' noise (the "
-                  "same render and calibration), and summarise over all of them with the spread of one draw's 7 "
-                  "captures; the as-rendered spheres are kept in --dir/as_rendered")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
-  cmd->add_option("--camera-without", a->lab.camera_without,
-                  "with --camera real: leave these camera effects (gains, vignetting, bayer, noise, jpeg; comma-separated) "
-                  "out of the spheres' pairs to see what each costs; the boards, and so the calibration, keep them all")
-      ->delimiter(',');
+  const auto specs = bench::LabOptions::Table().Specs();
+  a->flags.Add(cmd, specs, {"dir", "scale", "reuse", "wide_boards", "renderer", "camera", "noise_draws", "camera_without"}, "Captures");
+  a->flags.Add(cmd, specs, {}, "Measuring");
   auto* clean = cmd->add_flag("--clean,!--no-clean", a->clean,
-                               "clean each capture's cloud as `measure` and `compare` do by default before the "
-                               "fits (default --no-clean: they see the matcher's cloud)");
+                              "clean each capture's cloud as `measure` and `compare` do by default before the fits "
+                              "(default --no-clean: they see the matcher's cloud)")->group("Measuring");
   cmd->add_option("--pipeline", a->pipeline, "clean each capture's cloud with this JSON array of filter stages instead")
-      ->excludes(clean);
-  cmd->add_option("--json", a->json, "also write the table as JSON here");
-  GroupFlags(cmd, {{"Captures", {"--dir", "--scale", "--reuse", "--wide-boards", "--renderer", "--camera", "--noise-draws", "--camera-without"}}, {"Measuring", {"--erode", "--refine-radius", "--refine-curvature", "--alpha", "--true-rig", "--clean", "--pipeline"}}, {"Output", {"--json"}}});
+      ->excludes(clean)->group("Measuring");
+  cmd->add_option("--json", a->json, "also write the table as JSON here")->group("Output");
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);  // the captures run through the registry a plugin matcher joins
+      bench::LabOptions::Table().Apply(a->flags.Given(), &a->lab);
       if (a->clean) a->lab.cleaning = cloud::DefaultCleaningJson();
       if (!a->pipeline.empty()) a->lab.cleaning = ReadFilterStagesFile(a->pipeline);
       const bench::LabResult result = bench::RunLab(a->lab);
@@ -122,44 +83,26 @@ void AddGardenBench(CLI::App* bench, CommandFn* run) {
       "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n");
   struct GardenArgs {
     bench::GardenOptions garden;
+    StageFlags flags;  // bench::GardenOptions::Table()'s options
     bool clean = true;
-    std::string pipeline;
-    std::string json;
+    std::string pipeline, json;
   };
   auto ga = std::make_shared<GardenArgs>();
-  g->add_option("--dir", ga->garden.dir, "where the simulated captures go")->capture_default_str();
-  g->add_option("--scale", ga->garden.scale, "image scale of the simulated rig")->check(CLI::Range(0.25, 2.0))->capture_default_str();
-  g->add_flag("--reuse", ga->garden.reuse, "reuse captures already in --dir");
-  g->add_option("--renderer", ga->garden.renderer,
-                "hedgefit (its own ray caster, a noise-shaded leaf shell) or povray (POV-Ray, hedges of leaf discs)")
-      ->check(CLI::IsMember({"hedgefit", "povray"}))
-      ->capture_default_str();
-  g->add_option("--camera", ga->garden.camera,
-                "povray: ideal, or real (per-camera noise, gains, white balance, vignetting, Bayer)")
-      ->check(CLI::IsMember({"ideal", "real"}))
-      ->capture_default_str();
-  auto* hard = g->add_flag("--hard", ga->garden.hard,
-              "the harder gardens instead: two balls with the hedge row between them, a low and a high camera, the "
-              "smallest ball farthest, the largest nearest, one near each edge of the image, one cut by it, three touching in a row, one among other shrubs");
-  g->add_option("--random", ga->garden.random,
-                "N gardens drawn from seeds 1..N instead (random1 ...): one to three balls of the issue's range side by "
-                "side, a camera 0.9-1.4 m up, sometimes a shrub")
-      ->check(CLI::Range(0, 200))
-      ->excludes(hard);
-  g->add_option("--garden-refine-curvature", ga->garden.convert.match.garden_refine_curvature,
-                "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
-      ->check(CLI::Range(0, 10))
-      ->capture_default_str();
+  const auto specs = bench::GardenOptions::Table().Specs();
+  ga->flags.Add(g, specs, {"dir", "scale", "reuse", "renderer", "camera", "hard", "random"}, "Captures");
+  ga->flags.Add(g, specs, {}, "Measuring");
   auto* clean = g->add_flag("--clean,!--no-clean", ga->clean,
                             "clean each capture's cloud as `compare` does (the default), or with --no-clean fit it as "
-                            "the matcher gives it");
+                            "the matcher gives it")->group("Measuring");
   g->add_option("--pipeline", ga->pipeline, "clean each capture's cloud with this JSON array of filter stages instead")
-      ->excludes(clean);
-  g->add_option("--json", ga->json, "also write the tables as JSON here");
-  GroupFlags(g, {{"Captures", {"--dir", "--scale", "--reuse", "--renderer", "--camera", "--hard", "--random"}}, {"Measuring", {"--garden-refine-curvature", "--clean", "--pipeline"}}, {"Output", {"--json"}}});
+      ->excludes(clean)->group("Measuring");
+  g->add_option("--json", ga->json, "also write the tables as JSON here")->group("Output");
   g->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
+      const auto given = ga->flags.Given();
+      if (given.count("hard") && given.count("random")) throw Error("--hard and --random: give one set of gardens");
+      bench::GardenOptions::Table().Apply(given, &ga->garden);
       if (!ga->clean) ga->garden.cleaning = "[]";
       if (!ga->pipeline.empty()) ga->garden.cleaning = ReadFilterStagesFile(ga->pipeline);
       const bench::GardenResult result = bench::RunGarden(ga->garden);

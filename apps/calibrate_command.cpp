@@ -3,10 +3,10 @@
 
 #include <iostream>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "pipeline/output_check.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 #include "stereo/calibration_report.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/rig.hpp"

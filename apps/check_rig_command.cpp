@@ -6,9 +6,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/rig_check.hpp"
 #include "stereo/rig.hpp"

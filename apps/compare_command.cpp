@@ -4,11 +4,11 @@
 
 #include <iostream>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "pipeline/output_check.hpp"
-#include "apps/parse.hpp"
-#include "apps/stage_flags.hpp"
+#include "cli/parse.hpp"
+#include "cli/stage_flags.hpp"
 #include "cloud/cleaning.hpp"
 #include "cloud/cloud_io.hpp"
 #include "eval/compare.hpp"

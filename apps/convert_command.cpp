@@ -1,18 +1,15 @@
 // hedgefit convert: stereo captures -> PCD files (rectify, segment, match, reproject). Around
 // each capture's pipeline: stereo/capture_batch.hpp.
 
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <mutex>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "cloud/cloud_io.hpp"
-#include "apps/parse.hpp"
-#include "pipeline/parallel.hpp"
+#include "cli/parse.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
 #include "stereo/capture.hpp"
@@ -30,86 +27,6 @@ struct ConvertArgs {
   int threads = 0;
   bool debug = false, quiet = false, print_pipeline = false;
   CaptureFlags capture;
-};
-
-// Converts the captures in parallel, printing a line per capture; a failure in a batch is
-// reported and skipped, in a single capture it is the run's error.
-class Converter {
- public:
-  Converter(const ConvertArgs& a, const stereo::ConvertOptions& o, std::vector<stereo::CaptureFiles> captures)
-      : a_(a), o_(o), captures_(std::move(captures)), single_(!a.left.empty()) {}
-
-  int Run() {
-    const auto t0 = std::chrono::steady_clock::now();
-    pipeline::ParallelFor(captures_.size(), a_.threads, 1, [&](std::size_t b, std::size_t e) {
-      for (std::size_t k = b; k < e; ++k) One(captures_[k]);
-    });
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (single_ && failed_) {
-      if (first_error_is_input_) throw InputError(first_error_);
-      throw ProcessingError(first_error_);
-    }
-    if (!a_.quiet) {
-      std::printf("converted %zu of %zu captures in %.1f s (%.2f s per capture)%s\n", captures_.size() - failed_,
-                  captures_.size(), s, s / double(captures_.size()),
-                  failed_ ? "; the skipped ones are listed on stderr" : "");
-    }
-    if (failed_) return kExitProcessing;
-    return unusable_ ? kExitUnusable : kExitOk;
-  }
-
- private:
-  void One(const stereo::CaptureFiles& c) {
-    const std::string out = stereo::PerHedgePath(
-        single_ ? a_.output : (fs::path(a_.output_dir) / (c.name + ".pcd")).string(), a_.capture.garden());
-    std::string line;
-    try {
-      // The very pipeline `--print-pipeline` shows.
-      pipeline::Pipeline p = pipeline::Pipeline::FromJson(stereo::CapturePipelineJson(o_, c.left, c.right, a_.rig, out),
-                                                          "convert", pipeline::Registry::Global());
-      pipeline::Context ctx;
-      ctx.quiet = true;
-      const pipeline::RunReport report = p.Run(ctx);
-      if (a_.debug) {
-        stereo::WriteDebugPictures((fs::path(out).parent_path() / stereo::StemWithoutHedgeMark(out)).string(), ctx);
-      }
-      line = stereo::CaptureSummary(c.name, out, ctx, report);
-      if (const std::string hint = stereo::CaptureHint(ctx); !hint.empty()) {
-        std::lock_guard<std::mutex> lock(io_);
-        std::fprintf(stderr, "hedgefit: warning: %s: %s\n", c.name.c_str(), hint.c_str());
-      }
-      if (stereo::CaptureUnusable(ctx)) ++unusable_;
-    } catch (const std::exception& e) {
-      std::lock_guard<std::mutex> lock(io_);
-      ++failed_;
-      ++done_;
-      if (single_) {
-        first_error_ = c.name + ": " + e.what();
-        first_error_is_input_ = dynamic_cast<const InputError*>(&e) != nullptr;
-      } else {
-        // Failures go to stderr even with --quiet: quiet hides progress, not problems.
-        std::fprintf(stderr, "[%zu/%zu] %s: skipped: %s\n", done_, captures_.size(), c.name.c_str(), e.what());
-      }
-      return;
-    }
-    std::lock_guard<std::mutex> lock(io_);
-    ++done_;
-    if (!a_.quiet) {
-      std::printf("[%zu/%zu] %s\n", done_, captures_.size(), line.c_str());
-      std::fflush(stdout);
-    }
-  }
-
-  const ConvertArgs& a_;
-  const stereo::ConvertOptions& o_;
-  const std::vector<stereo::CaptureFiles> captures_;
-  const bool single_;
-  std::mutex io_;
-  std::string first_error_;
-  bool first_error_is_input_ = false;  // a damaged image: bad input (exit 1), not a failure
-  std::size_t done_ = 0;
-  std::size_t failed_ = 0;
-  std::atomic<std::size_t> unusable_{0};  ///< captures whose rig check found the rig unfit
 };
 
 int RunConvert(const ConvertArgs& a) {
@@ -138,7 +55,40 @@ int RunConvert(const ConvertArgs& a) {
     fs::create_directories(a.output_dir);
   }
   if (!a.shard.empty()) captures = stereo::Shard(captures, a.shard);
-  return Converter(a, o, std::move(captures)).Run();
+  // A line per capture; a failure in a batch is reported and skipped, in a single capture it is
+  // the run's error. Failures go to stderr even with --quiet: quiet hides progress, not problems.
+  std::size_t done = 0, failed = 0, unusable = 0;
+  stereo::CaptureOutcome first_failure;
+  const auto output_of = [&](const stereo::CaptureFiles& c) {
+    return stereo::PerHedgePath(single ? a.output : (fs::path(a.output_dir) / (c.name + ".pcd")).string(),
+                                a.capture.garden());
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  stereo::ConvertCaptures(o, captures, a.rig, output_of, a.debug, a.threads, [&](const stereo::CaptureOutcome& c) {
+    const char* name = c.capture->name.c_str();
+    ++done;
+    if (!c.error.empty()) {
+      ++failed;
+      if (single) first_failure = c;
+      else std::fprintf(stderr, "[%zu/%zu] %s: skipped: %s\n", done, captures.size(), name, c.error.c_str());
+      return;
+    }
+    if (!c.hint.empty()) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", name, c.hint.c_str());
+    unusable += c.unusable;
+    if (!a.quiet) std::printf("[%zu/%zu] %s\n", done, captures.size(), c.summary.c_str());
+    std::fflush(stdout);
+  });
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (single && failed) {
+    const std::string message = first_failure.capture->name + ": " + first_failure.error;
+    if (first_failure.input_error) throw InputError(message);
+    throw ProcessingError(message);
+  }
+  if (!a.quiet) {
+    std::printf("converted %zu of %zu captures in %.1f s (%.2f s per capture)%s\n", captures.size() - failed,
+                captures.size(), s, s / double(captures.size()), failed ? "; the skipped ones are listed on stderr" : "");
+  }
+  return failed ? kExitProcessing : unusable ? kExitUnusable : kExitOk;
 }
 
 }  // namespace

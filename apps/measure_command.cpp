@@ -8,12 +8,12 @@
 #include <memory>
 #include <string>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "pipeline/output_check.hpp"
 #include "stereo/stereo_stages.hpp"
-#include "apps/parse.hpp"
-#include "apps/measure_lines.hpp"
+#include "cli/parse.hpp"
+#include "cli/measure_lines.hpp"
 #include "stereo/capture_batch.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"

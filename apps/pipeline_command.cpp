@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "apps/commands.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "pipeline/pipeline.hpp"
 

@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "apps/commands.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 #include "pipeline/registry_report.hpp"
 
 namespace hedgefit::apps {

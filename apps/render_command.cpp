@@ -5,12 +5,12 @@
 #include <fstream>
 #include <sstream>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "cloud/describe.hpp"
 #include "pipeline/output_check.hpp"
-#include "apps/stage_flags.hpp"
-#include "apps/parse.hpp"
+#include "cli/stage_flags.hpp"
+#include "cli/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "eval/compare.hpp"
 #include "eval/evaluation.hpp"

@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "apps/commands.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 #include "stereo/rig.hpp"
 
 namespace hedgefit::apps {

@@ -11,10 +11,10 @@
 #include <map>
 #include <string>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
-#include "apps/parse.hpp"
-#include "apps/measure_lines.hpp"
+#include "cli/parse.hpp"
+#include "cli/measure_lines.hpp"
 #include "stereo/capture_batch.hpp"
 #include "io/frame_source.hpp"
 #include "pipeline/pipeline.hpp"

@@ -8,10 +8,10 @@
 #include <memory>
 #include <string>
 
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "pipeline/output_check.hpp"
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 #include "cloud/cloud_io.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"

@@ -24,6 +24,33 @@ namespace hedgefit::bench {
 
 GardenOptions::GardenOptions() : cleaning(cloud::DefaultCleaningJson()) { convert.mode = stereo::SegmentMode::kGarden; }
 
+const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
+  using O = GardenOptions;
+  static const auto table =
+      pipeline::OptionTable<O>()
+          .Add("dir", &O::dir, "where the simulated captures go")
+          .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
+          .Range(0.25, 2.0)
+          .Add("reuse", &O::reuse, "reuse captures already in --dir")
+          .Add("renderer", &O::renderer,
+               "hedgefit (its own ray caster, a noise-shaded leaf shell) or povray (POV-Ray, hedges of leaf discs)")
+          .Choices({"hedgefit", "povray"})
+          .Add("camera", &O::camera, "povray: ideal, or real (per-camera noise, gains, white balance, vignetting, Bayer)")
+          .Choices({"ideal", "real"})
+          .Add("hard", &O::hard,
+               "the harder gardens instead: two balls with the hedge row between them, a low and a high camera, the "
+               "smallest ball farthest, the largest nearest, one near each edge of the image, one cut by it, three "
+               "touching in a row, one among other shrubs")
+          .Add("random", &O::random,
+               "N gardens drawn from seeds 1..N instead (random1 ...): one to three balls of the issue's range side by "
+               "side, a camera 0.9-1.4 m up, sometimes a shrub (not with --hard)")
+          .Range(0, 200)
+          .Bind<int>("garden_refine_curvature", [](O& o) -> int& { return o.convert.match.garden_refine_curvature; },
+                     "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
+          .Range(0, 10);
+  return table;
+}
+
 namespace {
 
 double Ms(std::chrono::steady_clock::time_point t0) {

@@ -14,6 +14,7 @@
 
 #include "eval/evaluation.hpp"
 #include "cloud/cleaning.hpp"
+#include "pipeline/option_table.hpp"
 #include "stereo/capture.hpp"
 #include "sim/simulator.hpp"
 
@@ -33,6 +34,8 @@ struct GardenOptions {
   /// user gets; "[]" fits the matcher's cloud as it is.
   std::string cleaning;
   GardenOptions();
+  /// The options a user sets (`hedgefit bench garden`'s flags), declared once.
+  static const pipeline::OptionTable<GardenOptions>& Table();
 };
 
 struct GardenHedgeRow {

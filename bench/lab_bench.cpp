@@ -1,4 +1,6 @@
 #include "bench/lab_bench.hpp"
+
+#include <sstream>
 #include "cloud/cleaning.hpp"
 
 #include <nlohmann/json.hpp>
@@ -23,6 +25,64 @@
 namespace hedgefit::bench {
 
 LabOptions::LabOptions() : alpha(stereo::CalibrationOptions{}.alpha) {}
+
+const pipeline::OptionTable<LabOptions>& LabOptions::Table() {
+  using O = LabOptions;
+  static const auto table =
+      pipeline::OptionTable<O>()
+          .Add("dir", &O::dir, "where the simulated captures go")
+          .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
+          .Range(0.25, 2.0)
+          .Add("reuse", &O::reuse, "reuse captures already in --dir")
+          .Add("wide_boards", &O::wide_boards,
+               "also calibrate from 12 boards near the image's edges (simulate --preset wide-boards; rendered if missing)")
+          .Add("renderer", &O::renderer,
+               "hedgefit (its own simulator) or povray (an independent ray tracer: its own camera, textures, lights, "
+               "anti-aliasing)")
+          .Choices({"hedgefit", "povray"})
+          .Add("camera", &O::camera,
+               "ideal (as rendered) or real (gains, white balance, vignetting, Bayer, shot and read noise per camera)")
+          .Choices({"ideal", "real"})
+          .Add("noise_draws", &O::noise_draws,
+               "with --camera real: record each sphere N times, each with its own draw of the cameras' noise (the "
+               "same render and calibration), and summarise over all of them with the spread of one draw's 7 "
+               "captures; the as-rendered spheres are kept in --dir/as_rendered")
+          .Range(1, 100)
+          .AddCustom(
+              "camera_without", pipeline::OptionType::kString,
+              "with --camera real: leave these camera effects (gains, vignetting, bayer, noise, jpeg; comma-separated) "
+              "out of the spheres' pairs to see what each costs; the boards, and so the calibration, keep them all",
+              "",
+              [](const O& o) -> pipeline::OptionValue {
+                std::string text;
+                for (const auto& e : o.camera_without) text += (text.empty() ? "" : ",") + e;
+                return text;
+              },
+              [](O& o, const pipeline::OptionValue& v) {
+                o.camera_without.clear();
+                std::stringstream in(std::get<std::string>(v));
+                for (std::string e; std::getline(in, e, ',');) {
+                  if (!e.empty()) o.camera_without.push_back(e);
+                }
+              })
+          .Bind<int>("erode", [](O& o) -> int& { return o.convert.segment.erode_px; },
+                     "mask erosion (drops the silhouette ring)", "px")
+          .Range(0, 200)
+          .Bind<int>("refine_radius", [](O& o) -> int& { return o.convert.match.sgbm.refine_radius; },
+                     "sub-pixel refinement window half-size (0 = off)", "px")
+          .Range(0, 15)
+          .Bind<int>("refine_curvature", [](O& o) -> int& { return o.convert.match.sgbm.refine_curvature; },
+                     "curvature correction grid half-size, steps of 2 px (0 = off)")
+          .Range(0, 10)
+          .Add("alpha", &O::alpha,
+               "rectification scaling (0 = only valid pixels, -1 = OpenCV's default): a rectified focal length that "
+               "differs from the camera's varies the resampling phase over the hedge")
+          .Range(-1.0, 1.0)
+          .Add("true_rig", &O::true_rig,
+               "use the simulator's exact rig instead of calibrating from the boards (separates calibration error "
+               "from matching error)");
+  return table;
+}
 
 namespace {
 

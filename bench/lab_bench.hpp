@@ -11,6 +11,7 @@
 
 #include "eval/evaluation.hpp"
 #include "cloud/cleaning.hpp"
+#include "pipeline/option_table.hpp"
 #include "stereo/capture.hpp"
 
 namespace hedgefit::bench {
@@ -44,6 +45,8 @@ struct LabOptions {
   /// default) fits the matcher's cloud as it is, cloud::DefaultCleaningJson() what `measure` does.
   std::string cleaning;
   LabOptions();
+  /// The options a user sets (`hedgefit bench lab`'s flags), declared once.
+  static const pipeline::OptionTable<LabOptions>& Table();
 };
 
 struct LabRow {

@@ -1,4 +1,4 @@
-#include "apps/capture_flags.hpp"
+#include "cli/capture_flags.hpp"
 #include "cloud/cleaning.hpp"
 
 #include <algorithm>
@@ -13,7 +13,7 @@
 #include "stereo/image_io.hpp"
 #include "stereo/stereo_stages.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 void CaptureFlags::Add(CLI::App* cmd) {
   const std::string find = "Finding the hedge", match = "Matching (stereo.sgbm)",
@@ -95,4 +95,4 @@ nlohmann::json DefaultCleaning() {
   return nlohmann::json::parse(cloud::DefaultCleaningJson());
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "apps/stage_flags.hpp"
+#include "cli/stage_flags.hpp"
 #include "cloud/cleaning.hpp"
 #include "pipeline/registry.hpp"
 #include "stereo/capture.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 class CaptureFlags {
  public:
@@ -38,4 +38,4 @@ class CaptureFlags {
 /// cloud::DefaultCleaningJson() as JSON: the cleaning `compare` and `trim` apply by default.
 nlohmann::json DefaultCleaning();
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

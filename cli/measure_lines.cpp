@@ -1,4 +1,4 @@
-#include "apps/measure_lines.hpp"
+#include "cli/measure_lines.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -8,7 +8,7 @@
 #include "fitting/sphere_fit.hpp"
 #include "stereo/depth_segmentation.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 using json = nlohmann::ordered_json;
 
@@ -56,4 +56,4 @@ MeasureLines CollectMeasureLines(pipeline::Context& ctx, const pipeline::RunRepo
   return out;
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

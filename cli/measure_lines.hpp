@@ -10,7 +10,7 @@
 
 #include "pipeline/pipeline.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 struct MeasureLines {
   std::vector<nlohmann::ordered_json> lines;  ///< one per fit, in the pipeline's order
@@ -25,4 +25,4 @@ nlohmann::ordered_json Rounded(const nlohmann::ordered_json& value);
 
 MeasureLines CollectMeasureLines(pipeline::Context& ctx, const pipeline::RunReport& report);
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

@@ -1,11 +1,11 @@
-#include "apps/parse.hpp"
+#include "cli/parse.hpp"
 
 #include <cmath>
 #include <sstream>
 
 #include "pipeline/error.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 std::pair<int, int> ParseCount2(const std::string& text, const std::string& flag, int min, const std::string& what,
                                 const std::string& example) {
@@ -42,4 +42,4 @@ void GroupFlags(CLI::App* cmd, const std::vector<std::pair<std::string, std::vec
   }
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

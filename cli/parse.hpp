@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 /// "640x480" (or "640X480") -> {640, 480}; each at least `min`. `what` and `example` make the
 /// message: "--size '64x': give WIDTHxHEIGHT in px, e.g. 640x480".
@@ -35,4 +35,4 @@ inline CLI::Validator Seed() {
 /// and the docs test, which runs every --help, fails).
 void GroupFlags(CLI::App* cmd, const std::vector<std::pair<std::string, std::vector<std::string>>>& groups);
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

@@ -1,11 +1,11 @@
-#include "apps/commands.hpp"
+#include "cli/run.hpp"
 #include "cloud/cloud_stages.hpp"
 #include "pipeline/plugin.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "render/render_stages.hpp"
 #include "stereo/stereo_stages.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 void PrepareRegistry(bool load_plugins) {
   pipeline::Registry& registry = pipeline::Registry::Global();
@@ -16,4 +16,4 @@ void PrepareRegistry(bool load_plugins) {
   if (load_plugins) pipeline::LoadPlugins(registry, pipeline::PluginSearchPath());
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

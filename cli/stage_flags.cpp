@@ -1,10 +1,10 @@
-#include "apps/stage_flags.hpp"
+#include "cli/stage_flags.hpp"
 
 #include <algorithm>
 
 #include "pipeline/option_table.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 namespace {
 
@@ -16,14 +16,28 @@ std::string Help(const pipeline::OptionSpec& spec) {
     for (const auto& c : spec.choices) list += (list.empty() ? "" : "|") + c;
     out += " (" + list + ")";
   }
-  if (spec.type != pipeline::OptionType::kBool) out += " [default " + pipeline::ToString(spec.default_value) + "]";
+  // No default shown for an option that is unset by default (an empty text or list).
+  const auto* text = std::get_if<std::string>(&spec.default_value);
+  const auto* list = std::get_if<std::vector<double>>(&spec.default_value);
+  if (spec.type != pipeline::OptionType::kBool && !(text && text->empty()) && !(list && list->empty())) {
+    out += " [default " + pipeline::ToString(spec.default_value) + "]";
+  }
   return out;
+}
+
+// What --help shows after the flag: the kind of value it takes.
+std::string TypeName(const pipeline::OptionSpec& spec) {
+  switch (spec.type) {
+    case pipeline::OptionType::kInt: return "INT";
+    case pipeline::OptionType::kDouble: return "FLOAT";
+    case pipeline::OptionType::kDoubleList: return "X,Y,...";
+    default: return "TEXT";
+  }
 }
 
 }  // namespace
 
 std::string AsFlagMessage(const std::string& msg) {
-  if (msg.rfind("option '", 0) != 0) return msg;
   // Every option the message names, as the command line spells it ("... beyond option 'min_z'").
   std::string out;
   std::size_t at = 0;
@@ -53,7 +67,7 @@ void StageFlags::Add(CLI::App* cmd, const std::vector<pipeline::OptionSpec>& spe
       flag->text = def ? "false" : "true";
       flag->option = cmd->add_flag(switch_name)->description(def ? "turn off: " + spec.help : spec.help);
     } else {
-      flag->option = cmd->add_option(name, flag->text, Help(spec));
+      flag->option = cmd->add_option(name, flag->text, Help(spec))->type_name(TypeName(spec));
     }
     if (!group.empty()) flag->option->group(group);
     flags_.push_back(std::move(flag));
@@ -80,4 +94,4 @@ std::map<std::string, pipeline::OptionValue> StageFlags::For(const std::vector<p
   return out;
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

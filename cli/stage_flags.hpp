@@ -12,10 +12,10 @@
 
 #include "pipeline/stage.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::cli {
 
 /// "option 'block_size': why" -> "--block-size: why": a declaration's message as the command
-/// line spells the option. Other messages are returned as they are.
+/// line spells each option it names. Other messages are returned as they are.
 std::string AsFlagMessage(const std::string& message);
 
 class StageFlags {
@@ -43,4 +43,4 @@ class StageFlags {
   std::vector<std::unique_ptr<Flag>> flags_;
 };
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::cli

@@ -136,6 +136,14 @@ class OptionTable {
     return p;
   }
 
+  /// Sets the options in `given` (already checked: CheckOptionValue) on `p`, leaving the rest.
+  void Apply(const std::map<std::string, OptionValue>& given, P* p) const {
+    for (const auto& b : bindings_) {
+      auto it = given.find(b.spec.name);
+      if (it != given.end()) b.set(*p, it->second);
+    }
+  }
+
   /// The struct's values as options, e.g. to build a stage from a struct.
   std::map<std::string, OptionValue> Values(const P& p) const {
     std::map<std::string, OptionValue> out;

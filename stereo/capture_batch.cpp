@@ -7,11 +7,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 
 #include "cloud/point_cloud.hpp"
 #include "pipeline/error.hpp"
 #include "pipeline/input_check.hpp"
+#include "pipeline/parallel.hpp"
+#include "pipeline/registry.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/segmentation.hpp"
@@ -230,6 +233,36 @@ bool CaptureUnusable(pipeline::Context& ctx) {
   const auto* checks = ctx.Find<pipeline::InputChecks>("input_checks");
   if (!checks) return false;
   return std::any_of(checks->begin(), checks->end(), [](const auto& c) { return !c.second.unusable.empty(); });
+}
+
+void ConvertCaptures(const ConvertOptions& o, const std::vector<CaptureFiles>& captures, const std::string& rig,
+                     const std::function<std::string(const CaptureFiles&)>& output_of, bool debug, int threads,
+                     const std::function<void(const CaptureOutcome&)>& done) {
+  std::mutex report;
+  pipeline::ParallelFor(captures.size(), threads, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) {
+      CaptureOutcome c;
+      c.capture = &captures[k];
+      c.output = output_of(captures[k]);
+      try {
+        pipeline::Pipeline p = pipeline::Pipeline::FromJson(
+            CapturePipelineJson(o, captures[k].left, captures[k].right, rig, c.output), "convert",
+            pipeline::Registry::Global());
+        pipeline::Context ctx;
+        ctx.quiet = true;
+        const pipeline::RunReport run = p.Run(ctx);
+        if (debug) WriteDebugPictures((fs::path(c.output).parent_path() / StemWithoutHedgeMark(c.output)).string(), ctx);
+        c.summary = CaptureSummary(captures[k].name, c.output, ctx, run);
+        c.hint = CaptureHint(ctx);
+        c.unusable = CaptureUnusable(ctx);
+      } catch (const std::exception& ex) {
+        c.error = ex.what();
+        c.input_error = dynamic_cast<const InputError*>(&ex) != nullptr;
+      }
+      std::lock_guard<std::mutex> lock(report);
+      done(c);
+    }
+  });
 }
 
 }  // namespace hedgefit::stereo

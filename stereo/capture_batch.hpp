@@ -3,6 +3,7 @@
 /// a shard of them for one machine of several, the per-hedge output names, the debug pictures,
 /// the one-line summary of a converted capture, and the hints a run's user should act on.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,27 @@ namespace hedgefit::stereo {
 struct CaptureFiles {
   std::string name, left, right;
 };
+
+struct ConvertOptions;
+
+/// What became of one capture in ConvertCaptures.
+struct CaptureOutcome {
+  const CaptureFiles* capture = nullptr;
+  std::string output;      ///< the PCD path (with '#' for a hedge's id when there are several)
+  std::string summary;     ///< CaptureSummary's line when converted
+  std::string hint;        ///< CaptureHint's line, "" when nothing to act on
+  std::string error;       ///< why it failed; "" when converted
+  bool input_error = false;  ///< the failure is bad input (a damaged image), not processing
+  bool unusable = false;     ///< converted, but a check found it unusable (CaptureUnusable)
+};
+
+/// Converts each capture with the capture pipeline (CapturePipelineJson: the same that
+/// `--print-pipeline` shows) into `output_of(capture)`, `threads` at a time (0 = all cores),
+/// also writing the debug pictures when `debug`. `done` is called once per capture as it
+/// finishes, one call at a time; a failure is reported there, not thrown.
+void ConvertCaptures(const ConvertOptions& o, const std::vector<CaptureFiles>& captures, const std::string& rig,
+                     const std::function<std::string(const CaptureFiles&)>& output_of, bool debug, int threads,
+                     const std::function<void(const CaptureOutcome&)>& done);
 
 /// A directory's NAME_left.* / NAME_right.* pairs in name order, or a manifest's
 /// 'LEFT RIGHT [NAME]' lines (NAME defaults to LEFT's stem). Throws Error when there are none.
