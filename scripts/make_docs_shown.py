@@ -7,6 +7,12 @@ A shown output is a plain ``` block right after a marker line
     <!-- shown slow: COMMAND -->     run only with --slow (POV-Ray renders, long benches)
     <!-- shown fails: COMMAND -->    an error example: the command must exit non-zero
 
+or a Markdown table (lines starting with '|') right after
+
+    <!-- table: COMMAND -->  /  <!-- table slow: COMMAND -->
+
+whose COMMAND prints the table (scripts/accuracy_tables.py assembles the benches' JSON into one).
+
 COMMAND runs with bash from the repository's root, stdout and stderr together, and its output
 replaces the block. Markers run in file order, so a marker may use what an earlier one made
 (`simulate -o build/lab` before `calibrate --left 'build/lab/...'`). A command that fails (or
@@ -25,6 +31,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MARKER = re.compile(r"^([ \t]*)<!-- shown( slow| fails)?: (.*?) -->\n\1```[a-z]*\n(.*?)\1```\n", re.S | re.M)
+TABLE = re.compile(r"^<!-- table( slow)?: (.*?) -->\n((?:\|.*\n)+)", re.M)
 
 
 def pages(args):
@@ -65,7 +72,19 @@ def main():
             body = "".join(indent + line + "\n" for line in out.rstrip("\n").split("\n"))
             return f"{indent}<!-- shown{' ' + kind if kind else ''}: {command} -->\n{indent}```\n{body}{indent}```\n"
 
-        new = MARKER.sub(replace, text)
+        def replace_table(m):
+            kind, command = (m.group(1) or "").strip(), m.group(2)
+            if check:
+                print(f"{page.relative_to(ROOT)}: [table{' ' + kind if kind else ''}] {command}")
+                return m.group(0)
+            if kind == "slow" and not slow:
+                return m.group(0)
+            out = run(command, False)
+            if not all(line.startswith("|") for line in out.strip().split("\n")):
+                raise SystemExit(f"make_docs_shown: `{command}` printed something other than a Markdown table")
+            return f"<!-- table{' ' + kind if kind else ''}: {command} -->\n{out.strip()}\n"
+
+        new = TABLE.sub(replace_table, MARKER.sub(replace, text))
         if new != text:
             page.write_text(new)
             print(f"make_docs_shown: {page.relative_to(ROOT)}", file=sys.stderr)
