@@ -4,8 +4,10 @@
 #   README.md's quick start   runs the quick start's commands exactly as README.md gives them, in a
 #                             scratch folder, and puts their output between the quickstart markers;
 #   docs/quickstart_output.txt  the same output, whole;
-#   every <!-- shown: COMMAND --> block in README.md and docs/ (scripts/make_docs_shown.py; pass --slow
-#                             to also re-run the POV-Ray benches and bench_middlebury, about an hour).
+#   every <!-- shown: COMMAND --> block and <!-- table: COMMAND --> table in README.md and docs/
+#                             (scripts/make_docs_shown.py; pass --slow to also re-run the POV-Ray
+#                             benches, the accuracy tables (scripts/accuracy_tables.py) and
+#                             bench_middlebury: an hour or more, POV-Ray's renders when missing).
 # The pictures in docs/ come from scripts/make_docs_pictures.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
