@@ -202,7 +202,6 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
   const cv::Size size = gl.size();
   out.size = size;
   out.plane = FitPlane(out.samples, size);
-  if (out.plane.samples > 0) out.plane_max_px = out.plane.MaxAbs(size);
   // Each cell's median: where the rows disagree most, and how far from the plane.
   std::vector<std::vector<double>> dy(kCellsX * kCellsY);
   std::vector<cv::Point2d> at(kCellsX * kCellsY);
@@ -228,6 +227,7 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
     auto shrink = [se](double v) { return v > 0 ? std::max(0.0, v - 2 * se) : std::min(0.0, v + 2 * se); };
     const cv::Point2d centre = at[c] * (1.0 / double(dy[c].size()));
     const int cx = int(c) % kCellsX, cy = int(c) / kCellsX;
+    out.spoken = out.spoken.empty() ? out.CellRect(cx, cy) : (out.spoken | out.CellRect(cx, cy));
     out.cell_dy(cy, cx) = shrink(m);
     out.max_abs_px = std::max(out.max_abs_px, std::abs(shrink(m)));
     if (out.plane.samples > 0) {
@@ -236,6 +236,7 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
       out.off_plane_px = std::max(out.off_plane_px, std::abs(off));
     }
   }
+  out.plane_max_px = out.PlaneMaxOver(out.spoken);
   return out;
 }
 
@@ -249,6 +250,17 @@ double RowAgreement::Around(const cv::Rect& box) const {
     }
   }
   return rows_px;
+}
+
+double RowAgreement::PlaneMaxOver(const cv::Rect& box) const {
+  if (plane.samples == 0) return 0;
+  const cv::Rect r = spoken.empty() ? box : box.empty() ? spoken : (spoken | box);
+  double m = 0;
+  for (const cv::Point2d& p : {cv::Point2d(r.x, r.y), cv::Point2d(r.x + r.width, r.y), cv::Point2d(r.x, r.y + r.height),
+                               cv::Point2d(r.x + r.width, r.y + r.height)}) {
+    m = std::max(m, std::abs(plane.At(p.x, p.y, size)));
+  }
+  return m;
 }
 
 double DisparityErrorField::OffPlane(double u, double v) const {
@@ -293,7 +305,7 @@ const pipeline::OptionTable<RigCheckOptions>& RigCheckOptions::Table() {
   static const auto table =
       pipeline::OptionTable<O>()
           .Add("tolerance_px", &O::tolerance_px,
-               "rows further apart than this around a hedge, or in the plane through the frame, widen the hedge's "
+               "rows further apart than this around a hedge, or in the plane through the measured rows, widen the hedge's "
                "interval by what they can cost, with a warning",
                "px")
           .Range(0, 10)
@@ -346,7 +358,6 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
   constexpr int kMinCells = 3, kMinSamples = 30;
   const bool measured = rows.cells >= kMinCells && int(rows.samples.size()) >= kMinSamples;
   const bool frame_apart = measured && rows.max_abs_px > o.unusable_px;
-  const bool planar = measured && rows.plane_max_px > o.tolerance_px;
   std::vector<HedgeMatch> all = hedges;
   if (all.empty()) all.push_back(HedgeMatch{});  // a plugin matcher: the capture's verdict only
   int worst = 0;  // 0 ok, 1 widened, 2 unusable, 3 unchecked
@@ -359,6 +370,8 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
     } else if (h.vertical.samples > 0) {
       near_rows = h.vertical_max_px;
     }
+    const double plane_px = measured ? rows.PlaneMaxOver(box) : 0;
+    const bool planar = plane_px > o.tolerance_px;
     const double share = h.pixels > 0 ? std::min(1.0, h.Share()) : -1;
     std::string verdict = "ok";
     if (!measured && h.vertical.samples == 0) {
@@ -389,10 +402,10 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
     }
     if (verdict == "ok" && (planar || near_rows > o.tolerance_px)) {
       verdict = "widened";
-      check.warning = Format("the rectified rows are %.2f px apart around this hedge and up to %.2f px in the plane "
-                             "through the frame (over %.2f px): the rig has drifted since calibration; its interval is "
+      check.warning = Format("the rectified rows are %.2f px apart around this hedge and up to %.2f px in the plane through "
+                             "the measured rows (over %.2f px): the rig has drifted since calibration; its interval is "
                              "widened by what that can cost; recalibrate (hedgefit calibrate)",
-                             near_rows, rows.plane_max_px, o.tolerance_px);
+                             near_rows, plane_px, o.tolerance_px);
     }
     worst = std::max(worst, verdict == "unchecked" ? 3 : verdict == "unusable" ? 2 : verdict == "widened" ? 1 : 0);
     auto round3 = [](double v) { return std::round(v * 1000) / 1000; };
@@ -400,7 +413,7 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
     check.fields.emplace_back("rig_rows_px", round3(near_rows));
     if (measured) {
       check.fields.emplace_back("rig_rows_frame_px", round3(rows.max_abs_px));
-      check.fields.emplace_back("rig_rows_plane_px", round3(rows.plane_max_px));
+      check.fields.emplace_back("rig_rows_plane_px", round3(plane_px));
       check.fields.emplace_back("rig_rows_off_plane_px", round3(rows.off_plane_px));
     }
     if (h.vertical.samples > 0) check.fields.emplace_back("rig_rows_hedge_px", round3(h.vertical_max_px));

@@ -36,7 +36,10 @@ struct RowAgreement {
   /// pitch, one camera's focal length. A calibration's error at the frame's corners, where its
   /// boards never were, is trimmed away rather than tilting it.
   VerticalDisparity plane;
-  double plane_max_px = 0;  ///< |plane| at its largest over the frame
+  /// |plane| at its largest where it was measured (`spoken`): a plane through a band of lawn
+  /// says little about the frame's far corners, and extrapolated there it doubts a rig that fits.
+  double plane_max_px = 0;
+  cv::Rect spoken;  ///< the cells that speak, as one rectangle of the frame
   /// Each cell's median dy and, where it speaks, its difference from the plane (NaN where not),
   /// each less twice its standard error (towards 0): what the cell's samples pin down.
   cv::Mat_<double> cell_dy, cell_off_plane;
@@ -52,6 +55,9 @@ struct RowAgreement {
   /// The largest |median dy| of the cells that meet `box` grown by its own size on every side (a
   /// hedge's surroundings); 0 when no cell there speaks.
   double Around(const cv::Rect& box) const;
+  /// The largest |plane| over `spoken` and `box` together (a hedge's box): where the plane is
+  /// known, and where it is used.
+  double PlaneMaxOver(const cv::Rect& box) const;
 };
 
 /// The round trip (left -> right -> left) a tracked corner must close within, px at half size:

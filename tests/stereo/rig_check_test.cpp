@@ -147,3 +147,21 @@ TEST(RigCheck, APeriodicWallGivesNoSampleAtTheWrongBrick) {
   EXPECT_GE(gravel, 50) << "the gravel, which repeats nowhere, is measured";
   EXPECT_LT(rows.max_abs_px, 0.15);
 }
+
+// The plane through the rows is judged where it was measured and where it is used, not at the
+// frame's far corners (POV-Ray's lab at 2.6 m: only the ground spoke, and its plane extrapolated
+// to the top corners read 1.05 px on the calibrated rig). A plane of 1.2 px from the top edge to
+// the bottom one is 0.2 px over a band measured at y 300-400 (under the 0.5 px tolerance) and
+// 0.6 px over a hedge at the top of the frame (over it). Exact arithmetic: 1e-9.
+TEST(RigCheck, ThePlaneIsJudgedWhereItWasMeasuredAndOverTheHedge) {
+  hedgefit::stereo::RowAgreement rows;
+  rows.size = cv::Size(800, 600);
+  rows.plane.samples = 50;
+  rows.plane.offset_px = 0;
+  rows.plane.slope_y_px = 1.2;                    // -0.6 px at the top edge, +0.6 px at the bottom
+  rows.spoken = cv::Rect(0, 300, 800, 100);       // the band that was measured: y 300..400
+  EXPECT_NEAR(rows.PlaneMaxOver(cv::Rect()), 0.2, 1e-9);                       // at y = 400
+  EXPECT_NEAR(rows.PlaneMaxOver(cv::Rect(300, 350, 100, 40)), 0.2, 1e-9);      // a hedge in the band
+  EXPECT_NEAR(rows.PlaneMaxOver(cv::Rect(300, 0, 100, 100)), 0.6, 1e-9);       // a hedge at the top
+  EXPECT_NEAR(rows.plane.MaxAbs(rows.size), 0.6, 1e-9);  // what the whole frame's corners said before
+}
