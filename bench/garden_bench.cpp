@@ -19,6 +19,7 @@
 #include "stereo/rig_uncertainty.hpp"
 #include "sim/simulator.hpp"
 #include "stereo/image_io.hpp"
+#include "stereo/outline.hpp"
 
 namespace hedgefit::bench {
 
@@ -45,6 +46,10 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
                "N gardens drawn from seeds 1..N instead (random1 ...): one to three balls of the issue's range side by "
                "side, a camera 0.9-1.4 m up, sometimes a shrub (not with --hard)")
           .Range(0, 200)
+          .Add("outline", &O::outline, "fit the envelope to each hedge's outline in both views too")
+          .Add("leaves", &O::leaves,
+               "the gardens across leaves instead (sim::GardenLeafPresetNames): boxwood, yew, privet and holly, each "
+               "with two balls in sun and a dome and a ball under an overcast sky")
           .Bind<int>("garden_refine_curvature", [](O& o) -> int& { return o.convert.match.garden_refine_curvature; },
                      "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
           .Range(0, 10);
@@ -136,6 +141,45 @@ void EnsureGardenRenders(const GardenOptions& a, const std::vector<std::string>&
   }
 }
 
+// Each hedge's outline (what stereo.outline does in a pipeline): about its envelope fitted to
+// the front's points alone.
+cloud::HedgeOutlines Outlines(const stereo::ConvertResult& res, const cloud::PointCloud& cleaned,
+                              const std::vector<cloud::HedgeGroup>& groups, const stereo::StereoRig& rig) {
+  std::map<int, Eigen::Vector4d> starts;
+  for (const auto& g : groups) {
+    const std::vector<Eigen::Vector3d> pts = cloud::PointsAt(cleaned, g.indices);
+    const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
+    const fitting::SphereFitResult f = fitting::RunFitMethod("envelope", pts, {}, 42, true, &pixel_mm);
+    if (!f.converged) continue;
+    const Eigen::Vector3d& c = f.sphere.center_mm;
+    starts[g.id] = Eigen::Vector4d(c.x(), c.y(), c.z(), f.sphere.radius_mm);
+  }
+  return stereo::MeasureOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, starts, res.ground);
+}
+
+// The outline's rays against the true envelope (px at each ray's tangent point), per view.
+void ScoreOutline(const std::vector<cloud::TangentRay>& rays, const fitting::Sphere& truth, GardenHedgeRow* row) {
+  std::vector<double> err[2];
+  for (const auto& ray : rays) {
+    const Eigen::Vector3d w = truth.center_mm - ray.origin_mm;
+    const double along = w.dot(ray.direction), dist = (w - along * ray.direction).norm();
+    err[ray.view ? 1 : 0].push_back((dist - truth.radius_mm) * ray.focal_px / along);
+  }
+  for (int v = 0; v < 2; ++v) {
+    std::vector<double>& e = err[v];
+    row->outline_rays[v] = e.size();
+    if (e.empty()) continue;
+    double sum = 0;
+    for (double x : e) sum += x;
+    row->outline_mean_px[v] = sum / double(e.size());
+    std::nth_element(e.begin(), e.begin() + std::ptrdiff_t(e.size() / 2), e.end());
+    const double med = row->outline_median_px[v] = e[e.size() / 2];
+    for (double& x : e) x = std::abs(x - med);
+    std::nth_element(e.begin(), e.begin() + std::ptrdiff_t(e.size() / 2), e.end());
+    row->outline_mad_px[v] = 1.4826 * e[e.size() / 2];
+  }
+}
+
 // What else was taken for a hedge (a shrub): do the envelope fit and the default fit (ransac_ray,
 // what measure prints) tell it is not a ball?
 void ScoreOthers(const cloud::PointCloud& cleaned, const std::vector<cloud::HedgeGroup>& groups, GardenScene* scene) {
@@ -189,6 +233,7 @@ GardenResult RunGarden(const GardenOptions& a) {
   const auto t0 = std::chrono::steady_clock::now();
   cloud::CheckFilterStages(a.cleaning, "bench garden's cleaning");
   std::vector<std::string> presets = a.hard ? sim::GardenHardPresetNames() : sim::GardenPresetNames();
+  if (a.leaves) presets = sim::GardenLeafPresetNames();
   if (a.random > 0) {
     presets.clear();
     for (int i = 1; i <= a.random; ++i) presets.push_back("random" + std::to_string(i));
@@ -225,6 +270,7 @@ GardenResult RunGarden(const GardenOptions& a) {
     const cloud::PointCloud cleaned = cloud::RunFilterStages(res.cloud, a.cleaning, "bench garden's cleaning");
     const auto groups = cloud::HedgeGroups(cleaned);
     const auto raw_groups = cloud::HedgeGroups(res.cloud);  // the written clouds, for the 50 mm share
+    const cloud::HedgeOutlines outlines = a.outline ? Outlines(res, cleaned, groups, rig) : cloud::HedgeOutlines();
     std::vector<fitting::Sphere> spheres;
     for (const auto& t : truths) spheres.push_back(fitting::Sphere{t.center_mm, t.radius_mm});
     for (std::size_t ti = 0; ti < truths.size(); ++ti) {
@@ -254,8 +300,11 @@ GardenResult RunGarden(const GardenOptions& a) {
           row.outside_50mm = double(outside) / double(std::max<std::size_t>(1, rg.indices.size()));
         }
         const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
+        const auto outline = outlines.find(g.id);
+        if (outline != outlines.end()) ScoreOutline(outline->second, row.truth, &row);
         for (const auto& m : fitting::SphereMethodNames()) {
-          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, &pixel_mm));
+          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, &pixel_mm,
+                                                   outline != outlines.end() ? &outline->second : nullptr));
           row.fits.back().hedge_id = g.id;
           fitting::AddUncertainty(pts, nullptr, &row.fits.back(), &matching);
           row.outside_share.push_back(fitting::OutsideShare(pts, row.fits.back().sphere));
@@ -336,6 +385,15 @@ void PrintGarden(const GardenResult& r) {
       for (const auto& f : h.fits) {
         if (f.converged && f.not_a_ball) std::printf("   %s: NOT A BALL", f.method.c_str());
       }
+      if (h.outline_rays[0] > 0) {
+        std::printf("   outline L %zu: %+.2f px (MAD %.2f), R %zu: %+.2f px (MAD %.2f)", h.outline_rays[0],
+                    h.outline_median_px[0], h.outline_mad_px[0], h.outline_rays[1], h.outline_median_px[1],
+                    h.outline_mad_px[1]);
+        if (envelope && envelope->Extra("top_bias_px")) {
+          std::printf("; beta %.2f px, noise %.2f px, ragged %.2f px", *envelope->Extra("top_bias_px"),
+                      *envelope->Extra("outline_noise_px"), *envelope->Extra("outline_ragged_px"));
+        }
+      }
       std::printf("\n");
     }
     if (s.colour_message.empty()) {
@@ -398,6 +456,14 @@ std::string GardenJson(const GardenResult& r) {
                  {"true_surface_radius_mm", h.truth_surface_mm},
                  {"points", h.points},
                  {"outside_50mm_share", h.outside_50mm}};
+      if (h.outline_rays[0] + h.outline_rays[1] > 0) {
+        jh["outline"] = json::array();
+        for (int v = 0; v < 2; ++v) {
+          jh["outline"].push_back({{"view", v ? "right" : "left"}, {"rays", h.outline_rays[v]},
+                                   {"median_px", h.outline_median_px[v]}, {"mad_px", h.outline_mad_px[v]},
+                                   {"mean_px", h.outline_mean_px[v]}});
+        }
+      }
       jh["fits"] = json::array();
       for (std::size_t fi = 0; fi < h.fits.size(); ++fi) {
         const auto& f = h.fits[fi];
@@ -410,7 +476,11 @@ std::string GardenJson(const GardenResult& r) {
           if (const auto surface = f.Extra("surface_radius_mm")) jf["surface_radius_mm"] = *surface;
           jf["sphere_to_span"] = 2 * f.sphere.radius_mm / std::max(1e-9, h.span_mm);
           jf["outside_share"] = h.outside_share[fi];
+          jf["center_mm"] = {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()};
           for (const auto& [key, value] : StatedUncertainty(f)) jf[key] = value;
+          for (const char* extra : {"top_bias_px", "outline_rays", "outline_noise_px", "outline_ragged_px"}) {
+            if (const auto v = f.Extra(extra)) jf[extra] = *v;
+          }
         }
         jh["fits"].push_back(jf);
       }

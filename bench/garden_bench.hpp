@@ -28,6 +28,8 @@ struct GardenOptions {
   std::string camera = "ideal";            ///< povray: ideal or real (sim::CameraModel)
   bool hard = false;                       ///< sim::GardenHardPresetNames() instead of the three presets
   int random = 0;                          ///< > 0: gardens random1 ... randomN (sim::GardenPreset) instead
+  bool leaves = false;                     ///< sim::GardenLeafPresetNames() instead (boxwood ... holly)
+  bool outline = true;                     ///< the envelope fit also fits each hedge's outline (stereo::MeasureOutlines)
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
   /// The filter stages (JSON array) run on each capture's cloud before the fits: by default
   /// cloud::DefaultCleaningJson(), what `compare` and `measure` apply, so the figures are what a
@@ -47,6 +49,10 @@ struct GardenHedgeRow {
   double outside_50mm = 0;          ///< share of points more than 50 mm outside the true envelope
   std::vector<fitting::SphereFitResult> fits;  ///< one per method
   std::vector<double> outside_share;            ///< per fit: fitting::OutsideShare of the points
+  /// The outline's rays against the true envelope: how far each passes outside it, in px at its
+  /// tangent point (negative: it cuts into the envelope), per view.
+  std::size_t outline_rays[2] = {0, 0};
+  double outline_mean_px[2] = {0, 0}, outline_median_px[2] = {0, 0}, outline_mad_px[2] = {0, 0};
 };
 
 struct GardenScene {

@@ -18,6 +18,7 @@ nlohmann::json TruthJson(const SphereTruth& t) {
   j["center_mm"] = {t.center_mm.x(), t.center_mm.y(), t.center_mm.z()};
   j["radius_mm"] = t.radius_mm;
   if (t.surface_radius_mm) j["surface_radius_mm"] = *t.surface_radius_mm;
+  if (t.shell_mm) j["shell_mm"] = *t.shell_mm;
   return j;
 }
 
@@ -38,6 +39,12 @@ SphereTruth ParseTruth(const nlohmann::json& j, const std::string& where) {
       throw Error(where + ": \"surface_radius_mm\" must be a positive number (mm)");
     }
     t.surface_radius_mm = j["surface_radius_mm"].get<double>();
+  }
+  if (j.contains("shell_mm")) {
+    if (!j["shell_mm"].is_number() || !(j["shell_mm"].get<double>() >= 0)) {
+      throw Error(where + ": \"shell_mm\" must be a number >= 0 (mm)");
+    }
+    t.shell_mm = j["shell_mm"].get<double>();
   }
   return t;
 }

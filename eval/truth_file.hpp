@@ -19,6 +19,7 @@ struct SphereTruth {
   Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();  ///< mm, in `frame`
   double radius_mm = 0;                                  ///< mm; the envelope of a leafy hedge
   std::optional<double> surface_radius_mm;               ///< mean leaf-surface radius, mm
+  std::optional<double> shell_mm;                        ///< depth of the leaf shell below the envelope, mm
   std::string frame = "unrectified left camera, x right, y down, z forward";
 };
 

@@ -1,5 +1,7 @@
 #include "fitting/envelope_fit.hpp"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -22,8 +24,28 @@ constexpr double kMinScaleMm = 0.01;
 // cannot grow past the layer's mean depth; it is not extrapolated: a larger footprint counts as
 // this one (at 24 m, PCL's real outdoor pair, the footprint is 65 mm and would add 33 mm).
 constexpr double kMaxTopBiasFootprintMm = 4.0;
-// Parameters: centre (3), R, log mu, log sigma, logit w (the share on the envelope).
-constexpr int kParams = 7;
+// Parameters: centre (3), R, log mu, log sigma, logit w (the share on the envelope), the top
+// bias beta (px: the matcher reads the outermost leaves beta footprints too deep), and the
+// outline's: its noise (px, as a logit between kMinOutlineNoisePx and that plus
+// kOutlineNoiseRangePx) and the log of its raggedness (px). Without an outline the last three
+// have no gradient and stay where they start (beta = top_bias_px).
+constexpr int kParams = 10;
+// Without an outline the top bias is the constant top_bias_px; with one it is fitted, about that
+// value with this spread (px): the outline, seen from both cameras, places the envelope, and
+// the front's points then say how deep the matcher reads its leaves.
+constexpr double kTopBiasPriorPx = 1.0;
+// The outline's outliers (a low-contrast stretch of background, a cut on a leaf's own edge): a
+// uniform share over this many px either side of the envelope.
+constexpr double kOutlineOutlierShare = 0.05, kOutlineOutlierWidthPx = 24;
+// The edge's own noise (px) lies between these: a cut of a profile averaged over 4 px, at three
+// times its scatter or more, places a straight edge to 0.05-0.3 px (both renderers' gardens: the
+// outline's fitted noise 0.05-0.37 px where its spread is raggedness). Bounded, so that a ragged
+// outline's spread goes to its raggedness (one-sided, inside the envelope), not to a symmetric
+// noise about a line inside it: POV-Ray's holly (55 mm cupped leaves) left its outline's points
+// 1-4 px inside the envelope, and an unbounded noise of 1.6 px put the envelope in their middle.
+constexpr double kMinOutlineNoisePx = 0.02, kOutlineNoiseRangePx = 0.5;
+// The share of the outline's raggedness counted as the model's own uncertainty (see FitEnvelope).
+constexpr double kOutlineModelShare = 0.3;
 // The search starts with a quarter of the leaves on the envelope (logit -1: w 0.27), between a
 // freshly clipped ball and an overgrown one; on POV-Ray's and hedgefit's gardens the fits end
 // anywhere from 0 to 1.
@@ -49,10 +71,58 @@ double LogErfc(double z, double* derivative) {
 // log mu, log sigma, logit w. Points are centred on their mean (double precision far from the origin).
 struct ShellLikelihood {
   const std::vector<Eigen::Vector3d>* pts;
-  const std::vector<double>* bias;  // per point: how deep the matcher reads a leaf on the envelope (radial, mm); may be null
+  const std::vector<double>* bias;  // per point: one pixel's footprint there (mm, at most 4), the top bias' unit; may be null
   Eigen::Vector3d view;      // viewpoint, in the centred frame
   double log_outlier;        // log(share / width of the uniform outlier density)
   double log_inlier_share;   // log(1 - share)
+  // The outline's tangent rays (origins in the centred frame) and each one's pixels per mm at its
+  // tangent point (focal length over the distance there, from the start); empty: no outline.
+  std::vector<cloud::TangentRay> rays;
+  std::vector<double> px_per_mm;
+  double top_bias_px = 0;    // the prior's centre for beta
+
+  // The outline's negative log-likelihood and the top bias' prior, with their gradient added to
+  // `grad`. The outline is ragged as the front is: each outline point lies a depth x (px) inside
+  // the envelope's tangent, exponential (mean m: the outermost leaves' raggedness seen edge-on)
+  // plus the edge's own noise N(0, s^2); a small uniform share are outliers. So the envelope is
+  // the outline's outer edge, not its middle.
+  double OutlineSum(const double* p, double* grad, bool prior = true) const {
+    if (rays.empty()) return 0;
+    const Eigen::Vector3d c(p[0], p[1], p[2]);
+    const double share = 1 / (1 + std::exp(-p[8]));
+    const double R = p[3], sigma = kMinOutlineNoisePx + kOutlineNoiseRangePx * share, m = kMinScaleMm + std::exp(p[9]);
+    const double lambda = 1 / m, ls2 = lambda * sigma * sigma, inv_sqrt2_sigma = 1 / (std::sqrt(2.0) * sigma);
+    const double inlier = std::log(1 - kOutlineOutlierShare) + std::log(lambda / 2);
+    const double b = std::log(kOutlineOutlierShare / (2 * kOutlineOutlierWidthPx));
+    double total = 0, g_R = 0, g_lambda = 0, g_sigma = 0;
+    Eigen::Vector3d g_c = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < rays.size(); ++k) {
+      const Eigen::Vector3d w = c - rays[k].origin_mm;
+      const Eigen::Vector3d perp = w - w.dot(rays[k].direction) * rays[k].direction;
+      const double dist = perp.norm() + 1e-12, x = (R - dist) * px_per_mm[k];
+      const double z = (ls2 - x) * inv_sqrt2_sigma;
+      double dlerfc = 0;
+      const double a1 = inlier + lambda / 2 * (ls2 - 2 * x) + LogErfc(z, &dlerfc);
+      const double mx = std::max(a1, b), e1 = std::exp(a1 - mx), e3 = std::exp(b - mx);
+      total -= mx + std::log(e1 + e3);
+      if (grad == nullptr) continue;
+      const double p1 = e1 / (e1 + e3);
+      const double gx = -p1 * (-lambda - dlerfc * inv_sqrt2_sigma);  // d(NLL)/dx
+      g_c -= gx * px_per_mm[k] * perp / dist;
+      g_R += gx * px_per_mm[k];
+      g_lambda -= p1 * (1 / lambda + ls2 - x + dlerfc * sigma / std::sqrt(2.0));
+      g_sigma -= p1 * (lambda * lambda * sigma + dlerfc * (lambda / std::sqrt(2.0) + x * inv_sqrt2_sigma / sigma));
+    }
+    const double db = prior ? (p[7] - top_bias_px) / kTopBiasPriorPx : 0.0;
+    total += 0.5 * db * db;
+    if (grad != nullptr) {
+      grad[0] += g_c.x(), grad[1] += g_c.y(), grad[2] += g_c.z(), grad[3] += g_R;
+      grad[7] += db / kTopBiasPriorPx;
+      grad[8] += g_sigma * kOutlineNoiseRangePx * share * (1 - share);
+      grad[9] += g_lambda * (-lambda * lambda) * (m - kMinScaleMm);
+    }
+    return total;
+  }
 
   // The negative log-likelihood of points [begin, end), and its gradient added to `grad`
   // (kParams values). By hand: automatic differentiation (Ceres' Jets) cost three times as much,
@@ -74,7 +144,7 @@ struct ShellLikelihood {
     const double clip_const = log_inlier_share + log_w - std::log(sigma * std::sqrt(2 * M_PI));
     const double b = log_outlier;
     double total = 0;
-    double g_c[3] = {0, 0, 0}, g_R = 0, g_lambda = 0, g_sigma = 0, g_u = 0;
+    double g_c[3] = {0, 0, 0}, g_R = 0, g_lambda = 0, g_sigma = 0, g_u = 0, g_beta = 0;
     for (std::size_t i = begin; i < end; ++i) {
       const Eigen::Vector3d& q = (*pts)[i];
       const Eigen::Vector3d d = q - c, r = q - view;
@@ -88,7 +158,7 @@ struct ShellLikelihood {
       // Jacobian of that scaling.
       // Depth below the envelope, along the ray (less the matcher's reading of the outermost
       // leaves too deep: a constant per point, so the derivatives below keep their form).
-      const double x = (R - s - (bias ? (*bias)[i] : 0.0)) / cos_t;
+      const double x = (R - s - (bias ? p[7] * (*bias)[i] : 0.0)) / cos_t;
       const double log_cos = std::log(cos_t);
       // The leaves below the envelope: an exponentially modified Gaussian (exponential depth
       // plus N(0, sigma^2)).
@@ -110,6 +180,7 @@ struct ShellLikelihood {
       const Eigen::Vector3d gc = gx * dx_dc + g_logcos * dcos_dc / cos_t;
       g_c[0] += gc.x(), g_c[1] += gc.y(), g_c[2] += gc.z();
       g_R += gx / cos_t;
+      if (bias) g_beta -= gx * (*bias)[i] / cos_t;
       g_lambda -= p1 * (1 / lambda + lambda_sigma2 - x + dlerfc * sigma / std::sqrt(2.0));
       const double dz_dsigma = lambda / std::sqrt(2.0) + x * inv_sqrt2_sigma * inv_sigma;
       g_sigma -= p1 * (lambda * lambda * sigma + dlerfc * dz_dsigma) + p2 * (-inv_sigma + xs * xs * inv_sigma);
@@ -120,6 +191,7 @@ struct ShellLikelihood {
       grad[4] += g_lambda * (-lambda * lambda) * dmu_da;  // d lambda / d log(mu0 - floor)
       grad[5] += g_sigma * dsigma_dg;
       grad[6] += g_u;
+      grad[7] += g_beta;
     }
     return total;
   }
@@ -147,15 +219,19 @@ class ParallelShellCost : public ceres::FirstOrderFunction {
     const double inv_n = 1.0 / double(std::max<std::size_t>(1, n));
     double total = 0;
     for (const double v : partial) total += v;
+    std::array<double, kParams> outline_grad{};
+    total += model_.OutlineSum(p, gradient ? outline_grad.data() : nullptr);
     cost[0] = total * inv_n;
     bool finite = std::isfinite(cost[0]);
     if (gradient) {
       for (int k = 0; k < kParams; ++k) {
         double g = 0;
         for (const auto& pg : partial_grad) g += pg[std::size_t(k)];
-        gradient[k] = g * inv_n;
+        gradient[k] = (g + outline_grad[std::size_t(k)]) * inv_n;
         finite = finite && std::isfinite(gradient[k]);
       }
+      // Without an outline the top bias is a constant (top_bias_px) and there is no scatter to fit.
+      if (model_.rays.empty()) gradient[7] = gradient[8] = gradient[9] = 0;
     }
     // A non-finite value or gradient is an invalid point for the line search, which then steps
     // back, rather than a Ceres CHECK failure.
@@ -216,7 +292,7 @@ struct ShellData {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> centred;
   std::vector<double> bias;
-  double spread = 0, width = 0, mean_bias = 0;
+  double spread = 0, width = 0, mean_bias = 0, mean_footprint = 0;
 };
 
 ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
@@ -244,7 +320,7 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
     bias.resize(points_mm.size());
     for (std::size_t i = 0; i < bias.size(); ++i) {
       const double p = (*pixel_mm)[i];
-      bias[i] = std::isfinite(p) && p > 0 ? options.top_bias_px * std::min(p, kMaxTopBiasFootprintMm) : 0.0;
+      bias[i] = std::isfinite(p) && p > 0 ? std::min(p, kMaxTopBiasFootprintMm) : 0.0;
     }
   }
   // Every n-th point, n the smallest that keeps at most max_points.
@@ -260,9 +336,11 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
     centred.swap(thinned);
     bias.swap(thinned_bias);
   }
-  double& mean_bias = d.mean_bias;
+  double& mean_bias = d.mean_bias;  // the mean footprint, then the start's top bias in mm
   for (const double b : bias) mean_bias += b;
   if (!bias.empty()) mean_bias /= double(bias.size());
+  d.mean_footprint = mean_bias;
+  mean_bias *= options.top_bias_px;
   return d;
 }
 
@@ -276,8 +354,11 @@ ceres::GradientProblemSolver::Summary SolveShell(const ShellLikelihood& model, c
   // spread's scale, and the given share on the envelope (as a logit).
   auto start_at = [&](double logit_share, double* x) {
     const Eigen::Vector3d c = start_sphere.center_mm - mean;
-    const double values[kParams] = {c.x(), c.y(), c.z(), start_sphere.radius_mm + spread + mean_bias, std::log(spread),
-                                    std::log(0.5 * spread), logit_share};
+    const double values[kParams] = {c.x(),          c.y(),
+                                    c.z(),          start_sphere.radius_mm + spread + mean_bias,
+                                    std::log(spread), std::log(0.5 * spread),
+                                    logit_share,    options.top_bias_px,
+                                    std::log(0.36 / 0.64), std::log(0.5)};
     std::copy(values, values + kParams, x);
   };
   start_at(kStartLogitShare, p);
@@ -333,7 +414,7 @@ ceres::GradientProblemSolver::Summary SolveShell(const ShellLikelihood& model, c
     std::copy(p, p + kParams, best);
     for (const double share : {0.5, 1.0}) {
       double q[kParams] = {p[0], p[1], p[2], p[3] + share * noise, std::log(share * noise), std::log(0.6 * noise),
-                           kStartLogitShare};
+                           kStartLogitShare, p[7], p[8], p[9]};
       ceres::GradientProblemSolver::Summary again;
       scaled_solve(q, &again);
       *iterations += static_cast<int>(again.iterations.size());
@@ -347,8 +428,90 @@ ceres::GradientProblemSolver::Summary SolveShell(const ShellLikelihood& model, c
   return summary;
 }
 
+// Standard errors of (cx, cy, cz, R) at the optimum p by the cluster sandwich H^-1 M H^-1: H the
+// Hessian of the whole negative log-likelihood (differences of its gradient), M the sum over
+// blocks of each block's score (its gradient) times itself. Blocks are patches of the sphere
+// (8 azimuth sectors about the camera's axis, times the points nearer and farther than the
+// median polar angle) and the outline's 8 sectors (both views' rays of a sector together: they
+// graze the same leaves): a matching window's and a leaf's correlated errors stay inside a
+// block, so they count as the one error they are (independent points would understate it by
+// the square root of the points a leaf spans). The top bias' prior enters H, not M.
+std::optional<Eigen::Vector4d> SandwichStdError(const ShellLikelihood& model, const double* p) {
+  const int active = model.rays.empty() ? 7 : kParams;
+  const Eigen::Vector3d c(p[0], p[1], p[2]), axis = (model.view - c).normalized();
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  auto sector = [&](const Eigen::Vector3d& d) {
+    double az = std::atan2(d.dot(v), d.dot(u));
+    if (az < 0) az += 2 * M_PI;
+    return std::min(7, static_cast<int>(az / (2 * M_PI) * 8));
+  };
+  const std::vector<Eigen::Vector3d>& pts = *model.pts;
+  std::vector<double> polar(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) polar[i] = (pts[i] - c).normalized().dot(axis);
+  std::vector<double> sorted = polar;
+  std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
+  const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
+  constexpr int kBlocks = 24;
+  std::vector<ShellLikelihood> blocks(kBlocks, model);
+  std::vector<std::vector<Eigen::Vector3d>> block_pts(kBlocks);
+  std::vector<std::vector<double>> block_bias(kBlocks);
+  for (auto& b : blocks) b.rays.clear(), b.px_per_mm.clear();
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const int b = sector((pts[i] - c).normalized()) + (polar[i] >= median ? 8 : 0);
+    block_pts[std::size_t(b)].push_back(pts[i]);
+    if (model.bias) block_bias[std::size_t(b)].push_back((*model.bias)[i]);
+  }
+  for (std::size_t k = 0; k < model.rays.size(); ++k) {
+    const Eigen::Vector3d w = c - model.rays[k].origin_mm;
+    const Eigen::Vector3d nearest = model.rays[k].origin_mm + w.dot(model.rays[k].direction) * model.rays[k].direction;
+    const std::size_t b = std::size_t(16 + sector((nearest - c).normalized()));
+    blocks[b].rays.push_back(model.rays[k]);
+    blocks[b].px_per_mm.push_back(model.px_per_mm[k]);
+  }
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(active, active);
+  int used = 0;
+  for (int b = 0; b < kBlocks; ++b) {
+    blocks[std::size_t(b)].pts = &block_pts[std::size_t(b)];
+    blocks[std::size_t(b)].bias = model.bias ? &block_bias[std::size_t(b)] : nullptr;
+    if (block_pts[std::size_t(b)].empty() && blocks[std::size_t(b)].rays.empty()) continue;
+    double g[kParams] = {};
+    blocks[std::size_t(b)].Sum(p, 0, block_pts[std::size_t(b)].size(), g);
+    blocks[std::size_t(b)].OutlineSum(p, g, false);
+    const Eigen::Map<const Eigen::VectorXd> s(g, active);
+    meat += s * s.transpose();
+    ++used;
+  }
+  if (used < 4) return std::nullopt;
+  meat *= double(used) / double(used - 1);
+  // The Hessian by central differences of the whole gradient (steps: 0.01 mm, 1e-4 in the rest).
+  auto gradient = [&](const double* q, double* g) {
+    std::fill(g, g + kParams, 0.0);
+    model.Sum(q, 0, pts.size(), g);
+    model.OutlineSum(q, g, true);
+  };
+  Eigen::MatrixXd H(active, active);
+  for (int k = 0; k < active; ++k) {
+    const double h = k < 4 ? 0.01 : 1e-4;
+    double hi[kParams], lo[kParams], gh[kParams], gl[kParams];
+    std::copy(p, p + kParams, hi), std::copy(p, p + kParams, lo);
+    hi[k] += h, lo[k] -= h;
+    gradient(hi, gh), gradient(lo, gl);
+    for (int j = 0; j < active; ++j) H(j, k) = (gh[j] - gl[j]) / (2 * h);
+  }
+  H = 0.5 * (H + H.transpose());
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
+  const Eigen::MatrixXd bread = ldlt.solve(Eigen::MatrixXd::Identity(active, active));
+  const Eigen::MatrixXd cov = bread * meat * bread;
+  Eigen::Vector4d se;
+  for (int k = 0; k < 4; ++k) se[k] = std::sqrt(std::max(0.0, cov(k, k)));
+  if (!se.allFinite()) return std::nullopt;
+  return se;
+}
+
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
-                        const Sphere* initial, const std::vector<double>* pixel_mm) {
+                        const Sphere* initial, const std::vector<double>* pixel_mm,
+                        const std::vector<cloud::TangentRay>* outline) {
   options.Check();
   if (pixel_mm && pixel_mm->empty()) pixel_mm = nullptr;  // a cloud without the field
   if (pixel_mm && pixel_mm->size() != points_mm.size()) {
@@ -380,9 +543,21 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   }
   const ShellData d = PrepareShell(points_mm, options, start, pixel_mm);
   const Eigen::Vector3d& mean = d.mean;
-  const double mean_bias = d.mean_bias;
   ShellLikelihood model{&d.centred, d.bias.empty() ? nullptr : &d.bias, options.viewpoint_mm - mean,
-                        std::log(options.outlier_share / d.width), std::log(1 - options.outlier_share)};
+                        std::log(options.outlier_share / d.width), std::log(1 - options.outlier_share), {}, {}, 0.0};
+  model.top_bias_px = options.top_bias_px;
+  if (outline != nullptr) {
+    // Each ray's pixels per mm where it grazes the start's sphere: the distance along it to the
+    // point nearest the centre.
+    for (const cloud::TangentRay& ray : *outline) {
+      const double along = (start.sphere.center_mm - ray.origin_mm).dot(ray.direction);
+      if (!(along > 0) || !ray.direction.allFinite()) continue;
+      cloud::TangentRay centred = ray;
+      centred.origin_mm = ray.origin_mm - mean;
+      model.rays.push_back(centred);
+      model.px_per_mm.push_back(ray.focal_px / along);
+    }
+  }
   double p[kParams];
   const ceres::GradientProblemSolver::Summary summary = SolveShell(model, d, start.sphere, options, p, &r.iterations);
   r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -401,16 +576,36 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   out.leaf_depth_mm = (1 - w) * mu;
   out.noise_mm = sigma;
   out.clipped_share = w;
-  out.top_bias_mm = mean_bias;
-  out.surface_radius_mm = p[3] - mean_bias - (1 - w) * mu;
+  out.top_bias_px = d.bias.empty() ? 0.0 : p[7];
+  out.top_bias_mm = out.top_bias_px * d.mean_footprint;
+  out.surface_radius_mm = p[3] - out.top_bias_mm - (1 - w) * mu;
+  out.outline_rays = model.rays.size();
+  if (!model.rays.empty()) {
+    out.std_error_mm = SandwichStdError(model, p);
+    // What the leaf model cannot pin down: where the outline's outer edge lies depends on the
+    // shape assumed for its raggedness (exponential here; a half-normal or uniform one of the same
+    // mean puts the edge 0.2-0.4 of that mean elsewhere), so a share of the fitted raggedness, in
+    // mm at the outline, is added to every coordinate's standard error.
+    double footprint = 0;
+    for (const double k : model.px_per_mm) footprint += 1 / k;
+    footprint /= double(model.px_per_mm.size());
+    const double ragged_mm = kOutlineModelShare * (kMinScaleMm + std::exp(p[9])) * footprint;
+    if (out.std_error_mm) {
+      *out.std_error_mm = (out.std_error_mm->cwiseAbs2().array() + ragged_mm * ragged_mm).sqrt().matrix();
+    }
+    out.outline_noise_px = kMinOutlineNoisePx + kOutlineNoiseRangePx / (1 + std::exp(-p[8]));
+    out.outline_ragged_px = kMinScaleMm + std::exp(p[9]);
+  }
   return out;
 }
 
 namespace detail {
 double ShellCost(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& viewpoint_mm, double outlier_share,
-                 double outlier_width_mm, const double* p, double* gradient) {
-  const ShellLikelihood model{&points, nullptr, viewpoint_mm, std::log(outlier_share / outlier_width_mm),
-                              std::log(1 - outlier_share)};
+                 double outlier_width_mm, const double* p, double* gradient, const std::vector<double>* footprint_mm,
+                 const std::vector<cloud::TangentRay>* rays, const std::vector<double>* px_per_mm, double top_bias_px) {
+  ShellLikelihood model{&points, footprint_mm, viewpoint_mm, std::log(outlier_share / outlier_width_mm),
+                        std::log(1 - outlier_share), {}, {}, top_bias_px};
+  if (rays != nullptr && px_per_mm != nullptr) model.rays = *rays, model.px_per_mm = *px_per_mm;
   double cost = 0;
   ParallelShellCost(model).Evaluate(p, &cost, gradient);
   return cost;

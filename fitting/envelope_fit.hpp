@@ -18,8 +18,10 @@
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <vector>
 
+#include "cloud/outline.hpp"
 #include "pipeline/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 
@@ -51,22 +53,37 @@ struct EnvelopeFit {
   double noise_mm = 0;            ///< sigma: measurement noise along the view ray
   double clipped_share = 0;       ///< w: share of the points on the envelope itself (leaves cut flush)
   double top_bias_mm = 0;         ///< the matcher's mean reading of the outermost leaves below them, added back
+  double top_bias_px = 0;         ///< the same in pixel footprints: top_bias_px, or fitted where there is an outline
+  std::size_t outline_rays = 0;   ///< outline rays the fit used (both views)
+  double outline_noise_px = 0;    ///< the outline's edge noise (px)
+  double outline_ragged_px = 0;   ///< the outline's mean depth inside the envelope's tangent (px): its raggedness
+  /// With an outline: standard errors of (cx, cy, cz, R), mm, from the likelihood itself (a
+  /// cluster sandwich over patches of the sphere and sectors of the outline, so correlated
+  /// errors count once), with the top bias' and the leaves' parameters free.
+  std::optional<Eigen::Vector4d> std_error_mm;
 };
 
 /// Fits the envelope, starting from `initial` (e.g. a geometric fit) or a Hyper fit.
 /// `pixel_mm` (optional, one per point): the lateral size of one pixel at each point (Z / f, a
 /// capture cloud's "pixel_mm" field), for options.top_bias_px; without it (null or empty) no bias
 /// is added.
+/// `outline` (optional): the hedge's outline as tangent rays (stereo::MeasureOutlines, both views):
+/// the envelope is fitted to touch them too, and the top bias is fitted (about top_bias_px).
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options = {},
-                        const Sphere* initial = nullptr, const std::vector<double>* pixel_mm = nullptr);
+                        const Sphere* initial = nullptr, const std::vector<double>* pixel_mm = nullptr,
+                        const std::vector<cloud::TangentRay>* outline = nullptr);
 
 namespace detail {
-/// The shell model's mean negative log-likelihood over `points` at the 7 parameters p (centre x,
+/// The shell model's mean negative log-likelihood over `points` at the 10 parameters p (centre x,
 /// y, z, R, log of the exponential's mean, log of the noise, logit of the share on the envelope;
-/// both scales above a 0.01 mm floor) and, when `gradient` is given, its gradient: what
-/// FitEnvelope minimises, exposed so a test can hold the hand-written gradient to differences.
+/// both scales above a 0.01 mm floor; the top bias in footprints; the outline's noise as a logit
+/// between 0.02 and 0.52 px and the log of its raggedness in px) and, when `gradient` is given, its gradient: what FitEnvelope minimises, exposed so a test
+/// can hold the hand-written gradient to differences. `footprint_mm` (one per point, or null): the
+/// top bias' unit; `rays` with `px_per_mm` (one per ray, or null): the outline.
 double ShellCost(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& viewpoint_mm, double outlier_share,
-                 double outlier_width_mm, const double* p, double* gradient);
+                 double outlier_width_mm, const double* p, double* gradient,
+                 const std::vector<double>* footprint_mm = nullptr, const std::vector<cloud::TangentRay>* rays = nullptr,
+                 const std::vector<double>* px_per_mm = nullptr, double top_bias_px = 0.5);
 }  // namespace detail
 
 }  // namespace hedgefit::fitting

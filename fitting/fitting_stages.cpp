@@ -77,6 +77,7 @@ void AddFitters(pipeline::Registry& r) {
               const auto* point_perturbation = ctx.Find<cloud::PointPerturbation>("point_perturbation");
               const auto* disparity_perturbation = ctx.Find<cloud::PointPerturbation>("disparity_perturbation");
               const auto* input_checks = ctx.Find<pipeline::InputChecks>("input_checks");
+              const auto* outlines = ctx.Find<cloud::HedgeOutlines>("outlines");
               std::vector<SphereFitResult> results(groups.size());
               std::vector<std::vector<std::size_t>> inliers(groups.size());
               std::vector<std::string> errors(groups.size());
@@ -92,6 +93,10 @@ void AddFitters(pipeline::Registry& r) {
                   in.seed = seed;
                   in.inliers = m.has_inliers ? &inliers[k] : nullptr;
                   in.one_hedge = g.id >= 1;
+                  if (outlines) {  // stereo.outline: this hedge's outline
+                    const auto it = outlines->find(g.id);
+                    if (it != outlines->end()) in.outline = &it->second;
+                  }
                   // 'previous': the latest converged fit of this hedge.
                   if (earlier) {
                     for (auto it = earlier->rbegin(); it != earlier->rend(); ++it) {

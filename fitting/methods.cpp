@@ -184,13 +184,20 @@ SphereFitResult FitEnvelopeFrom(const EnvelopeFitOptions& p, const std::string& 
     failed.message = "no starting sphere: " + start.message;
     return failed;
   }
-  const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm);
+  const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm, in.outline);
   SphereFitResult r = e.fit;
   r.wall_ms += start.wall_ms;
   if (r.converged) {
     r.SetExtra("surface_radius_mm", {e.surface_radius_mm});
     r.SetExtra("leaf_depth_mm", {e.leaf_depth_mm});
-    if (e.top_bias_mm > 0) r.SetExtra("top_bias_mm", {e.top_bias_mm});
+    if (e.top_bias_mm != 0) r.SetExtra("top_bias_mm", {e.top_bias_mm});
+    if (e.outline_rays > 0) {
+      if (e.std_error_mm) r.std_error_mm = *e.std_error_mm, r.std_error_own = true;
+      r.SetExtra("top_bias_px", {e.top_bias_px});
+      r.SetExtra("outline_rays", {double(e.outline_rays)});
+      r.SetExtra("outline_noise_px", {e.outline_noise_px});
+      r.SetExtra("outline_ragged_px", {e.outline_ragged_px});
+    }
   }
   return r;
 }
@@ -355,7 +362,8 @@ std::vector<std::string> ParseMethodList(const std::string& text, const std::str
 
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
                              const std::map<std::string, pipeline::OptionValue>& given, std::uint64_t seed,
-                             bool one_hedge, const std::vector<double>* pixel_mm) {
+                             bool one_hedge, const std::vector<double>* pixel_mm,
+                             const std::vector<cloud::TangentRay>* outline) {
   const FitMethod& m = FindFitMethod(name, "fit");
   std::map<std::string, pipeline::OptionValue> mine;
   for (const auto& spec : m.options) {
@@ -369,6 +377,7 @@ SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::V
   in.seed = seed;
   in.one_hedge = one_hedge;
   in.pixel_mm = pixel_mm;
+  in.outline = outline;
   return fit(in);
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cloud/outline.hpp"
 #include "pipeline/stage.hpp"
 #include "fitting/sphere_fit.hpp"
 
@@ -22,6 +23,9 @@ struct FitInputs {
   /// "pixel_mm" field (null or empty: none); the envelope fit uses it for the matcher's reading of
   /// the outermost leaves.
   const std::vector<double>* pixel_mm = nullptr;
+  /// Optional: the hedge's outline as tangent rays (stereo::MeasureOutlines); the envelope fit
+  /// fits to it too.
+  const std::vector<cloud::TangentRay>* outline = nullptr;
   std::uint64_t seed = 42;                                  ///< for methods that sample
   const Sphere* previous = nullptr;  ///< an earlier fit, for options such as initial = previous
   std::vector<std::size_t>* inliers = nullptr;  ///< out: inlier indices, for methods that have them
@@ -72,7 +76,8 @@ std::vector<std::string> ParseMethodList(const std::string& text, const std::str
 /// see FitInputs.
 SphereFitResult RunFitMethod(const std::string& name, const std::vector<Eigen::Vector3d>& points_mm,
                              const std::map<std::string, pipeline::OptionValue>& given = {}, std::uint64_t seed = 42,
-                             bool one_hedge = false, const std::vector<double>* pixel_mm = nullptr);
+                             bool one_hedge = false, const std::vector<double>* pixel_mm = nullptr,
+                             const std::vector<cloud::TangentRay>* outline = nullptr);
 
 /// Ceres reports a solver's trouble (e.g. "Linear solver failure" while a geometric refit of
 /// a degenerate sphere steps) through glog, at WARNING, on stderr: dozens of lines before the

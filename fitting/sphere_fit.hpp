@@ -29,6 +29,9 @@ struct SphereFitResult {
   double wall_ms = 0.0;         ///< time spent in the fitter, ms
   /// Standard errors of (cx, cy, cz, r), mm, where the method provides them.
   std::optional<Eigen::Vector4d> std_error_mm;
+  /// std_error_mm is the method's own and already counts correlated errors (the envelope fit
+  /// with an outline): AddUncertainty keeps it instead of the points' scatter and jackknife.
+  bool std_error_own = false;
   /// Standard errors of (cx, cy, cz, r), mm, from the rig's calibration uncertainty (sampled
   /// rigs re-triangulating the points; fitting/uncertainty.hpp), when the rig's covariance is known.
   std::optional<Eigen::Vector4d> rig_std_error_mm;

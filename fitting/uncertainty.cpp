@@ -183,8 +183,9 @@ void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::
   const std::vector<Eigen::Vector3d> support = SupportingPoints(points_mm, fit->sphere);
   if (!fit->std_error_mm) fit->std_error_mm = ScatterStdError(support, fit->sphere);
   // Stereo errors are shared by neighbouring points (matching windows, smoothing, the rim): the
-  // block jackknife over surface patches counts what they share; keep the larger of the two.
-  if (const auto jack = BlockJackknifeStdError(support, fit->sphere)) {
+  // block jackknife over surface patches counts what they share; keep the larger of the two
+  // (unless the method's own errors already count them).
+  if (const auto jack = fit->std_error_own ? std::nullopt : BlockJackknifeStdError(support, fit->sphere)) {
     fit->std_error_mm = fit->std_error_mm ? Eigen::Vector4d(fit->std_error_mm->cwiseMax(*jack)) : *jack;
   }
   if (rig && rig->samples > 1) fit->rig_std_error_mm = PerturbationStdError(support, fit->sphere, *rig);

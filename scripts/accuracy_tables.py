@@ -6,11 +6,14 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|hard|random|headline [--slow]
+Usage: scripts/accuracy_tables.py lab|hard|random|leaves|headline [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   hard      the envelope fit's AER / LD per ball of `bench garden --hard`, both renderers
   random    the same for `bench garden --random 12`
+  leaves    per leaf preset (`bench garden --leaves`), both renderers: the envelope's AER, LD, interval
+            coverage and width, and the outline's own error in px against the truth; with and without
+            the outline
   headline  README's lab and garden rows (reads what lab and random wrote; runs nothing new)
 Run from the repository's root after a build; the JSON goes to build/docs/accuracy/.
 """
@@ -39,6 +42,8 @@ GARDENS = {
     "random": [("hedgefit's renderer", "build/garden-random", ["--random", "12"]),
                ("POV-Ray, real camera", "build/garden-random-povray",
                 ["--random", "12", "--renderer", "povray", "--camera", "real"])],
+    "leaves": [("hedgefit's renderer", "build/garden-leaves", ["--leaves"]),
+               ("POV-Ray, real camera", "build/garden-leaves-povray", ["--leaves", "--renderer", "povray", "--camera", "real"])],
 }
 
 
@@ -49,6 +54,8 @@ def rendered(directory, flags):
         return (d / f"garden_random{n}_right.png").exists()
     if "--hard" in flags:
         return len(list(d.glob("garden_*_right.png"))) >= 9
+    if "--leaves" in flags:
+        return (d / "garden_holly_dome_right.png").exists()
     return (d / "sphere_2600_right.png").exists() or (d / "garden_outdoor_right.png").exists()
 
 
@@ -131,6 +138,72 @@ def garden(which):
         print(f"| {label}: not rendered here | `scripts/make_docs.sh --slow` |" + " |" * (len(shown) - 1))
 
 
+def leaves():
+    """Per leaf preset and renderer: the envelope fit with the outline, and without it."""
+    print("| renderer | preset | balls | mean / worst \\|AER\\|, mm | mean LD, mm | 95 % intervals holding the truth "
+          "(x, y, z, r) | mean radius half-width, mm | outline vs truth: median (MAD), px | without the outline: "
+          "mean / worst \\|AER\\|, LD, coverage |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for k, (label, directory, flags) in enumerate(GARDENS["leaves"]):
+        with_outline = bench("garden", f"leaves{k}", directory, flags)
+        without = bench("garden", f"leaves{k}-no-outline", directory, flags + ["--no-outline"])
+        if with_outline is None:
+            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * 7)
+            continue
+
+        def stats(j, species):
+            aer, ld, inside, cases, half, out_med, out_mad = [], [], 0, 0, [], [], []
+            for s in j["scenes"]:
+                if s["name"].split("_")[0] != species:
+                    continue
+                for h in s["hedges"]:
+                    fit = next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+                    if fit is None:
+                        continue
+                    aer.append(fit["aer_mm"])
+                    ld.append(fit["ld_mm"])
+                    err = [a - b for a, b in zip(fit["center_mm"] + [fit["radius_mm"]],
+                                                  h["true_center_mm"] + [h["true_radius_mm"]])]
+                    ci = fit.get("ci95_mm")
+                    if ci:
+                        inside += sum(abs(e) <= c for e, c in zip(err, ci))
+                        cases += 4
+                        half.append(ci[3])
+                    for o in h.get("outline", []):
+                        if o["rays"]:
+                            out_med.append(o["median_px"])
+                            out_mad.append(o["mad_px"])
+            return aer, ld, inside, cases, half, out_med, out_mad
+
+        for species in ["boxwood", "yew", "privet", "holly"]:
+            aer, ld, inside, cases, half, med, mad = stats(with_outline, species)
+            if not aer:
+                continue
+            cells = [f"{len(aer)}", f"{sum(map(abs, aer)) / len(aer):.2f} / {max(map(abs, aer)):.2f}",
+                     f"{sum(ld) / len(ld):.2f}", f"{inside} of {cases}",
+                     f"{sum(half) / len(half):.1f}" if half else "-",
+                     f"{sum(med) / len(med):+.2f} ({sum(mad) / len(mad):.2f})" if med else "-"]
+            if without is not None:
+                a0, l0, i0, c0, _, _, _ = stats(without, species)
+                cells.append(f"{sum(map(abs, a0)) / len(a0):.2f} / {max(map(abs, a0)):.2f}, {sum(l0) / len(l0):.2f}, "
+                             f"{i0} of {c0}" if a0 else "-")
+            else:
+                cells.append("-")
+            print(f"| {label} | {species} | " + " | ".join(cells) + " |")
+        s = with_outline["summary"]["envelope"]
+        iv = with_outline["intervals"]["envelope"]
+        line = (f"| {label} | **all** | {s['hedges']} | **{s['mean_abs_aer_mm']:.2f} / {s['max_abs_aer_mm']:.2f}** | "
+                f"**{s['mean_ld_mm']:.2f}** | {iv['inside']} of {iv['cases']} |")
+        if without is not None:
+            s0, iv0 = without["summary"]["envelope"], without["intervals"]["envelope"]
+            line += (f" | | {s0['mean_abs_aer_mm']:.2f} / {s0['max_abs_aer_mm']:.2f}, {s0['mean_ld_mm']:.2f}, "
+                     f"{iv0['inside']} of {iv0['cases']} |")
+        else:
+            line += " | | - |"
+        print(line)
+    print("| targets (issue 42) | every preset | | 2 / 4 | 3 | 90 % | 5 | | |")
+
+
 def headline():
     def summary(name, method):
         p = OUT / f"{name}.json"
@@ -171,6 +244,8 @@ if __name__ == "__main__":
     what = next((a for a in sys.argv[1:] if not a.startswith("--")), None)
     if what == "lab":
         lab()
+    elif what == "leaves":
+        leaves()
     elif what in GARDENS:
         garden(what)
     elif what == "headline":

@@ -3,6 +3,7 @@
 
 #include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -256,40 +257,92 @@ std::vector<std::string> WriteWideBoards(const std::string& dir, const std::stri
 
 namespace {
 
-// A leaf of a POV-Ray hedge: a disc (level frame), its radius and one of the scene's 9 leaf
-// textures L0..L8 (3 depth bands x 3 hues).
+// A leaf of a POV-Ray hedge (level frame) and one of the scene's 9 leaf textures L0..L8 (3 depth
+// bands x 3 hues): a disc of radius a about c, normal n; an elongated flat leaf, the same disc
+// scaled to half-width b across e1; or a cupped leaf, a lozenge folded along its midrib (`rim`:
+// tip, side, tip, side about c; two triangles in the hedge's mesh).
 struct PovLeaf {
-  cv::Vec3d c, n;
-  double a = 8;
+  cv::Vec3d c, n, e1;
+  double a = 8, b = 8;
   int texture = 0;
+  std::vector<cv::Vec3d> rim;  // empty: a disc
 };
+
+// The corners of a cupped leaf about its middle: tips at +-a along e1, sides at +-b along e2,
+// the sides raised by `sag` along n (the leaf folded along its midrib, as a cupped one bends).
+std::vector<cv::Vec3d> LeafRim(const cv::Vec3d& e1, const cv::Vec3d& e2, const cv::Vec3d& n, double a, double b,
+                               double sag) {
+  return {a * e1, b * e2 + sag * n, -a * e1, -b * e2 + sag * n};
+}
+
+// The two triangles of a cupped leaf, split along the midrib (tip to tip).
+std::vector<std::array<cv::Vec3d, 3>> LeafTriangles(const PovLeaf& l) {
+  return {{l.c + l.rim[0], l.c + l.rim[1], l.c + l.rim[2]}, {l.c + l.rim[0], l.c + l.rim[2], l.c + l.rim[3]}};
+}
+
+// A flat leaf's farthest point from `centre` (its rim at 64 points).
+double LeafReach(const PovLeaf& l, const cv::Vec3d& centre) {
+  const cv::Vec3d e2 = l.n.cross(l.e1);
+  double far = 0;
+  for (int j = 0; j < 64; ++j) {
+    const double phi = 2 * kPi * j / 64;
+    far = std::max(far, cv::norm(l.c + l.a * std::cos(phi) * l.e1 + l.b * std::sin(phi) * e2 - centre));
+  }
+  return far;
+}
 
 // The garden hedge of POV-Ray: real leaves, where hedgefit's own renderer has a noise-shaded
 // shell. Discs of radius 6-10 mm tilted up to 55 degrees from the surface, a third of them
 // clipped to touch the envelope (a clipped boxwood), the rest spread through the shell's depth,
 // about 3.5 layers deep so gaps show the dark inside. Leaves facing away from the camera are
 // left out (the inside body still casts the ball's shadow).
+//
+// Shaped leaves (LeafShape: elongated or cupped) are of the preset's size (0.75-1.25 of it):
+// flat ones elliptic discs, cupped ones lozenges of the ellipse's area folded by `cup` (one way or
+// the other at random), placed so that the farthest point from the centre lies exactly at R - L d
+// (a triangle's farthest point is a vertex).
 std::vector<PovLeaf> GardenLeaves(const GardenHedge& g, const cv::Vec3d& centre, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss;
   std::uniform_real_distribution<double> uni;
-  const double R = g.radius_mm, L = g.leaf_depth_mm, layers = 3.5, a_mean = 8;
+  const LeafShape& shape = g.leaf;
+  const bool disc = shape.width_ratio == 1 && shape.cup == 0;
+  const double R = g.radius_mm, L = g.leaf_depth_mm, layers = shape.layers, a_mean = shape.size_mm / 2;
   const cv::Vec3d to_cam = -centre / cv::norm(centre);
-  const auto n = static_cast<std::size_t>(layers * 4 * R * R / (a_mean * a_mean));
+  const auto n = static_cast<std::size_t>(layers * 4 * R * R / (a_mean * a_mean * shape.width_ratio));
   std::vector<PovLeaf> leaves;
   leaves.reserve(n * 2 / 3);
   for (std::size_t k = 0; k < n; ++k) {
     const cv::Vec3d u = cv::normalize(cv::Vec3d(gauss(rng), gauss(rng), gauss(rng)));
-    const double a = 6 + 4 * uni(rng), tilt = 55 * kPi / 180 * std::sqrt(uni(rng));
+    const double a = a_mean * (0.75 + 0.5 * uni(rng)), tilt = 55 * kPi / 180 * std::sqrt(uni(rng));
     const double clipped = uni(rng), deep = uni(rng), hue = uni(rng);
     const cv::Vec3d w = cv::normalize(cv::Vec3d(gauss(rng), gauss(rng), gauss(rng)).cross(u));
     if (u.dot(to_cam) < -0.3) continue;
-    const double d = clipped < 1.0 / 3 ? 0.0 : std::pow(deep, 1.3);
+    const double d = clipped < shape.clipped_share ? 0.0 : std::pow(deep, 1.3);
     PovLeaf leaf;
     leaf.a = a;
     leaf.n = std::cos(tilt) * u + std::sin(tilt) * w;
-    leaf.c = centre + (R - a * std::sin(tilt) - L * d) * u;  // its rim reaches R - L d
     leaf.texture = std::min(2, static_cast<int>(d * 3)) * 3 + std::min(2, static_cast<int>(hue * 3));
+    leaf.b = a;
+    if (disc) {
+      leaf.c = centre + (R - a * std::sin(tilt) - L * d) * u;  // its rim reaches R - L d
+    } else {
+      const double spin = 2 * kPi * uni(rng), sign = uni(rng) < 0.5 ? -1.0 : 1.0;
+      const cv::Vec3d t1 = cv::normalize(w.cross(leaf.n)), t2 = leaf.n.cross(t1);
+      leaf.e1 = std::cos(spin) * t1 + std::sin(spin) * t2;
+      leaf.b = a * shape.width_ratio;
+      if (shape.cup > 0) {  // a lozenge has 2 / pi of its ellipse's area
+        const double stretch = std::sqrt(kPi / 2);
+        leaf.rim = LeafRim(leaf.e1, leaf.n.cross(leaf.e1), leaf.n, stretch * a, stretch * leaf.b, sign * shape.cup * 2 * a);
+      }
+      leaf.c = centre + (R - L * d) * u;
+      for (int it = 0; it < 3; ++it) {  // the farthest point onto R - L d (converges in two)
+        double far = cv::norm(leaf.c - centre);
+        if (leaf.rim.empty()) far = LeafReach(leaf, centre);
+        for (const cv::Vec3d& v : leaf.rim) far = std::max(far, cv::norm(leaf.c + v - centre));
+        leaf.c -= (far - (R - L * d)) * u;
+      }
+    }
     leaves.push_back(leaf);
   }
   return leaves;
@@ -301,7 +354,8 @@ double InnerRadius(const GardenHedge& g) { return g.radius_mm - g.leaf_depth_mm 
 // The mean leaf-surface radius of a POV-Ray hedge: radial rays from outside, over the part of the
 // ball the leaves cover, the first leaf (or the inner body) each meets.
 double PovLeafSurfaceRadius(const GardenHedge& g, const cv::Vec3d& centre, const std::vector<PovLeaf>& leaves) {
-  const double cell = 16;
+  double cell = 16;  // at least the largest leaf's half-length: a leaf over a ray is in a neighbouring cell
+  for (const PovLeaf& l : leaves) cell = std::max(cell, l.a);
   auto key = [&](const cv::Vec3d& p) {
     const auto q = [&](double v) { return static_cast<std::int64_t>(std::floor(v / cell)) & 0x1fffff; };
     return (q(p[0]) << 42) | (q(p[1]) << 21) | q(p[2]);
@@ -326,10 +380,26 @@ double PovLeafSurfaceRadius(const GardenHedge& g, const cv::Vec3d& centre, const
             if (it == grid.end()) continue;
             for (std::size_t i : it->second) {
               const PovLeaf& l = leaves[i];
+              if (!l.rim.empty()) {  // a mesh: its triangles (Moller-Trumbore along the radial ray)
+                for (const auto& tri : LeafTriangles(l)) {
+                  const cv::Vec3d e1 = tri[1] - tri[0], e2 = tri[2] - tri[0], pv = u.cross(e2);
+                  const double det = e1.dot(pv);
+                  if (std::abs(det) < 1e-12) continue;
+                  const cv::Vec3d tv = centre - tri[0];
+                  const double bu = tv.dot(pv) / det;
+                  const cv::Vec3d qv = tv.cross(e1);
+                  const double bv = u.dot(qv) / det, rr = e2.dot(qv) / det;
+                  if (bu >= 0 && bv >= 0 && bu + bv <= 1 && rr > best) best = rr;
+                }
+                continue;
+              }
               const double den = l.n.dot(u);
               if (std::abs(den) < 1e-9) continue;
               const double rr = l.n.dot(l.c - centre) / den;
-              if (rr > best && cv::norm(centre + rr * u - l.c) <= l.a) best = rr;
+              if (rr <= best) continue;
+              const cv::Vec3d q = centre + rr * u - l.c;
+              const double x = q.dot(l.e1) / l.a, y = (q - q.dot(l.e1) * l.e1).dot(l.n.cross(l.e1)) / l.b;
+              if (l.a == l.b ? cv::norm(q) <= l.a : x * x + y * y <= 1) best = rr;
             }
           }
     }
@@ -342,6 +412,37 @@ double PovLeafSurfaceRadius(const GardenHedge& g, const cv::Vec3d& centre, const
 }  // namespace
 
 namespace {
+
+// POV-Ray's matrix taking x, y, z to e1, e2, e3 and the origin to t (each in OpenCV's frame).
+std::string MatrixRows(const cv::Vec3d& e1, const cv::Vec3d& e2, const cv::Vec3d& e3, const cv::Vec3d& t) {
+  auto row = [](const cv::Vec3d& v) { return Pov(v).substr(1, Pov(v).size() - 2); };
+  return "<" + row(e1) + ", " + row(e2) + ", " + row(e3) + ", " + row(t) + ">";
+}
+
+// A hedge's leaves in POV-Ray's language: discs (their radius times `disc_scale`), and shaped
+// leaves as one mesh (POV-Ray bounds a mesh's triangles itself; a triangle per object would not).
+void WriteLeaves(std::ostream& o, const std::vector<PovLeaf>& leaves, double disc_scale) {
+  bool mesh = false;
+  for (const PovLeaf& l : leaves) {
+    if (l.rim.empty() && l.a == l.b) {
+      o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a * disc_scale << " texture { L" << l.texture
+        << " } }\n";
+      continue;
+    }
+    if (l.rim.empty()) {  // an elliptic disc: the unit disc scaled, then turned and moved onto the leaf
+      const cv::Vec3d e2 = l.n.cross(l.e1);
+      o << "  disc { <0, 0, 0>, z, 1 scale <" << l.a * disc_scale << ", " << l.b * disc_scale << ", 1> matrix "
+        << MatrixRows(l.e1, e2, l.n, l.c) << " texture { L" << l.texture << " } }\n";
+      continue;
+    }
+    if (!mesh) o << "  mesh {\n", mesh = true;
+    for (const auto& t : LeafTriangles(l)) {
+      o << "    triangle { " << Pov(t[0]) << ", " << Pov(t[1]) << ", " << Pov(t[2]) << " texture { L" << l.texture
+        << " } }\n";
+    }
+  }
+  if (mesh) o << "  }\n";
+}
 
 // The depth render's scale: a grey level is kDepthRangeMm / 65535 (0.12 mm) of distance from the
 // camera's centre; farther (the trees) saturates.
@@ -379,10 +480,15 @@ std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc
   // Everything below is written in the level frame and turned into the camera's by one matrix.
   o << "union {\n";
   // A low sun from the right and behind (hard shadows), and the sky's fill light.
-  if (!depth) {
+  if (!depth && !sc.overcast) {
     o << "  light_source { " << Pov(cv::normalize(cv::Vec3d(0.65, -0.6, -0.45)) * 1e7)
       << " color rgb 1.3 parallel point_at <0, 0, 0> }\n";
     o << "  light_source { " << Pov(cv::Vec3d(-3000, -8000, 1000)) << " color rgb 0.22 shadowless }\n";
+  } else if (!depth) {
+    // Overcast: no sun; the sky lights everything from above and around, without shadows.
+    o << "  light_source { " << Pov(cv::Vec3d(0, -1e7, 2e6)) << " color rgb 0.75 shadowless }\n";
+    o << "  light_source { " << Pov(cv::Vec3d(-4e6, -3e6, -6e6)) << " color rgb 0.35 shadowless }\n";
+    o << "  light_source { " << Pov(cv::Vec3d(5e6, -3e6, -2e6)) << " color rgb 0.3 shadowless }\n";
   }
   // Mown lawn: blades as a fine bumpy pattern (14 mm), mowing stripes 1 m wide; the stripes'
   // scale of 2000 applies to the inner patterns too, hence their 0.007 and 0.005.
@@ -427,9 +533,7 @@ std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc
     o << "  sphere { " << Pov(c) << ", " << InnerRadius(g) << " "
       << tex("texture { pigment { rgb <0.03, 0.05, 0.02> } finish { ambient 0.05 diffuse 0.6 } }") << " }\n";
     o.precision(2);
-    for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + 500 + i)) {
-      o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a * 1.4 << " texture { L" << l.texture << " } }\n";
-    }
+    WriteLeaves(o, GardenLeaves(g, c, sc.texture_seed * 7919 + 500 + i), 1.4);
     o.precision(6);
   }
   for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
@@ -440,9 +544,7 @@ std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc
              " finish { ambient 0.05 diffuse 0.6 } }")
       << " }\n";
     o.precision(2);
-    for (const PovLeaf& l : GardenLeaves(g, c, sc.texture_seed * 7919 + i)) {
-      o << "  disc { " << Pov(l.c) << ", " << Pov(l.n) << ", " << l.a << " texture { L" << l.texture << " } }\n";
-    }
+    WriteLeaves(o, GardenLeaves(g, c, sc.texture_seed * 7919 + i), 1.0);
     o.precision(6);
   }
   o << "  " << Matrix(level_from_camera.t(), cv::Vec3d(0, 0, 0)) << "\n}\n";

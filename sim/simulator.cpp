@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 
 #include "cloud/cloud_io.hpp"
@@ -343,15 +344,18 @@ struct GardenFrame {
 };
 
 cv::Vec3d LevelCenter(const GardenScene& sc, const GardenHedge& h) {
-  // Sits on the lawn, sunk 5 % of its radius into the grass.
-  return cv::Vec3d(h.x_mm, sc.camera_height_mm - 0.95 * h.radius_mm, h.z_mm);
+  // Sits on the lawn, sunk into the grass (5 % of its radius by default; a dome deeper).
+  return cv::Vec3d(h.x_mm, sc.camera_height_mm - (1 - h.sink_share) * h.radius_mm, h.z_mm);
 }
 
-// Radial leaf depth below the envelope at point p (level frame), in [0, 1] of the shell: about a
-// quarter of the surface reaches the envelope, a few per cent are deep gaps.
-double LeafDepthFraction(const cv::Vec3d& p, std::uint64_t seed) {
-  const double n = Fractal(p, 28.0, 3, seed);
-  return std::clamp((n - 0.40) / 0.28, 0.0, 1.0);
+// Radial leaf depth below the envelope at point p (level frame), in [0, 1] of the shell: for the
+// default leaves about a quarter of the surface reaches the envelope, a few per cent are deep
+// gaps. The relief's scale follows the leaf size (28 mm for 16 mm leaves); a larger clipped share
+// brings more of the surface to the envelope, fewer layers spread the rest deeper.
+double LeafDepthFraction(const cv::Vec3d& p, std::uint64_t seed, const LeafShape& leaf) {
+  const double n = Fractal(p, 28.0 * leaf.size_mm / 16, 3, seed);
+  const double lo = 0.40 - 0.3 * (leaf.clipped_share - 1.0 / 3), width = 0.28 * 3.5 / leaf.layers;
+  return std::clamp((n - lo) / width, 0.0, 1.0);
 }
 
 // Nearest positive root of |o + t d - c| = r, or -1.
@@ -382,22 +386,26 @@ double HitCylinder(const cv::Vec3d& o, const cv::Vec3d& d, double cx, double cz,
 }
 
 // Sphere tracing through a leafy shell: the first point where |p - c| <= R - L * depth(p).
-// The noise has a gradient below ~3.5 / L per mm of the shell, so steps of g / 3.5 never skip
-// a leaf. Returns -1 for a ray that passes through gaps only.
-double HitLeafyBall(const cv::Vec3d& o, const cv::Vec3d& d, const cv::Vec3d& c, double R, double L, std::uint64_t seed,
-                    double* depth_fraction) {
+// The default leaves' noise has a gradient below ~3.5 / L per mm of the shell, so steps of
+// g / 3.5 never skip a leaf (finer relief or a steeper ramp: smaller steps). Returns -1 for a ray
+// that passes through gaps only.
+double HitLeafyBall(const cv::Vec3d& o, const cv::Vec3d& d, const cv::Vec3d& c, const GardenHedge& g_ball,
+                    std::uint64_t seed, double* depth_fraction) {
+  const double R = g_ball.radius_mm, L = g_ball.leaf_depth_mm;
+  const LeafShape& leaf = g_ball.leaf;
+  const double steepness = 3.5 * std::max(1.0, 16 / leaf.size_mm) * std::max(1.0, leaf.layers / 3.5);
   double t_far = 0;
   double t = HitSphere(o, d, c, R, &t_far);
   if (t < 0) return -1;
-  for (int i = 0; i < 600 && t <= t_far; ++i) {
+  for (int i = 0; i < 1200 && t <= t_far; ++i) {
     const cv::Vec3d p = o + t * d;
-    const double s = LeafDepthFraction(p, seed);
+    const double s = LeafDepthFraction(p, seed, leaf);
     const double g = cv::norm(p - c) - (R - L * s);
     if (g <= 0.05) {
       *depth_fraction = s;
       return t;
     }
-    t += std::max(0.3, g / 3.5);
+    t += std::max(0.3, g / steepness);
   }
   return -1;
 }
@@ -408,6 +416,7 @@ struct GardenHit {
   int kind = 0;           // 0 sky, 1 hedge, 2 lawn, 3 pot, 4 hedge row, 5 fence, 6 crown, 7 trunk, 8 shrub
   double leaf = 0;        // hedges: depth fraction
   cv::Vec3d centre;       // hedges and crowns
+  double leaf_scale = 1;  // hedges: leaf size over the default's (the texture's scale)
 };
 
 struct Tree {
@@ -428,8 +437,10 @@ GardenHit TraceGarden(const GardenScene& sc, const cv::Vec3d& o, const cv::Vec3d
       double t, leaf = 0;
       // Shadow rays test the half-depth sphere only: the sun's shadow edge is not worth the cost.
       if (shadow_ray) t = HitSphere(o, d, c, g.radius_mm - g.leaf_depth_mm / 2);
-      else t = HitLeafyBall(o, d, c, g.radius_mm, g.leaf_depth_mm, seed + i, &leaf);
-      if (t > 0 && t < h.t) h = GardenHit{t, hedges ? kLabelHedge + int(i) : int(kLabelWall), hedges ? 1 : 8, leaf, c};
+      else t = HitLeafyBall(o, d, c, g, seed + i, &leaf);
+      if (t > 0 && t < h.t) {
+        h = GardenHit{t, hedges ? kLabelHedge + int(i) : int(kLabelWall), hedges ? 1 : 8, leaf, c, g.leaf.size_mm / 16};
+      }
     }
   };
   trace_balls(sc.hedges, sc.texture_seed + 100, true);
@@ -488,7 +499,7 @@ double GardenHedgeSurfaceRadius(const GardenScene& sc, std::size_t i) {
   for (int k = 0; k < n; ++k) {
     const double z = 1 - (2.0 * k + 1) / n, r = std::sqrt(1 - z * z), phi = k * kPi * (3 - std::sqrt(5.0));
     const cv::Vec3d u(r * std::cos(phi), z, r * std::sin(phi));
-    sum += g.radius_mm - g.leaf_depth_mm * LeafDepthFraction(c + g.radius_mm * u, sc.texture_seed + 100 + i);
+    sum += g.radius_mm - g.leaf_depth_mm * LeafDepthFraction(c + g.radius_mm * u, sc.texture_seed + 100 + i, g.leaf);
   }
   return sum / n;
 }
@@ -507,6 +518,8 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
     }
     const cv::Vec3d p = o + h.t * d;
     auto lit = [&](const cv::Vec3d& normal) {
+      // Overcast: light from the whole sky, the more of it a surface faces; no shadows.
+      if (sc.overcast) return 0.55 + 0.35 * std::max(0.0, -normal[1]);
       const double direct = std::max(0.0, normal.dot(sun));
       const bool shadowed = direct > 0 && TraceGarden(sc, p + 2.0 * normal, sun, true).kind != 0;
       return 0.32 + (shadowed ? 0.0 : 0.78 * direct);
@@ -515,7 +528,7 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
       case 1:
       case 8: {  // leaves: darker deeper in the shell; a shrub's bluer and larger
         const cv::Vec3d nrm = cv::normalize(p - h.centre);
-        const double scale = h.kind == 8 ? 1.6 : 1.0;
+        const double scale = h.kind == 8 ? 1.6 : h.leaf_scale;
         const double leaf = Fractal(p, 9.0 * scale, 3, seed + 7), vein = Fractal(p, 3.5 * scale, 2, seed + 8);
         const double k = lit(nrm) * (1.0 - 0.6 * h.leaf) * (0.55 + 0.8 * leaf);
         if (h.kind == 8) return cv::Vec3d((55 + 25 * vein) * k, (115 + 50 * vein) * k, (45 + 25 * vein) * k);
@@ -582,7 +595,63 @@ std::vector<std::string> GardenHardPresetNames() {
           "cut_by_frame", "shrubs"};
 }
 
+std::vector<std::string> GardenLeafPresetNames() {
+  return {"boxwood", "boxwood_dome", "yew", "yew_dome", "privet", "privet_dome", "holly", "holly_dome"};
+}
+
 namespace {
+
+// A ball of the default leaves: position on the lawn, envelope radius and shell depth (mm).
+GardenHedge Ball(double x_mm, double z_mm, double radius_mm, double leaf_depth_mm) {
+  GardenHedge h;
+  h.x_mm = x_mm, h.z_mm = z_mm, h.radius_mm = radius_mm, h.leaf_depth_mm = leaf_depth_mm;
+  return h;
+}
+
+// The leaves and shell of a leaf preset's hedges (GardenLeafPresetNames), or nullopt.
+std::optional<GardenHedge> LeafPresetHedge(const std::string& species) {
+  GardenHedge h;
+  if (species == "boxwood") {  // small, flat, dense, freshly clipped
+    h.leaf = {14, 0.65, 0.0, 3.5, 0.45};
+    h.leaf_depth_mm = 20;
+  } else if (species == "yew") {  // needles in a thick shell
+    h.leaf = {20, 0.2, 0.0, 2.5, 0.35};
+    h.leaf_depth_mm = 50;
+  } else if (species == "privet") {  // mid-size, cupped
+    h.leaf = {30, 0.45, 0.08, 3.0, 0.3};
+    h.leaf_depth_mm = 45;
+  } else if (species == "holly") {  // large, strongly cupped, gappy, a thick shell
+    h.leaf = {55, 0.55, 0.2, 2.2, 0.25};
+    h.leaf_depth_mm = 80;
+  } else {
+    return std::nullopt;
+  }
+  return h;
+}
+
+// "SPECIES" (sun: r 350 mm at 1.6 m, r 650 mm at 2.8 m) or "SPECIES_dome" (overcast: a dome of
+// r 950 mm sunk 40 % into the lawn at 2.9 m, a ball of r 300 mm at 1.5 m), or nullopt.
+std::optional<GardenScene> LeafGarden(const std::string& name) {
+  const bool dome = name.size() > 5 && name.compare(name.size() - 5, 5, "_dome") == 0;
+  const std::optional<GardenHedge> base = LeafPresetHedge(dome ? name.substr(0, name.size() - 5) : name);
+  if (!base) return std::nullopt;
+  GardenScene sc;
+  sc.pot = false;
+  const std::vector<std::string> names = GardenLeafPresetNames();
+  sc.texture_seed = 200 + 7 * std::uint64_t(std::find(names.begin(), names.end(), name) - names.begin());
+  auto ball = [&](double x, double z, double r, double sink) {
+    GardenHedge h = *base;
+    h.x_mm = x, h.z_mm = z, h.radius_mm = r, h.sink_share = sink;
+    return h;
+  };
+  if (dome) {
+    sc.overcast = true;
+    sc.hedges = {ball(-1000, 1500, 300, 0.05), ball(500, 2900, 950, 0.4)};
+  } else {
+    sc.hedges = {ball(-750, 1600, 350, 0.05), ball(800, 2800, 650, 0.05)};
+  }
+  return sc;
+}
 
 // "random<seed>": one to three balls of the issue's range (r 420-600 mm, centres 2.0-2.7 m away)
 // side by side across the view, leaf layers 25-40 mm, the camera 0.9-1.4 m up and pitched 4-14
@@ -611,7 +680,7 @@ GardenScene RandomGarden(std::uint64_t seed) {
   }
   if (u() < 0.4) {
     const double z = 2300 + 300 * u();
-    sc.shrub_lobes = {{x + 260, z, 260, 35}, {x + 540, z + 60, 240, 35}};
+    sc.shrub_lobes = {Ball(x + 260, z, 260, 35), Ball(x + 540, z + 60, 240, 35)};
   }
   return sc;
 }
@@ -623,81 +692,82 @@ GardenScene GardenPreset(const std::string& name) {
       std::all_of(name.begin() + 6, name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
     return RandomGarden(std::stoull(name.substr(6)));
   }
+  if (std::optional<GardenScene> leafy = LeafGarden(name)) return *leafy;
   GardenScene sc;
   if (name == "row") {
-    sc.hedges = {{-1350, 2300, 450, 30}, {80, 2500, 520, 30}, {1500, 2700, 600, 35}};
+    sc.hedges = {Ball(-1350, 2300, 450, 30), Ball(80, 2500, 520, 30), Ball(1500, 2700, 600, 35)};
     sc.pot_x_mm = -550, sc.pot_z_mm = 1750;
   } else if (name == "single") {
-    sc.hedges = {{150, 2400, 520, 30}};
+    sc.hedges = {Ball(150, 2400, 520, 30)};
     sc.pot_x_mm = -1100, sc.pot_z_mm = 2200;
     sc.texture_seed = 23;
   } else if (name == "outdoor") {
     // The paper's outdoor hedges: r 880-960 mm, centres about 2 m away, so the front leaves are
     // about 1.1 m from the cameras.
-    sc.hedges = {{100, 2000, 920, 40}};
+    sc.hedges = {Ball(100, 2000, 920, 40)};
     sc.pot = false;
     sc.texture_seed = 31;
   } else if (name == "pair") {
     // Two balls a hand's width apart in the image, the hedge row between them.
-    sc.hedges = {{-700, 2200, 450, 30}, {600, 2400, 500, 30}};
+    sc.hedges = {Ball(-700, 2200, 450, 30), Ball(600, 2400, 500, 30)};
     sc.pot = false;
     sc.texture_seed = 61;
   } else if (name == "low_camera") {
     // A camera 0.8 m up, pitched 3 degrees: the lawn between the pot and the ball seen edge-on.
-    sc.hedges = {{0, 2300, 480, 30}};
+    sc.hedges = {Ball(0, 2300, 480, 30)};
     sc.camera_height_mm = 800;
     sc.pitch_deg = 3;
     sc.texture_seed = 53;
   } else if (name == "high_camera") {
     // 1.5 m up, pitched 15 degrees down: the ball against the lawn, the hedge row out of view.
-    sc.hedges = {{-100, 2500, 550, 30}};
+    sc.hedges = {Ball(-100, 2500, 550, 30)};
     sc.camera_height_mm = 1500;
     sc.pitch_deg = 15;
     sc.pot = false;
     sc.texture_seed = 59;
   } else if (name == "small_far") {
     // The smallest, farthest ball the issue names (r 420 mm at 2.6 m), the pot nearer.
-    sc.hedges = {{-200, 2600, 420, 25}};
+    sc.hedges = {Ball(-200, 2600, 420, 25)};
     sc.pot_x_mm = 700, sc.pot_z_mm = 2000;
     sc.texture_seed = 41;
   } else if (name == "big_near") {
     // The largest, nearest (r 600 mm at 2.0 m).
-    sc.hedges = {{250, 2000, 600, 35}};
+    sc.hedges = {Ball(250, 2000, 600, 35)};
     sc.pot_x_mm = -1000, sc.pot_z_mm = 1900;
     sc.texture_seed = 43;
   } else if (name == "off_centre") {
     // Towards the image's right edge, where distortion and vignetting are strongest.
-    sc.hedges = {{900, 2300, 500, 30}};
+    sc.hedges = {Ball(900, 2300, 500, 30)};
     sc.pot_x_mm = -400, sc.pot_z_mm = 2100;
     sc.texture_seed = 47;
   } else if (name == "touching") {
     // A planted row whose balls touch, the pot in front: no gap between them in the image, and
     // the lawn below where they meet lies in their shadow.
-    sc.hedges = {{-900, 2500, 450, 30}, {0, 2500, 450, 30}, {900, 2500, 450, 30}};
+    sc.hedges = {Ball(-900, 2500, 450, 30), Ball(0, 2500, 450, 30), Ball(900, 2500, 450, 30)};
     sc.pot_x_mm = 1150, sc.pot_z_mm = 1850;
     sc.texture_seed = 67;
   } else if (name == "left_edge") {
     // Near the image's left edge, where SGBM's search leaves the right view.
-    sc.hedges = {{-1500, 2300, 500, 30}};
+    sc.hedges = {Ball(-1500, 2300, 500, 30)};
     sc.pot_x_mm = 400, sc.pot_z_mm = 2100;
     sc.texture_seed = 71;
   } else if (name == "cut_by_frame") {
     // Half out of the image on the right: the fit sees part of the ball.
-    sc.hedges = {{2250, 2400, 500, 30}};
+    sc.hedges = {Ball(2250, 2400, 500, 30)};
     sc.pot_x_mm = -600, sc.pot_z_mm = 2000;
     sc.texture_seed = 73;
   } else if (name == "shrubs") {
     // Other shrubs, green and leafy but no balls: four lobes against the ball's right side, two
     // more apart on the left.
-    sc.hedges = {{-300, 2400, 500, 30}};
-    sc.shrub_lobes = {{420, 2350, 300, 40}, {700, 2500, 320, 40}, {560, 2450, 260, 40},
-                      {950, 2380, 250, 40}, {-1500, 2200, 280, 40}, {-1800, 2300, 240, 40}};
+    sc.hedges = {Ball(-300, 2400, 500, 30)};
+    sc.shrub_lobes = {Ball(420, 2350, 300, 40), Ball(700, 2500, 320, 40), Ball(560, 2450, 260, 40),
+                      Ball(950, 2380, 250, 40), Ball(-1500, 2200, 280, 40), Ball(-1800, 2300, 240, 40)};
     sc.pot = false;
     sc.texture_seed = 91;
   } else {
     throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
-                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs, or random<seed> "
-                "(e.g. random7)");
+                "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs, boxwood, yew, privet, holly "
+                "(each also NAME_dome), or random<seed> (e.g. random7)");
   }
   return sc;
 }
@@ -734,6 +804,7 @@ std::vector<std::string> WriteGardenWith(const std::string& dir, const SimRig& r
       t.center_mm = Eigen::Vector3d(c[0], c[1], c[2]);
       t.radius_mm = sc.hedges[i].radius_mm;
       t.surface_radius_mm = surface(sc, i);
+      t.shell_mm = sc.hedges[i].leaf_depth_mm;
       truths.push_back(t);
     }
     const std::string truth = (fs::path(dir) / ("garden_" + name + ".truth.json")).string();

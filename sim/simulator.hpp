@@ -70,11 +70,25 @@ enum Label : std::uint8_t {
 /// A clipped boxwood ball on a lawn: leaves fill a shell between radius - leaf_depth and radius
 /// (radial depth from a 3-D noise field, so there are gaps one sees into), sitting on the ground.
 /// Placed in the level frame: x right, z forward along the ground from the camera's foot.
+/// What a hedge's leaves are like. The defaults are the boxwood every garden preset had before
+/// the leaf presets (GardenLeafPresetNames): round flat leaves 12-20 mm across, 3.5 layers.
+/// POV-Ray builds each leaf from it (a disc; elongated, an elliptic disc; cupped, a folded lozenge);
+/// hedgefit's renderer has no leaves, only a noise-shaded shell whose relief it scales by size_mm.
+struct LeafShape {
+  double size_mm = 16;          ///< mean leaf length (12-20 mm about it)
+  double width_ratio = 1;       ///< width over length: 1 round, 0.2 a needle
+  double cup = 0;               ///< how far the rim rises above the leaf's middle, over its length
+  double layers = 3.5;          ///< leaves over the sphere's area in units of one leaf's: dense 4, gappy 2
+  double clipped_share = 1.0 / 3;  ///< leaves cut flush with the envelope by the shears
+};
+
 struct GardenHedge {
   double x_mm = 0;
   double z_mm = 2300;
   double radius_mm = 500;      ///< outer envelope: where the leaves end (what a tape measure gives)
   double leaf_depth_mm = 30;   ///< depth of the leaf shell below the envelope
+  LeafShape leaf;
+  double sink_share = 0.05;    ///< how far the ball sinks into the lawn, over its radius (a dome: 0.3-0.5)
 };
 
 /// A garden: hedge balls on a mown lawn, a terracotta pot, a clipped hedge row at 5.2 m, a fence
@@ -91,6 +105,7 @@ struct GardenScene {
   /// Other shrubs: leafy lobes (each a ball of leaves like a hedge's, of another, bluer green)
   /// that overlap into irregular bushes. Not hedges: labelled kLabelWall, not in the truth.
   std::vector<GardenHedge> shrub_lobes;
+  bool overcast = false;               ///< no sun: soft light from the whole sky, no shadows
 };
 
 /// A leafy ball's (a hedge's or a shrub lobe's) centre in the garden's level frame (mm): it sits
@@ -134,6 +149,13 @@ std::vector<std::string> GardenPresetNames();
 /// left edge), "cut_by_frame" (half out of the image on the right), "shrubs" (a ball with a
 /// four-lobed shrub against it and a two-lobed one apart).
 std::vector<std::string> GardenHardPresetNames();
+/// Gardens across leaves, named after the hedges they imitate, two gardens each: NAME (sun; a
+/// small ball near and a larger one far) and NAME_dome (overcast; a dome sunk into the lawn and
+/// a small ball near). boxwood: leaves 14 x 9 mm, flat, 20 mm shell, dense and clipped; yew:
+/// needles 20 x 4 mm, 50 mm shell; privet: leaves 30 x 14 mm, cupped, 45 mm shell; holly:
+/// leaves 55 x 30 mm, strongly cupped, 80 mm shell, gappy. Balls of r 300-1000 mm, centres
+/// 1.5-3 m from the camera.
+std::vector<std::string> GardenLeafPresetNames();
 
 /// Creates `dir` (throwing hedgefit::Error when it cannot) and writes rig_truth.json and
 /// rig.yaml, the exact rig, for `rig`. Returns their paths.

@@ -398,6 +398,10 @@ std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector
   if (clean) {
     for (const auto& stage : json::parse(cloud::DefaultCleaningJson())) p.push_back(stage);
   }
+  // The envelope fit also fits each hedge's outline, measured about a first fit to the cleaned points.
+  if (std::find(fit_stages.begin(), fit_stages.end(), "fitters.envelope") != fit_stages.end()) {
+    p.push_back({{"type", "stereo.outline"}});
+  }
   for (const std::string& type : fit_stages) p.push_back({{"type", type}});
   if (!overlay.empty()) p.push_back({{"type", "writers.overlay"}, {"filename", overlay}});
   return p.dump(2);
@@ -427,6 +431,8 @@ ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, 
   const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");
   r.matched_region = region ? *region : cv::Rect(0, 0, r.left_rect.cols, r.left_rect.rows);
   if (const auto* hedges = ctx.Find<std::vector<HedgeRegion>>("hedges")) r.hedges = *hedges;
+  if (const auto* labels = ctx.Find<cv::Mat>("hedge_labels")) r.hedge_labels = *labels;
+  if (const auto* ground = ctx.Find<cv::Vec4d>("ground_plane")) r.ground = *ground;
   const int* area = ctx.Find<int>("matched_area");
   r.matched_fraction = double(area ? *area : r.matched_region.area()) / double(r.left_rect.total());
   for (const auto& s : report.stages) {

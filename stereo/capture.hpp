@@ -7,6 +7,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <optional>
 #include <string>
 
 #include "pipeline/option_table.hpp"
@@ -165,6 +166,8 @@ struct ConvertResult {
   cv::Mat disparity_sigma;         ///< CV_32F px, the refinement's standard deviation; NaN = none
   cv::Rect matched_region;         ///< in the rectified left image
   std::vector<HedgeRegion> hedges; ///< kGarden: every hedge found (the cloud's "hedge_id" field)
+  cv::Mat hedge_labels;            ///< kGarden: CV_32S hedge ids in the rectified left image (0 none)
+  std::optional<cv::Vec4d> ground; ///< kGarden: the ground plane found, unrectified left frame (n.p + d = 0)
   double matched_fraction = 1.0;   ///< matched area / full image area
   double wall_ms = 0;
   struct {

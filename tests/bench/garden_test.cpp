@@ -554,7 +554,8 @@ TEST(GardenSegment, BallsAtTheImageEdgesKeepTheirOutline) {
   lo.labels = true;
   for (const double x : {-1800.0, 2250.0}) {
     GardenScene sc = GardenPreset("single");
-    sc.hedges = {{x, 2400, 500, 30}};
+    sc.hedges = {sc.hedges[0]};
+    sc.hedges[0].x_mm = x, sc.hedges[0].radius_mm = 500;
     sc.pot_x_mm = 300;
     cv::Mat l, r;
     RectifyPair(rig, RenderGarden(sim, false, sc, ro), RenderGarden(sim, true, sc, ro), &l, &r);

@@ -109,22 +109,46 @@ TEST(EnvelopeFit, HandWrittenGradientAgreesWithDifferences) {
   const Eigen::Vector3d centre(40, -30, 2300);
   auto pts = hedgefit::testing::LeafyCap(centre, 500, 10, 85, 3000, 3, rng, 0.3);
   hedgefit::testing::AddOutliers(&pts, 0.02, 200, rng);
-  const std::vector<std::array<double, 7>> at = {
-      {40, -30, 2300, 500, std::log(10.0), std::log(3.0), -0.8},     // at the truth
-      {45, -20, 2310, 505, std::log(4.0), std::log(6.0), 1.5},       // off: the noise wide
-      {30, -40, 2280, 490, std::log(20.0), std::log(1.0), -3.0},     // off: points outside R
-      {40, -30, 2300, 500, std::log(0.02), std::log(0.5), 4.0}};     // nearly bare, near the floors
-  for (const auto& p0 : at) {
-    double g[7];
-    detail::ShellCost(pts, Eigen::Vector3d::Zero(), 0.02, 250, p0.data(), g);
-    for (int k = 0; k < 7; ++k) {
-      auto hi = p0, lo = p0;
-      const double h = 1e-6;
-      hi[std::size_t(k)] += h, lo[std::size_t(k)] -= h;
-      const double diff = (detail::ShellCost(pts, Eigen::Vector3d::Zero(), 0.02, 250, hi.data(), nullptr) -
-                           detail::ShellCost(pts, Eigen::Vector3d::Zero(), 0.02, 250, lo.data(), nullptr)) /
-                          (2 * h);
-      EXPECT_NEAR(g[k], diff, 1e-5 * std::abs(diff) + 1e-8) << "parameter " << k << " at R " << p0[3];
+  // The top bias' footprints (Z / f, as a capture's cloud has them) and an outline: rays from
+  // two cameras 140 mm apart grazing the sphere, a pixel or two off, some far off.
+  std::vector<double> footprint;
+  for (const auto& q : pts) footprint.push_back(q.z() / 933.0);
+  std::vector<cloud::TangentRay> rays;
+  std::vector<double> px_per_mm;
+  std::normal_distribution<double> gauss;
+  for (int k = 0; k < 200; ++k) {
+    cloud::TangentRay ray;
+    ray.origin_mm = k % 2 ? Eigen::Vector3d(140, 0, 0) : Eigen::Vector3d::Zero();
+    ray.focal_px = 933;
+    const Eigen::Vector3d axis = (centre - ray.origin_mm).normalized();
+    const Eigen::Vector3d side = axis.cross(Eigen::Vector3d::UnitY()).normalized(), up = axis.cross(side);
+    const double phi = 0.1 * k, off = (k % 17 == 0 ? 30.0 : 2.0) * gauss(rng);
+    const Eigen::Vector3d edge = centre + (500 + off) * (std::cos(phi) * side + std::sin(phi) * up);
+    ray.direction = (edge - ray.origin_mm).normalized();
+    rays.push_back(ray);
+    px_per_mm.push_back(933 / (centre - ray.origin_mm).dot(ray.direction));
+  }
+  const std::vector<std::array<double, 10>> at = {
+      {40, -30, 2300, 500, std::log(10.0), std::log(3.0), -0.8, 0.5, 0.0, 0.0},      // at the truth
+      {45, -20, 2310, 505, std::log(4.0), std::log(6.0), 1.5, 1.2, 1.0, -1.0},       // off: the noise wide
+      {30, -40, 2280, 490, std::log(20.0), std::log(1.0), -3.0, -0.3, -1.0, 0.5},    // off: points outside R
+      {40, -30, 2300, 500, std::log(0.02), std::log(0.5), 4.0, 0.0, 0.5, -3.0}};     // nearly bare, near the floors
+  for (const bool outline : {false, true}) {
+    auto cost = [&](const double* p, double* g) {
+      return outline ? detail::ShellCost(pts, Eigen::Vector3d::Zero(), 0.02, 250, p, g, &footprint, &rays, &px_per_mm)
+                     : detail::ShellCost(pts, Eigen::Vector3d::Zero(), 0.02, 250, p, g);
+    };
+    for (const auto& p0 : at) {
+      double g[10];
+      cost(p0.data(), g);
+      for (int k = 0; k < 10; ++k) {
+        auto hi = p0, lo = p0;
+        const double h = 1e-6;
+        hi[std::size_t(k)] += h, lo[std::size_t(k)] -= h;
+        const double diff = (cost(hi.data(), nullptr) - cost(lo.data(), nullptr)) / (2 * h);
+        EXPECT_NEAR(g[k], diff, 1e-5 * std::abs(diff) + 1e-8)
+            << "parameter " << k << " at R " << p0[3] << (outline ? " with the outline" : "");
+      }
     }
   }
 }
@@ -185,6 +209,69 @@ TEST(EnvelopeFit, AddsBackTheMatchersReadingOfTheOutermostLeaves) {
   // The pixel sizes must be one per point.
   pixel_mm.pop_back();
   EXPECT_THROW(FitEnvelope(pts, o, nullptr, &pixel_mm), Error);
+}
+
+// Rays from two cameras 140 mm apart (f = 933 px) grazing a sphere, each a ragged distance
+// inside the tangent: exponential with mean `ragged_px`, plus `noise_px` of edge noise (px at the
+// tangent point). Both views see the outline all round but its bottom quarter (the lawn).
+std::vector<cloud::TangentRay> RaggedOutline(const Eigen::Vector3d& centre, double R, double ragged_px, double noise_px,
+                                             std::mt19937_64& rng) {
+  std::exponential_distribution<double> depth(1 / ragged_px);
+  std::normal_distribution<double> gauss;
+  std::vector<cloud::TangentRay> rays;
+  for (const Eigen::Vector3d& origin : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(140, 0, 0)}) {
+    const Eigen::Vector3d w = centre - origin, a = w.normalized();
+    const Eigen::Vector3d e1 = a.cross(Eigen::Vector3d::UnitY()).normalized(), e2 = a.cross(e1);
+    const double D = w.norm(), rho = R * std::sqrt(1 - R * R / (D * D));
+    for (int k = 0; k < 800; ++k) {
+      const double phi = 2 * M_PI * k / 800;
+      const Eigen::Vector3d u = std::cos(phi) * e1 + std::sin(phi) * e2;
+      if (u.y() > 0.7) continue;  // the bottom, against the lawn (y down)
+      const Eigen::Vector3d q = centre - a * (R * R / D) + rho * u;
+      const double mm_per_px = (q - origin).norm() / 933;
+      const Eigen::Vector3d edge = q + (-depth(rng) + noise_px * gauss(rng)) * mm_per_px * u;
+      cloud::TangentRay ray;
+      ray.origin_mm = origin, ray.focal_px = 933, ray.view = origin.x() > 0 ? 1 : 0;
+      ray.direction = (edge - origin).normalized();
+      rays.push_back(ray);
+    }
+  }
+  return rays;
+}
+
+// The front's points say where the leaves are, not how deep the matcher reads the outermost
+// ones: read 3 footprints too deep (the model's prior is 0.5), the front alone puts the envelope
+// inside by ~2.5 footprints. The outline, ragged by 1.5 px on average inside the tangent, puts
+// it back: the envelope within a fifth of a pixel's footprint (0.5 mm at 2.3 m), the top bias
+// fitted near the 3 footprints it was, and the stated errors covering what is left.
+TEST(EnvelopeFit, TheOutlinePinsTheEnvelopeWhereTheFrontCannot) {
+  std::mt19937_64 rng(21);
+  const Eigen::Vector3d centre(60, -20, 2300);
+  const double f = 933, R = 450, kappa = 3;
+  auto pts = hedgefit::testing::LeafyCap(centre, R, 8, 60, 8000, 1.5, rng, 0.3);
+  std::vector<double> pixel_mm;
+  for (auto& p : pts) {
+    pixel_mm.push_back(p.z() / f);
+    p -= kappa * pixel_mm.back() * (p - centre).normalized();
+  }
+  const double footprint = (centre.norm() - R) / f;
+  const EnvelopeFit front = FitEnvelope(pts, {}, nullptr, &pixel_mm);
+  ASSERT_TRUE(front.fit.converged) << front.fit.message;
+  EXPECT_LT(front.fit.sphere.radius_mm, R - 1.5 * footprint);  // the test can tell
+  const std::vector<cloud::TangentRay> outline = RaggedOutline(centre, R, 1.5, 0.2, rng);
+  const EnvelopeFit both = FitEnvelope(pts, {}, nullptr, &pixel_mm, &outline);
+  ASSERT_TRUE(both.fit.converged) << both.fit.message;
+  EXPECT_EQ(both.outline_rays, outline.size());
+  EXPECT_NEAR(both.fit.sphere.radius_mm, R, 0.2 * footprint);
+  EXPECT_LT((both.fit.sphere.center_mm - centre).norm(), 1.0);
+  EXPECT_NEAR(both.top_bias_px, kappa, 0.5);
+  EXPECT_NEAR(both.outline_ragged_px, 1.5, 0.3);
+  ASSERT_TRUE(both.std_error_mm.has_value());
+  // The radius' error lies within 2 stated standard errors; they are 0.3 of the raggedness (1.5 px
+  // of 2 mm: 0.9 mm) and the points' and the outline's own scatter, so under 1.5 mm (a 95 %
+  // half-width under 3 mm, inside the 5 mm).
+  EXPECT_LT(std::abs(both.fit.sphere.radius_mm - R), 2 * (*both.std_error_mm)[3]);
+  EXPECT_LT((*both.std_error_mm)[3], 1.5);
 }
 
 // Through the method table: the row reports both radii.
