@@ -15,7 +15,7 @@
 #include "pipeline/registry.hpp"
 
 /// Bumped whenever Registry, Stage, Context or PointCloud change layout.
-#define HEDGEFIT_PLUGIN_ABI_VERSION 3
+#define HEDGEFIT_PLUGIN_ABI_VERSION 4
 
 extern "C" {
 struct HedgefitPluginInfo {

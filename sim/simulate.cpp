@@ -19,9 +19,10 @@ const pipeline::OptionTable<SimulateRequest>& SimulateRequest::Table() {
   static const auto table =
       pipeline::OptionTable<R>()
           .Add("preset", &R::preset,
-               "paper-lab (the paper's lab: boards and spheres), garden (leafy hedge balls on a lawn) or wide-boards "
-               "(12 more board pairs near the image's edges, board_17..board_28, for calibration)")
-          .Choices({"", "paper-lab", "garden", "wide-boards"})
+               "paper-lab (the paper's lab: boards and spheres), garden (leafy hedge balls on a lawn), garden-leaves "
+               "(boxwood, yew, privet and holly, each in sun and as an overcast dome) or wide-boards (12 more board "
+               "pairs near the image's edges, board_17..board_28, for calibration)")
+          .Choices({"", "paper-lab", "garden", "garden-leaves", "wide-boards"})
           .Add("renderer", &R::renderer,
                "the presets' renderer: hedgefit (its own ray caster) or povray (POV-Ray, an independent one)")
           .Choices({"hedgefit", "povray"})
@@ -124,8 +125,8 @@ std::string Simulate(const SimulateRequest& r) {
   const auto t0 = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   const char* out = r.output.c_str();
-  if (r.preset == "garden") {
-    const auto names = GardenPresetNames();
+  if (r.preset == "garden" || r.preset == "garden-leaves") {
+    const auto names = r.preset == "garden" ? GardenPresetNames() : GardenLeafPresetNames();
     std::vector<std::string> files;
     if (r.renderer == "povray") {
       files = WritePovrayGarden(r.output, r.scale, camera, names, seed);

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <vector>
 
-#include "pipeline/parallel.hpp"
 
 namespace hedgefit::stereo {
 
