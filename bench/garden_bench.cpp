@@ -141,22 +141,6 @@ void EnsureGardenRenders(const GardenOptions& a, const std::vector<std::string>&
   }
 }
 
-// Each hedge's outline (what stereo.outline does in a pipeline): about its envelope fitted to
-// the front's points alone.
-cloud::HedgeOutlines Outlines(const stereo::ConvertResult& res, const cloud::PointCloud& cleaned,
-                              const std::vector<cloud::HedgeGroup>& groups, const stereo::StereoRig& rig) {
-  std::map<int, Eigen::Vector4d> starts;
-  for (const auto& g : groups) {
-    const std::vector<Eigen::Vector3d> pts = cloud::PointsAt(cleaned, g.indices);
-    const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
-    const fitting::SphereFitResult f = fitting::RunFitMethod("envelope", pts, {}, 42, true, &pixel_mm);
-    if (!f.converged) continue;
-    const Eigen::Vector3d& c = f.sphere.center_mm;
-    starts[g.id] = Eigen::Vector4d(c.x(), c.y(), c.z(), f.sphere.radius_mm);
-  }
-  return stereo::MeasureOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, starts, res.ground);
-}
-
 // The outline's rays against the true envelope (px at each ray's tangent point), per view.
 void ScoreOutline(const std::vector<cloud::TangentRay>& rays, const fitting::Sphere& truth, GardenHedgeRow* row) {
   std::vector<double> err[2];
@@ -270,7 +254,10 @@ GardenResult RunGarden(const GardenOptions& a) {
     const cloud::PointCloud cleaned = cloud::RunFilterStages(res.cloud, a.cleaning, "bench garden's cleaning");
     const auto groups = cloud::HedgeGroups(cleaned);
     const auto raw_groups = cloud::HedgeGroups(res.cloud);  // the written clouds, for the 50 mm share
-    const cloud::HedgeOutlines outlines = a.outline ? Outlines(res, cleaned, groups, rig) : cloud::HedgeOutlines();
+    // Each hedge's outline, as stereo.outline measures it in a pipeline.
+    const cloud::HedgeOutlines outlines =
+        a.outline ? stereo::MeasureCloudOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, cleaned, 42, res.ground)
+                  : cloud::HedgeOutlines();
     std::vector<fitting::Sphere> spheres;
     for (const auto& t : truths) spheres.push_back(fitting::Sphere{t.center_mm, t.radius_mm});
     for (std::size_t ti = 0; ti < truths.size(); ++ti) {

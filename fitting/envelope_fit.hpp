@@ -40,7 +40,8 @@ struct EnvelopeFitOptions {
   /// garden sets and 0.47-0.58 on POV-Ray's (bench garden, "the matcher against the renderer's
   /// own leaves"), 0.5-2 mm at 1.3-3 m. The envelope adds this many footprints back, point by
   /// point, where the cloud says what a pixel spans (its "pixel_mm" field); 0 = off. Footprints
-  /// over 4 mm (beyond those it was measured at) count as 4 mm.
+  /// over 4 mm (beyond those it was measured at) count as 4 mm. With an outline it is fitted
+  /// per hedge, this value the centre of its prior (1 px wide).
   double top_bias_px = 0.5;
   void Check() const;
   static const pipeline::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once

@@ -14,7 +14,6 @@
 #include "pipeline/option_table.hpp"
 #include "pipeline/parallel.hpp"
 #include "cloud/point_cloud.hpp"
-#include "fitting/methods.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/outline.hpp"
 #include "stereo/image_io.hpp"
@@ -466,33 +465,13 @@ void AddOutline(pipeline::Registry& r) {
                   {}, {"cloud", "left_image", "right_image", "rig"}, {"outlines"}, {}},
         [](const Options& o) -> std::unique_ptr<pipeline::Stage> {
           return std::make_unique<pipeline::LambdaStage>(o, [](const Options&, Context& ctx) {
-            const cloud::PointCloud& c = ctx.Get<cloud::PointCloud>("cloud");
-            const std::vector<cloud::HedgeGroup> groups = cloud::HedgeGroups(c);
-            // The start: the envelope fitted to the front's points alone, per hedge.
-            std::vector<std::optional<Eigen::Vector4d>> spheres(groups.size());
-            pipeline::ParallelFor(groups.size(), 0, 1, [&](std::size_t b, std::size_t e) {
-              for (std::size_t k = b; k < e; ++k) {
-                const std::vector<Eigen::Vector3d> pts = cloud::PointsAt(c, groups[k].indices);
-                const std::vector<double> pixel_mm = cloud::FieldAt(c, cloud::kPixelSizeField, groups[k].indices);
-                if (pts.size() < 50) continue;
-                const fitting::SphereFitResult f =
-                    fitting::RunFitMethod("envelope", pts, {}, ctx.seed, groups[k].id >= 1, &pixel_mm);
-                if (f.converged) {
-                  spheres[k] = Eigen::Vector4d(f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z(),
-                                               f.sphere.radius_mm);
-                }
-              }
-            });
-            std::map<int, Eigen::Vector4d> start;
-            for (std::size_t k = 0; k < groups.size(); ++k) {
-              if (spheres[k]) start[groups[k].id] = *spheres[k];
-            }
             const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
             const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");
             std::map<int, OutlineStats> stats;
-            cloud::HedgeOutlines outlines = MeasureOutlines(
+            cloud::HedgeOutlines outlines = MeasureCloudOutlines(
                 ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), labels ? *labels : cv::Mat(),
-                RigOf(ctx), start, ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt, &stats);
+                RigOf(ctx), ctx.Get<cloud::PointCloud>("cloud"), ctx.seed,
+                ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt, &stats);
             std::int64_t left = 0, right = 0;
             for (const auto& [id, st] : stats) left += std::int64_t(st.left), right += std::int64_t(st.right);
             ctx.Note("outline_left", left);
