@@ -4,9 +4,11 @@
 #include "cli/parse.hpp"
 #include "cli/stage_flags.hpp"
 #include "cloud/cleaning.hpp"
+#include "bench/find_bench.hpp"
 #include "bench/garden_bench.hpp"
 #include "bench/lab_bench.hpp"
 #include "cloud/cloud_io.hpp"
+#include "fitting/methods.hpp"
 #include "pipeline/error.hpp"
 #include "pipeline/pipeline.hpp"
 
@@ -113,12 +115,42 @@ void AddGardenBench(CLI::App* bench, CommandFn* run) {
   });
 }
 
+void AddFindBench(CLI::App* bench, CommandFn* run) {
+  auto* cmd = bench->add_subcommand(
+      "find", "Simulated garden scans (16- and 32-beam LiDAR driving past, a terrestrial scanner, a photogrammetry "
+              "model): every ball found, nothing else called one, radius, centre and ground against the truth");
+  cmd->footer(
+      "Examples:\n"
+      "  hedgefit bench find                       # 3 gardens per sensor, about a minute\n"
+      "  hedgefit bench find --sensors lidar16 --gardens 10 --json find.json\n"
+      "  hedgefit bench find --gardens 1 --dir build/scans   # also write the scans (PLY, metres) and truths\n");
+  struct Args {
+    bench::FindBenchOptions o;
+    StageFlags flags;
+    std::string json;
+  };
+  auto a = std::make_shared<Args>();
+  a->flags.Add(cmd, bench::FindBenchOptions::Table().Specs(), {}, "Scans");
+  cmd->add_option("--json", a->json, "also write the table as JSON here")->group("Output");
+  cmd->callback([=]() {
+    *run = [=]() {
+      fitting::QuietSolverWarnings();
+      bench::FindBenchOptions::Table().Apply(a->flags.Given(), &a->o);
+      const bench::FindBenchResult result = bench::RunFindBench(a->o);
+      bench::PrintFindBench(result);
+      if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, bench::FindBenchJson(result));
+      return kExitOk;
+    };
+  });
+}
+
 }  // namespace
 
 void AddBenchCommand(CLI::App& app, CommandFn* run) {
   auto* bench = app.add_subcommand("bench", "End-to-end benchmarks");
   AddLabBench(bench, run);
   AddGardenBench(bench, run);
+  AddFindBench(bench, run);
 }
 
 }  // namespace hedgefit::apps

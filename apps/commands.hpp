@@ -28,5 +28,6 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run);
 void AddTrimCommand(CLI::App& app, CommandFn* run);
 void AddStreamCommand(CLI::App& app, CommandFn* run);
 void AddBenchCommand(CLI::App& app, CommandFn* run);
+void AddFindCommand(CLI::App& app, CommandFn* run);
 
 }  // namespace hedgefit::apps

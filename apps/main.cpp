@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   AddPipelineCommand(app, &run);
   AddPluginsCommand(app, &run);
   AddCompareCommand(app, &run);
+  AddFindCommand(app, &run);
   AddCalibrateCommand(app, &run);
   AddRigCommand(app, &run);
   AddCheckRigCommand(app, &run);

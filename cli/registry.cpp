@@ -3,6 +3,7 @@
 #include "pipeline/plugin.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "render/render_stages.hpp"
+#include "scene/scene_stages.hpp"
 #include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::cli {
@@ -12,6 +13,7 @@ void PrepareRegistry(bool load_plugins) {
   registry.AddModule("cloud", &cloud::RegisterCloudStages);
   registry.AddModule("fitting", &fitting::RegisterFittingStages);
   registry.AddModule("render", &render::RegisterRenderStages);
+  registry.AddModule("scene", &scene::RegisterSceneStages);
   registry.AddModule("stereo", &stereo::RegisterStereoStages);
   if (load_plugins) pipeline::LoadPlugins(registry, pipeline::PluginSearchPath());
 }

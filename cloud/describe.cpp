@@ -5,7 +5,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cstdio>
+#include <algorithm>
+#include <cmath>
+
+#include "cloud/neighbour_search.hpp"
 
 namespace hedgefit::cloud {
 
@@ -42,6 +45,39 @@ std::string GuessUnits(double extent) {
   return extent < kMetreExtentLimit ? "m" : "mm";
 }
 
+std::string GuessUnits(double extent, double spacing) {
+  if (extent <= 0) return "unknown";
+  if (extent < kMetreExtentLimit || (extent < 2000 && spacing > 0 && spacing < 0.2)) return "m";
+  return "mm";
+}
+
+double MedianSpacing(const PointCloud& cloud) {
+  std::vector<std::size_t> finite;
+  for (std::size_t i = 0; i < cloud.size(); ++i) if (IsFinite(cloud.points_mm[i])) finite.push_back(i);
+  if (finite.size() < 2) return 0;
+  constexpr std::size_t kBase = 200000, kQueries = 2000;
+  PointCloud base;
+  const std::size_t step = (finite.size() + kBase - 1) / kBase;
+  for (std::size_t k = 0; k < finite.size(); k += step) base.points_mm.push_back(cloud.points_mm[finite[k]]);
+  base.Flatten();
+  const internal::FiniteIndex index(base);
+  std::vector<double> d;
+  const std::size_t qstep = std::max<std::size_t>(1, base.size() / kQueries);
+  for (std::size_t k = 0; k < base.size(); k += qstep) {
+    std::uint32_t pos[2];
+    float sq[2];
+    if (index.Nearest(base.points_mm[k].data(), 2, pos, sq) == 2) d.push_back(std::sqrt(double(sq[1])));
+  }
+  if (d.empty()) return 0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  // A surface thinned to every step-th point has its points sqrt(step) times as far apart.
+  return d[d.size() / 2] / std::sqrt(double(step));
+}
+
+double GuessScale(const PointCloud& cloud) {
+  return GuessUnits(LargestExtent(cloud), MedianSpacing(cloud)) == "m" ? 1000.0 : 1.0;
+}
+
 CloudDescription DescribeCloud(const std::string& path) {
   CloudDescription d;
   d.file = path;
@@ -54,6 +90,7 @@ CloudDescription DescribeCloud(const std::string& path) {
   d.height = c.height;
   d.has_bounds = Bounds(c, &d.min, &d.max);
   d.extent = d.has_bounds ? (d.max - d.min).maxCoeff() : 0.0;
+  d.spacing = MedianSpacing(c);
   return d;
 }
 
@@ -72,7 +109,8 @@ std::string DescriptionJson(const CloudDescription& d) {
   if (d.has_bounds) {
     j["bounds"] = {{"min", {d.min.x(), d.min.y(), d.min.z()}}, {"max", {d.max.x(), d.max.y(), d.max.z()}}};
   }
-  j["units_guess"] = GuessUnits(d.extent);
+  j["spacing"] = d.spacing;
+  j["units_guess"] = GuessUnits(d.extent, d.spacing);
   return j.dump(2);
 }
 
@@ -95,11 +133,15 @@ void PrintDescription(std::ostream& out, const CloudDescription& d) {
   } else {
     out << "bounds      none (no finite points)\n";
   }
-  const std::string units = GuessUnits(d.extent);
+  std::snprintf(buf, sizeof(buf), "spacing     %.4g (median distance to the nearest point)\n", d.spacing);
+  out << buf;
+  const std::string units = GuessUnits(d.extent, d.spacing);
   if (units == "unknown") {
     out << "units       unknown (all points coincide)\n";
   } else if (units == "m") {
-    out << "units       m (largest extent " << std::to_string(d.extent) << "; read with scale 1000 for mm)\n";
+    std::snprintf(buf, sizeof(buf), "units       m (largest extent %.4g, spacing %.3g; read with scale 1000 for mm)\n",
+                  d.extent, d.spacing);
+    out << buf;
   } else {
     out << "units       mm\n";
   }

@@ -21,6 +21,20 @@ constexpr double kMetreExtentLimit = 50.0;
 /// every point coincides.
 std::string GuessUnits(double extent);
 
+/// The same with the points' spacing (MedianSpacing) as a second witness: a cloud spanning up to
+/// 2000 units whose neighbouring points lie under 0.2 units apart is in metres too (a scan of a
+/// room or a garden in metres spans 50-2000 m, at centimetres; a millimetre cloud of that span
+/// has its points a millimetre or more apart).
+std::string GuessUnits(double extent, double spacing);
+
+/// The median distance from a point to its nearest neighbour, in the cloud's units (from up to
+/// 2000 points, against up to 200,000; a thinned cloud's spacing scaled back as a surface's is).
+/// 0 with fewer than 2 finite points.
+double MedianSpacing(const PointCloud& cloud);
+
+/// The scale to read `cloud` in mm: 1000 when GuessUnits(extent, spacing) says metres, else 1.
+double GuessScale(const PointCloud& cloud);
+
 /// The units policy, written once: hedgefit measures in millimetres, and points that span less
 /// than kMetreExtentLimit units end to end (the largest side of their bounds) are in metres: a
 /// hedge of 300 mm or more spans more. Returns "" when `extent` is fine, else why, ending in
@@ -41,6 +55,7 @@ struct CloudDescription {
   bool has_bounds = false;  ///< false when no point is finite
   Eigen::Vector3f min = Eigen::Vector3f::Zero(), max = Eigen::Vector3f::Zero();
   double extent = 0;        ///< the bounds' largest side
+  double spacing = 0;       ///< MedianSpacing
 };
 
 /// Reads `path` and describes it; throws Error as ReadCloud does.

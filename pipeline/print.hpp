@@ -5,6 +5,7 @@
 #include <cstdarg>
 #include <cstdio>
 #include <ostream>
+#include <string>
 #include <vector>
 
 namespace hedgefit::pipeline {
@@ -22,6 +23,23 @@ namespace hedgefit::pipeline {
     out.write(buf.data(), n);
   }
   va_end(again);
+}
+
+/// The same, into a string: for messages built from numbers.
+[[gnu::format(printf, 1, 2)]] inline std::string Format(const char* format, ...) {
+  va_list args, again;
+  va_start(args, format);
+  va_copy(again, args);
+  const int n = std::vsnprintf(nullptr, 0, format, args);
+  va_end(args);
+  std::string out;
+  if (n > 0) {
+    out.resize(std::size_t(n) + 1);
+    std::vsnprintf(out.data(), out.size(), format, again);
+    out.resize(std::size_t(n));
+  }
+  va_end(again);
+  return out;
 }
 
 }  // namespace hedgefit::pipeline

@@ -27,6 +27,7 @@
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
 #include "render/render_stages.hpp"
+#include "scene/scene_stages.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/capture_batch.hpp"
 #include "stereo/rig.hpp"
@@ -45,6 +46,7 @@ const pipeline::Registry& Stages() {
     r.AddModule("cloud", &cloud::RegisterCloudStages);
     r.AddModule("fitting", &fitting::RegisterFittingStages);
     r.AddModule("render", &render::RegisterRenderStages);
+    r.AddModule("scene", &scene::RegisterSceneStages);
     r.AddModule("stereo", &stereo::RegisterStereoStages);
     return r;
   }();

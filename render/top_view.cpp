@@ -1,0 +1,77 @@
+#include "render/top_view.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "pipeline/print.hpp"
+#include "stereo/image_io.hpp"
+
+namespace hedgefit::render {
+
+void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& result, const std::string& path, int size) {
+  // Scene frame: up is +z, so the top view is (x, y), y drawn upwards.
+  std::vector<Eigen::Vector3d> pts(cloud.size(), Eigen::Vector3d::Constant(std::nan("")));
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  double zlo = 1e300, zhi = -1e300;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.points_mm[i].allFinite()) continue;
+    pts[i] = result.scene_from_cloud * cloud.points_mm[i].cast<double>();
+    lo = lo.cwiseMin(pts[i].head<2>()), hi = hi.cwiseMax(pts[i].head<2>());
+    zlo = std::min(zlo, pts[i].z()), zhi = std::max(zhi, pts[i].z());
+  }
+  if (!(hi.x() >= lo.x())) lo = hi = Eigen::Vector2d::Zero();
+  const double margin = 60, span = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1.0});
+  const double px = (size - 2 * margin) / span;
+  const int w = int(std::ceil((hi.x() - lo.x()) * px + 2 * margin)), h = int(std::ceil((hi.y() - lo.y()) * px + 2 * margin));
+  cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  auto at = [&](const Eigen::Vector2d& p) {
+    return cv::Point(int(std::lround(margin + (p.x() - lo.x()) * px)), int(std::lround(h - margin - (p.y() - lo.y()) * px)));
+  };
+  std::vector<int> kind(cloud.size(), 0);  // 0 ground or nothing, 1 ball, 2 other
+  for (const auto& o : result.objects) for (std::size_t i : o.indices) kind[i] = o.ball ? 1 : 2;
+  // Draw low points first so the tops of objects stay visible.
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < cloud.size(); ++i) if (pts[i].allFinite()) order.push_back(i);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pts[a].z() < pts[b].z(); });
+  const double zr = std::max(zhi - zlo, 1.0);
+  for (std::size_t i : order) {
+    const double t = (pts[i].z() - zlo) / zr;
+    cv::Vec3b c;
+    if (kind[i] == 1) {
+      c = cv::Vec3b(uchar(60 + 60 * t), uchar(120 + 110 * t), uchar(40 + 50 * t));  // green, lighter higher
+    } else if (kind[i] == 2) {
+      c = cv::Vec3b(uchar(90 + 80 * t), uchar(120 + 80 * t), uchar(150 + 90 * t));  // brownish
+    } else {
+      c = cv::Vec3b(uchar(150 + 60 * t), uchar(150 + 60 * t), uchar(150 + 60 * t));
+    }
+    const cv::Point q = at(pts[i].head<2>());
+    if (q.x >= 0 && q.y >= 0 && q.x < w && q.y < h) img.at<cv::Vec3b>(q) = c;
+  }
+  const cv::Scalar green(40, 150, 20), orange(0, 120, 240);
+  for (const auto& o : result.objects) {
+    if (o.ball && o.fit.converged) {
+      const Eigen::Vector3d c = result.scene_from_cloud * o.fit.sphere.center_mm;
+      cv::circle(img, at(c.head<2>()), std::max(2, int(std::lround(o.fit.sphere.radius_mm * px))), green, 2, cv::LINE_AA);
+      cv::putText(img, std::to_string(o.id), at(c.head<2>()) + cv::Point(-8, 8), cv::FONT_HERSHEY_SIMPLEX, 0.8, green, 2,
+                  cv::LINE_AA);
+    } else {
+      std::vector<cv::Point> hull;
+      for (const auto& p : o.top_outline_mm) hull.push_back(at(p));
+      if (hull.size() >= 2) cv::polylines(img, hull, true, orange, 2, cv::LINE_AA);
+      cv::putText(img, std::to_string(o.id), at(o.top_center_mm) + cv::Point(-8, 8), cv::FONT_HERSHEY_SIMPLEX, 0.7,
+                  orange, 2, cv::LINE_AA);
+    }
+  }
+  // A scale bar of 1 m, and the legend.
+  const cv::Point bar(int(margin), h - int(margin / 2));
+  cv::line(img, bar, bar + cv::Point(int(1000 * px), 0), cv::Scalar(0, 0, 0), 2);
+  cv::putText(img, "1 m", bar + cv::Point(0, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  cv::putText(img, pipeline::Format("%zu balls (green circles), %zu other objects (orange)", result.Balls(),
+                                    result.objects.size() - result.Balls()),
+              cv::Point(int(margin), int(margin / 2)), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  stereo::WriteImageAtomic(path, img);
+}
+
+}  // namespace hedgefit::render

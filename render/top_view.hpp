@@ -1,0 +1,18 @@
+#pragma once
+/// The top view of a cloud after `find`: every point from above (ground grey, objects in the
+/// colour of their verdict, shaded by height), each ball's circle and number in green, each
+/// object that is not a ball outlined (its points' convex hull) and numbered in orange.
+
+#include <string>
+
+#include "cloud/point_cloud.hpp"
+#include "scene/finder.hpp"
+
+namespace hedgefit::render {
+
+/// Draws `result` over `cloud` (the cloud it was found in) to a PNG of about `size` px on its
+/// longer side; throws hedgefit::Error naming `path` when it cannot be written.
+void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& result, const std::string& path,
+                  int size = 1200);
+
+}  // namespace hedgefit::render

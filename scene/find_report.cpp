@@ -1,0 +1,149 @@
+#include "scene/find_report.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+
+#include "fitting/fit_fields.hpp"
+#include "fitting/uncertainty.hpp"
+#include "pipeline/print.hpp"
+
+namespace hedgefit::scene {
+
+namespace {
+
+using json = nlohmann::json;
+using pipeline::Print;
+
+json FitJson(const fitting::SphereFitResult& f) {
+  json j = {{"center_mm", nullptr}, {"radius_mm", nullptr}, {"rms_mm", nullptr}, {"std_error_mm", nullptr}};
+  for (const auto& [key, value] : fitting::FitFields(f)) j[key] = std::visit([](const auto& v) { return json(v); }, value);
+  return j;
+}
+
+json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+// The centroid of an object's points, in the cloud's frame (for an object no sphere fits).
+Eigen::Vector3d Centroid(const FindResult& r, const FoundObject& o) {
+  const Eigen::Vector3d top(o.top_center_mm.x(), o.top_center_mm.y(), o.ground_mm + o.height_mm / 2);
+  return r.scene_from_cloud.transpose() * top;
+}
+
+json ObjectJson(const FindResult& r, const FoundObject& o) {
+  json h;
+  h["id"] = o.id;
+  h["verdict"] = o.verdict;
+  h["ball"] = o.ball;
+  const bool sphere = o.fit.converged;
+  h["center_mm"] = sphere ? Vec(o.fit.sphere.center_mm) : Vec(Centroid(r, o));
+  h["radius_mm"] = sphere ? json(o.fit.sphere.radius_mm) : json(nullptr);
+  const auto surface = o.fit.Extra("surface_radius_mm");
+  h["surface_radius_mm"] = surface ? json(*surface) : (o.geometric && o.geometric->converged ? json(o.geometric->sphere.radius_mm) : json(nullptr));
+  const auto total = fitting::TotalStdError(o.fit);
+  h["ci95_mm"] = total ? json::array({1.96 * (*total)[0], 1.96 * (*total)[1], 1.96 * (*total)[2], 1.96 * (*total)[3]})
+                       : json(nullptr);
+  h["points"] = o.indices.size();
+  h["seen_share"] = o.seen_share;
+  auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  h["ground_mm"] = number(o.ground_mm);
+  h["height_mm"] = number(o.height_mm);
+  h["center_height_radii"] = sphere ? number(o.base_height_mm) : json(nullptr);
+  h["lumpiness"] = o.lumpiness;
+  h["crowding"] = o.crowding;
+  h["axis_ratio"] = o.axis_ratio;
+  if (!o.ball) h["not_a_ball"] = o.reason.empty() ? o.verdict : o.reason;
+  if (sphere) h["fit"] = FitJson(o.fit);
+  if (o.geometric && o.geometric->converged && o.fit.method != "geometric") h["geometric"] = FitJson(*o.geometric);
+  return h;
+}
+
+}  // namespace
+
+void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
+  json doc;
+  doc["clouds"] = json::array();
+  for (const auto& rep : reports) {
+    const FindResult& r = rep.result;
+    json c;
+    c["file"] = r.file;
+    c["points"] = r.points;
+    c["scale"] = rep.scale;
+    c["scale_source"] = rep.scale_source;
+    c["up"] = Vec(r.up);
+    c["up_source"] = r.up_source;
+    c["spacing_mm"] = r.spacing_mm;
+    c["ground"] = {{"points", r.ground_points}, {"noise_mm", r.ground.noise_mm}, {"cell_mm", r.ground.cell_mm}};
+    c["object_points"] = r.object_points;
+    c["balls"] = r.Balls();
+    c["hedges"] = json::array();
+    for (const auto& o : r.objects) c["hedges"].push_back(ObjectJson(r, o));
+    c["timings_ms"] = json::object();
+    for (const auto& [step, ms] : r.timings_ms) c["timings_ms"][step] = ms;
+    doc["clouds"].push_back(c);
+  }
+  out << doc.dump(2) << "\n";
+}
+
+void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
+  out << "cloud,id,verdict,ball,cx_mm,cy_mm,cz_mm,r_mm,surface_r_mm,ci95_cx_mm,ci95_cy_mm,ci95_cz_mm,ci95_r_mm,points,"
+         "seen_share,ground_mm,height_mm,lumpiness,axis_ratio,method,reason\n";
+  for (const auto& rep : reports) {
+    for (const auto& o : rep.result.objects) {
+      Print(out, "%s,%d,%s,%d,", rep.result.file.c_str(), o.id, o.verdict.c_str(), o.ball ? 1 : 0);
+      const Eigen::Vector3d c = o.fit.converged ? o.fit.sphere.center_mm : Centroid(rep.result, o);
+      Print(out, "%.2f,%.2f,%.2f,", c.x(), c.y(), c.z());
+      if (o.fit.converged) {
+        Print(out, "%.2f,", o.fit.sphere.radius_mm);
+      } else {
+        out << ",";
+      }
+      const auto surface = o.fit.Extra("surface_radius_mm");
+      if (surface) Print(out, "%.2f,", *surface); else out << ",";
+      const auto total = fitting::TotalStdError(o.fit);
+      if (total) {
+        Print(out, "%.2f,%.2f,%.2f,%.2f,", 1.96 * (*total)[0], 1.96 * (*total)[1], 1.96 * (*total)[2], 1.96 * (*total)[3]);
+      } else {
+        out << ",,,,";
+      }
+      std::string reason = o.reason;
+      for (char& ch : reason) if (ch == '"') ch = '\'';
+      Print(out, "%zu,%.3f,", o.indices.size(), o.seen_share);
+      for (double v : {o.ground_mm, o.height_mm}) {
+        if (std::isfinite(v)) Print(out, "%.1f,", v); else out << ",";
+      }
+      Print(out, "%.4f,%.3f,%s,\"%s\"\n", o.lumpiness, o.axis_ratio, o.fit.converged ? o.fit.method.c_str() : "",
+            reason.c_str());
+    }
+  }
+}
+
+void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
+  for (const auto& rep : reports) {
+    const FindResult& r = rep.result;
+    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu balls of %zu objects\n",
+          r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
+          r.ground.noise_mm, r.Balls(), r.objects.size());
+    if (r.objects.empty()) continue;
+    out << "  id  verdict      centre x, y, z (mm)               radius   95 % (r)  leaf r    points  seen  ground   height  lumpy\n";
+    for (const auto& o : r.objects) {
+      Print(out, "  %-3d %-11s ", o.id, o.verdict.c_str());
+      if (o.fit.converged) {
+        const auto& c = o.fit.sphere.center_mm;
+        const auto total = fitting::TotalStdError(o.fit);
+        const auto surface = o.fit.Extra("surface_radius_mm");
+        Print(out, "%9.1f %9.1f %9.1f  %8.1f  %7s  %7s", c.x(), c.y(), c.z(), o.fit.sphere.radius_mm,
+              total ? pipeline::Format("+-%.1f", 1.96 * (*total)[3]).c_str() : "",
+              surface ? pipeline::Format("%.1f", *surface).c_str() : "");
+      } else {
+        const Eigen::Vector3d c = Centroid(r, o);
+        Print(out, "%9.1f %9.1f %9.1f  %8s  %7s  %7s", c.x(), c.y(), c.z(), "-", "", "");
+      }
+      auto mm = [](double v) { return std::isfinite(v) ? pipeline::Format("%7.0f", v) : std::string("      -"); };
+      Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(o.ground_mm).c_str(),
+            mm(o.height_mm).c_str(), o.lumpiness);
+      if (!o.reason.empty()) Print(out, "      ^ %s\n", o.reason.c_str());
+    }
+  }
+}
+
+}  // namespace hedgefit::scene

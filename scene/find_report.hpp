@@ -1,0 +1,26 @@
+#pragma once
+/// `hedgefit find`'s reports: a table a person reads, JSON and CSV a script reads. In JSON each
+/// cloud holds a "hedges" array, one entry per object: id, verdict, ball (true for a ball or a
+/// dome), center_mm and radius_mm (null for an object no sphere fits), the measures the verdict
+/// rests on, and the fit's own fields as `compare` and `measure` write them (fitting::FitFields).
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "scene/finder.hpp"
+
+namespace hedgefit::scene {
+
+/// One cloud's result and how it was read.
+struct FindReport {
+  FindResult result;
+  double scale = 1;           ///< coordinates were multiplied by it on read
+  std::string scale_source;   ///< "given", "guessed: metres (...)", "guessed: mm"
+};
+
+void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports);
+void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports);
+void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports);
+
+}  // namespace hedgefit::scene

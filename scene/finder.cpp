@@ -1,0 +1,786 @@
+// FindHedges: up, ground, objects in the top view, balls peeled off each by sample consensus and
+// judged by their lumpiness, the share seen and their shape (see finder.hpp).
+
+#include "scene/finder.hpp"
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <unordered_map>
+
+#include "cloud/describe.hpp"
+#include "fitting/ellipsoid_fit.hpp"
+#include "fitting/envelope_fit.hpp"
+#include "fitting/geometric_fit.hpp"
+#include "fitting/ransac_fit.hpp"
+#include "fitting/uncertainty.hpp"
+#include "pipeline/error.hpp"
+#include "pipeline/print.hpp"
+
+namespace hedgefit::scene {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Ms(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+Eigen::Vector3d ParseUp(const std::string& up) {
+  static const std::map<std::string, Eigen::Vector3d> axes = {
+      {"x", Eigen::Vector3d::UnitX()},  {"y", Eigen::Vector3d::UnitY()},  {"z", Eigen::Vector3d::UnitZ()},
+      {"-x", -Eigen::Vector3d::UnitX()}, {"-y", -Eigen::Vector3d::UnitY()}, {"-z", -Eigen::Vector3d::UnitZ()}};
+  const auto it = axes.find(up);
+  if (it == axes.end()) throw Error("option 'up': '" + up + "' is not one of auto, x, y, z, -x, -y, -z");
+  return it->second;
+}
+
+// A union-find over cells, for the top view's objects.
+struct DisjointSets {
+  std::vector<int> parent;
+  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int Find(int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  }
+  void Join(int a, int b) { parent[Find(a)] = Find(b); }
+};
+
+// Groups `idx` (indices into `pts`) by connectivity in the top view: points in cells of gap / 2
+// joined to occupied cells up to two cells away, so gaps under `gap` join and wider ones part.
+std::vector<std::vector<std::size_t>> TopViewClusters(const std::vector<Eigen::Vector3d>& pts,
+                                                      const std::vector<std::size_t>& idx, double gap) {
+  std::vector<std::vector<std::size_t>> out;
+  if (idx.empty()) return out;
+  const double cell = gap / 2;
+  std::unordered_map<std::int64_t, int> cells;
+  std::vector<int> cell_of(idx.size());
+  std::vector<std::pair<std::int64_t, std::int64_t>> keys;
+  auto key = [](std::int64_t x, std::int64_t y) { return (x << 32) ^ (y & 0xffffffff); };
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const auto& p = pts[idx[k]];
+    const std::int64_t cx = std::int64_t(std::floor(p.x() / cell)), cy = std::int64_t(std::floor(p.y() / cell));
+    auto [it, fresh] = cells.emplace(key(cx, cy), int(keys.size()));
+    if (fresh) keys.emplace_back(cx, cy);
+    cell_of[k] = it->second;
+  }
+  DisjointSets sets(keys.size());
+  for (std::size_t c = 0; c < keys.size(); ++c) {
+    for (int dy = -2; dy <= 2; ++dy) {
+      for (int dx = -2; dx <= 2; ++dx) {
+        if ((dx == 0 && dy == 0) || dx * dx + dy * dy > 5) continue;
+        const auto it = cells.find(key(keys[c].first + dx, keys[c].second + dy));
+        if (it != cells.end()) sets.Join(int(c), it->second);
+      }
+    }
+  }
+  std::unordered_map<int, std::size_t> group;
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const int root = sets.Find(cell_of[k]);
+    auto [it, fresh] = group.emplace(root, out.size());
+    if (fresh) out.emplace_back();
+    out[it->second].push_back(idx[k]);
+  }
+  return out;
+}
+
+// The sphere through four points, or nothing when they are (nearly) coplanar.
+std::optional<fitting::Sphere> SphereThrough(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                             const Eigen::Vector3d& d) {
+  Eigen::Matrix3d m;
+  m.row(0) = b - a, m.row(1) = c - a, m.row(2) = d - a;
+  const double det = m.determinant();
+  const double scale = (b - a).norm() * (c - a).norm() * (d - a).norm();
+  if (!(std::abs(det) > 1e-3 * scale)) return std::nullopt;
+  Eigen::Vector3d rhs(0.5 * ((b - a).squaredNorm()), 0.5 * ((c - a).squaredNorm()), 0.5 * ((d - a).squaredNorm()));
+  const Eigen::Vector3d rel = m.partialPivLu().solve(rhs);
+  return fitting::Sphere{a + rel, rel.norm()};
+}
+
+// Direction cells of equal area: `bands` bands of equal height in the direction's z times
+// 2 bands sectors of azimuth.
+int DirectionCell(const Eigen::Vector3d& dir, int bands) {
+  const int band = std::clamp(int((dir.z() + 1) * 0.5 * bands), 0, bands - 1);
+  const double az = std::atan2(dir.y(), dir.x()) + M_PI;
+  const int sector = std::clamp(int(az / (2 * M_PI) * 2 * bands), 0, 2 * bands - 1);
+  return band * 2 * bands + sector;
+}
+
+struct Judgement {
+  fitting::Sphere sphere;
+  std::vector<std::size_t> shell;  ///< the points on the sphere's shell (indices into scene points)
+  double band = 0, seen = 0, lumpiness = 0, crowding = 0, axis_ratio = 1, center_height = 0, radius_ci = 0;
+  std::string verdict, reason;
+  bool ball = false;
+};
+
+class BallFinder {
+ public:
+  BallFinder(const std::vector<Eigen::Vector3d>& pts, const GroundModel& ground, const FindOptions& o, double spacing)
+      : pts_(pts), ground_(ground), o_(o), spacing_(spacing), rng_(o.seed) {}
+
+  // The shell's half-width about the mean-leaf sphere: a leafy hedge's points lie a leaf layer deep.
+  // Up to 90 mm (the deepest clipped shell, holly's, is about 80 mm), plus the sensor's noise as
+  // the ground shows it (at most 40 mm: beyond, the "noise" is the ground's own relief).
+  double Band(double r) const {
+    return std::min(0.25 * r, std::clamp(0.1 * r, 30.0, 90.0) + std::min(2 * ground_.noise_mm, 40.0));
+  }
+
+  struct Hypothesis {
+    fitting::Sphere sphere;
+    double inliers = 0, share = 0;  // on the sample: points on the shell, and their share of those about it
+  };
+
+  // Spheres by sample consensus over `idx`, best first: many hypotheses, each drawn from a point
+  // and three more within a reach drawn across the radius limits (log-uniform, so a small ball
+  // among large things is drawn as often as a large one), kept when the points on their shell
+  // are most of those about it (a hedge's leaves end a leaf layer deep and it stands free; a
+  // sphere laid through a wall's corner, a tree or clutter has as many points about its shell as
+  // on it), one per place and size.
+  std::vector<Hypothesis> Hypotheses(const std::vector<std::size_t>& idx) {
+    std::vector<std::size_t> sample = idx;
+    if (sample.size() > 3000) {
+      std::shuffle(sample.begin(), sample.end(), rng_);
+      sample.resize(3000);
+    }
+    std::uniform_int_distribution<std::size_t> pick(0, sample.size() - 1);
+    std::uniform_real_distribution<double> unit(0, 1);
+    std::vector<Hypothesis> all;
+    std::vector<std::size_t> near;
+    const int draws = int(std::clamp<std::size_t>(idx.size() / 4, 300, 1500));
+    for (int it = 0; it < draws; ++it) {
+      const Eigen::Vector3d& a = pts_[sample[pick(rng_)]];
+      const double reach = 2 * o_.min_radius_mm * std::pow(o_.max_radius_mm / o_.min_radius_mm, unit(rng_));
+      near.clear();
+      for (std::size_t i : sample) {
+        const double d2 = (pts_[i] - a).squaredNorm();
+        if (d2 < reach * reach && d2 > 1) near.push_back(i);
+      }
+      if (near.size() < 3) continue;
+      std::uniform_int_distribution<std::size_t> pick_near(0, near.size() - 1);
+      const auto s = SphereThrough(a, pts_[near[pick_near(rng_)]], pts_[near[pick_near(rng_)]], pts_[near[pick_near(rng_)]]);
+      if (!s || s->radius_mm < o_.min_radius_mm || s->radius_mm > o_.max_radius_mm) continue;
+      if (CenterHeight(*s) < -0.5) continue;
+      const double band = Band(s->radius_mm), inner = s->radius_mm - 2 * band;
+      const double outer = s->radius_mm + band + std::max(0.2 * s->radius_mm, 60.0);
+      double on = 0, about = 0;
+      for (std::size_t i : sample) {
+        const double d = (pts_[i] - s->center_mm).norm(), e = (d - s->radius_mm) / band;
+        if (std::abs(e) < 1) {
+          on += 1 - e * e;  // MSAC's truncated quadratic: the sphere that fits its points closest wins
+        } else if (d < inner || (d > s->radius_mm && d < outer)) {
+          about += 1;
+        }
+      }
+      if (on < 5 || on < 0.75 * (on + about)) continue;
+      all.push_back({*s, on, on / (on + about)});
+    }
+    std::sort(all.begin(), all.end(), [](const Hypothesis& x, const Hypothesis& y) {
+      return x.inliers * x.share > y.inliers * y.share;
+    });
+    std::vector<Hypothesis> kept;
+    for (const auto& h : all) {
+      bool same = false;
+      for (const auto& k : kept) {
+        same = same || ((h.sphere.center_mm - k.sphere.center_mm).norm() < 0.5 * k.sphere.radius_mm &&
+                        std::abs(h.sphere.radius_mm - k.sphere.radius_mm) < 0.3 * k.sphere.radius_mm);
+      }
+      if (!same) kept.push_back(h);
+      if (kept.size() >= 60) break;
+    }
+    return kept;
+  }
+
+  // The centre's height above the ground, in radii.
+  double CenterHeight(const fitting::Sphere& s) const {
+    return (s.center_mm.z() - ground_.HeightAt(s.center_mm.x(), s.center_mm.y())) / s.radius_mm;
+  }
+
+  // Refines `start` on its shell among `idx` and judges it against `around` (the object's points).
+  Judgement Judge(const fitting::Sphere& start, const std::vector<std::size_t>& idx,
+                  const std::vector<std::size_t>& around) {
+    Judgement j;
+    j.sphere = start;
+    {
+      // Sample consensus within the hypothesis' band first, as MeasureBall does: a sphere drawn
+      // through a ball and what it rests on settles on the ball.
+      const double band = Band(start.radius_mm);
+      std::vector<Eigen::Vector3d> near;
+      for (std::size_t i : idx) {
+        if (std::abs((pts_[i] - start.center_mm).norm() - start.radius_mm) < band) near.push_back(pts_[i]);
+      }
+      if (near.size() > 2000) {
+        std::vector<Eigen::Vector3d> thinned;
+        for (std::size_t k = 0; k < near.size(); k += near.size() / 2000 + 1) thinned.push_back(near[k]);
+        near.swap(thinned);
+      }
+      if (near.size() >= 20) {
+        fitting::RansacFitOptions ro;
+        ro.distance_threshold_mm = std::clamp(0.06 * start.radius_mm, 20.0, 50.0);
+        ro.min_radius_mm = std::max(o_.min_radius_mm, 0.7 * start.radius_mm);
+        ro.max_radius_mm = std::min(o_.max_radius_mm, 1.3 * start.radius_mm);
+        ro.max_iterations = 500;
+        ro.seed = o_.seed;
+        const fitting::SphereFitResult c = fitting::FitSphereRansac(near, ro);
+        if (c.converged && (c.sphere.center_mm - start.center_mm).norm() < 0.5 * start.radius_mm) j.sphere = c.sphere;
+      }
+    }
+    for (int pass = 0; pass < 3; ++pass) {
+      j.band = Band(j.sphere.radius_mm);
+      j.shell.clear();
+      for (std::size_t i : idx) {
+        if (std::abs((pts_[i] - j.sphere.center_mm).norm() - j.sphere.radius_mm) < j.band) j.shell.push_back(i);
+      }
+      if (j.shell.size() < std::size_t(std::max(o_.min_points, 10))) break;
+      // The shell narrows to its own scatter (3 robust deviations about its
+      // median residual, at least 15 mm): a bare sphere's 10 mm, a leafy ball's leaf layer.
+      std::vector<double> res;
+      for (std::size_t i : j.shell) res.push_back((pts_[i] - j.sphere.center_mm).norm() - j.sphere.radius_mm);
+      const double med = Median(res);
+      std::vector<double> dev;
+      for (double v : res) dev.push_back(std::abs(v - med));
+      const double keep = std::max(15.0, 3 * 1.4826 * Median(dev));
+      std::vector<Eigen::Vector3d> shell;
+      const std::size_t step = std::max<std::size_t>(1, j.shell.size() / 5000);
+      for (std::size_t k = 0; k < j.shell.size(); k += step) {
+        if (std::abs(res[k] - med) <= keep) shell.push_back(pts_[j.shell[k]]);
+      }
+      if (shell.size() < 10) break;
+      fitting::GeometricFitOptions g;
+      g.loss = fitting::RobustLoss::kHuber;
+      g.loss_scale_mm = j.band / 2;
+      g.compute_covariance = false;
+      g.num_threads = 1;
+      const auto fit = fitting::FitSphereGeometric(shell, g, &j.sphere);
+      // A refit that leaves the radius limits keeps the last sphere within them.
+      if (!fit.converged || fit.sphere.radius_mm < o_.min_radius_mm || fit.sphere.radius_mm > o_.max_radius_mm) break;
+      j.sphere = fit.sphere;
+    }
+    const double r = j.sphere.radius_mm;
+    j.center_height = CenterHeight(j.sphere);
+    if (r < o_.min_radius_mm || r > o_.max_radius_mm) {
+      return Reject(j, pipeline::Format("its sphere's radius, %.0f mm, is outside %.0f-%.0f mm", r, o_.min_radius_mm, o_.max_radius_mm));
+    }
+    if (j.shell.size() < std::size_t(o_.min_points)) {
+      return Reject(j, pipeline::Format("only %zu points lie on a sphere", j.shell.size()));
+    }
+    std::vector<Eigen::Vector3d> shell;
+    shell.reserve(j.shell.size());
+    for (std::size_t i : j.shell) shell.push_back(pts_[i]);
+    j.seen = SeenShare(shell, j.sphere.center_mm);
+    // Lumpiness: per patch of the sphere, where the outermost points of the object lie (the 90th
+    // percentile of their distance from the centre, among those between 0.6 and 1.4 radii); a
+    // clipped ball's patches agree, a shrub's lumps, a tree's crown, a row's length do not.
+    constexpr int kBands = 8;
+    std::vector<std::vector<double>> patches(2 * kBands * kBands);
+    std::size_t outside = 0;
+    const double crowd_from = r + j.band, crowd_to = crowd_from + std::max(0.15 * r, 50.0);
+    for (std::size_t i : around) {
+      const Eigen::Vector3d v = pts_[i] - j.sphere.center_mm;
+      const double d = v.norm();
+      if (d > crowd_from && d < crowd_to) ++outside;
+      if (d < 0.6 * r || d > 1.4 * r) continue;
+      patches[DirectionCell(v / d, kBands)].push_back(d);
+    }
+    j.crowding = double(outside) / double(j.shell.size());
+    std::vector<double> outer;
+    for (auto& p : patches) {
+      if (p.size() < 4) continue;
+      std::nth_element(p.begin(), p.begin() + p.size() * 9 / 10, p.end());
+      outer.push_back(p[p.size() * 9 / 10]);
+    }
+    if (outer.size() < 4) return Reject(j, pipeline::Format("too few of its sphere's patches hold points (%zu) to judge its shape", outer.size()));
+    const double mid = Median(outer);
+    std::vector<double> dev;
+    for (double v : outer) dev.push_back(std::abs(v - mid));
+    j.lumpiness = 1.4826 * Median(dev) / r;
+    if (j.seen < o_.min_seen) return Reject(j, pipeline::Format("its points cover only %.0f %% of a sphere", 100 * j.seen));
+    if (j.lumpiness > o_.max_lumpiness) {
+      return Reject(j, pipeline::Format("lumpy: its outermost points lie %.0f mm (%.0f %% of the radius) apart from patch to patch; "
+                             "a clipped ball's lie within %.0f %%",
+                             j.lumpiness * r, 100 * j.lumpiness, 100 * o_.max_lumpiness));
+    }
+    if (j.crowding > o_.max_crowding) {
+      return Reject(j, pipeline::Format("crowded: %.2f points lie just outside its shell per point on it (a ball stands "
+                                        "free; a shrub's or a crown's blob does not)",
+                                        j.crowding));
+    }
+    if (j.center_height < -0.5) return Reject(j, pipeline::Format("its centre is %.2f radii below the ground", -j.center_height));
+    // A sphere its points pin down: the radius' 95 % interval (a block jackknife over patches of
+    // the shell) within max_radius_uncertainty of the radius.
+    const auto se = fitting::BlockJackknifeStdError(shell, j.sphere, 2000);
+    j.radius_ci = se ? 1.96 * (*se)[3] : std::numeric_limits<double>::infinity();
+    if (!(j.radius_ci <= o_.max_radius_uncertainty * r)) {
+      return Reject(j, pipeline::Format("its points do not pin a sphere down: radius %.0f mm +- %.0f mm (95 %%)", r, j.radius_ci));
+    }
+    j.ball = true;
+    j.verdict = j.center_height < 0.8 ? "dome" : "ball";
+    if (j.seen >= 0.2) {
+      // The spheroid fit takes its vertical as the camera's y (down): hand it the points so.
+      std::vector<Eigen::Vector3d> turned;
+      for (const auto& p : shell) turned.emplace_back(p.x(), -p.z(), p.y());
+      const auto e = fitting::FitSpheroid(turned);
+      if (e.converged && e.horizontal_axis_mm > 0) {
+        j.axis_ratio = e.vertical_axis_mm / e.horizontal_axis_mm;
+        // A dome's cut by the ground says nothing of its axes: only free balls are judged.
+        if (j.verdict == "ball" && std::max(j.axis_ratio, 1 / j.axis_ratio) > o_.max_axis_ratio) {
+          j.ball = false;
+          j.verdict = "ellipsoid";
+          j.reason = pipeline::Format("an ellipsoid: vertical over horizontal semi-axis %.2f (%.0f / %.0f mm)", j.axis_ratio,
+                           e.vertical_axis_mm, e.horizontal_axis_mm);
+        }
+      }
+    }
+    return j;
+  }
+
+ private:
+  static Judgement Reject(Judgement j, std::string why) {
+    j.ball = false;
+    j.verdict = "not_a_ball";
+    j.reason = std::move(why);
+    return j;
+  }
+
+  const std::vector<Eigen::Vector3d>& pts_;
+  const GroundModel& ground_;
+  const FindOptions& o_;
+  double spacing_;
+  std::mt19937_64 rng_;
+};
+
+std::vector<Eigen::Vector2d> ConvexHull(std::vector<Eigen::Vector2d> p) {
+  if (p.size() < 3) return p;
+  std::sort(p.begin(), p.end(), [](const auto& a, const auto& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  std::vector<Eigen::Vector2d> h(2 * p.size());
+  std::size_t k = 0;
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+  };
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    while (k >= 2 && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+    h[k++] = p[i];
+  }
+  for (std::size_t i = p.size() - 1, t = k + 1; i > 0; --i) {
+    while (k >= t && cross(h[k - 2], h[k - 1], p[i - 1]) <= 0) --k;
+    h[k++] = p[i - 1];
+  }
+  h.resize(k - 1);
+  return h;
+}
+
+}  // namespace
+
+const pipeline::OptionTable<FindOptions>& FindOptions::Table() {
+  using O = FindOptions;
+  static const auto table = [] {
+    auto t = pipeline::OptionTable<O>()
+                 .Add("up", &O::up, "the cloud's up: auto (z, or -y for a camera's cloud), x, y, z, -x, -y, -z")
+                 .Choices({"auto", "x", "y", "z", "-x", "-y", "-z"})
+                 .Add("min_radius", &O::min_radius_mm, "smallest hedge ball", "mm").Min(1)
+                 .Add("max_radius", &O::max_radius_mm, "largest hedge ball", "mm").Min(1)
+                 .Add("gap", &O::gap_mm, "objects closer than this in the top view are one before balls are split off", "mm")
+                 .Min(1)
+                 .Add("min_points", &O::min_points, "fewer points are no object", "points").Range(10, 1e9)
+                 .Add("max_lumpiness", &O::max_lumpiness,
+                      "a ball's outermost points lie within this share of its radius of one sphere", "")
+                 .Range(0.001, 1)
+                 .Add("max_crowding", &O::max_crowding,
+                      "points just outside a ball's shell per point on it; more, and it is part of something", "")
+                 .Range(0, 100)
+                 .Add("min_seen", &O::min_seen, "share of a ball's sphere its points must cover", "").Range(0, 1)
+                 .Add("max_radius_uncertainty", &O::max_radius_uncertainty,
+                      "a ball's radius is pinned down to this share of it (95 % interval)", "")
+                 .Range(0.001, 10)
+                 .Add("max_axis_ratio", &O::max_axis_ratio, "vertical over horizontal semi-axis beyond this: an ellipsoid", "")
+                 .Range(1, 100)
+                 .Add("envelope", &O::envelope, "fit the leafy envelope (the outer surface) too");
+    t.Nest(GroundOptions::Table(), &O::ground);
+    return t;
+  }();
+  return table;
+}
+
+void FindOptions::Check() const {
+  Table().Validate(*this);
+  ground.Check();
+  if (min_radius_mm >= max_radius_mm) throw Error("option 'min_radius' must be smaller than 'max_radius'");
+}
+
+std::size_t FindResult::Balls() const {
+  return std::size_t(std::count_if(objects.begin(), objects.end(), [](const FoundObject& o) { return o.ball; }));
+}
+
+double SeenShare(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& center) {
+  constexpr int kBands = 12;
+  std::vector<std::uint8_t> seen(2 * kBands * kBands, 0);
+  for (const auto& p : points) {
+    const Eigen::Vector3d v = p - center;
+    const double n = v.norm();
+    if (n > 0) seen[DirectionCell(v / n, kBands)] = 1;
+  }
+  // Scan rings leave bands between them empty: a cell between two seen ones counts as seen.
+  std::vector<std::uint8_t> closed = seen;
+  for (int b = 1; b + 1 < kBands; ++b) {
+    for (int s = 0; s < 2 * kBands; ++s) {
+      const int c = b * 2 * kBands + s;
+      if (seen[c - 2 * kBands] && seen[c + 2 * kBands]) closed[c] = 1;
+    }
+  }
+  return double(std::count(closed.begin(), closed.end(), 1)) / double(closed.size());
+}
+
+namespace {
+
+// The cloud's finite points turned so up is +z, with their indices in the cloud.
+struct ScenePoints {
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<std::size_t> source;
+};
+
+ScenePoints Turn(const cloud::PointCloud& cloud, const Eigen::Matrix3d& rotation) {
+  ScenePoints s;
+  s.pts.reserve(cloud.size());
+  s.source.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.points_mm[i].allFinite()) continue;
+    s.pts.push_back(rotation * cloud.points_mm[i].cast<double>());
+    s.source.push_back(i);
+  }
+  return s;
+}
+
+GroundModel GroundOf(const ScenePoints& s, const GroundOptions& o, std::vector<std::uint8_t>* is_ground) {
+  std::vector<Eigen::Vector3f> f(s.pts.size());
+  for (std::size_t i = 0; i < f.size(); ++i) f[i] = s.pts[i].cast<float>();
+  return FitGround(f, o, is_ground);
+}
+
+// A camera's cloud: organised, or written by hedgefit's reprojection (a "pixel_mm" field).
+bool IsCameraCloud(const cloud::PointCloud& cloud) {
+  return cloud.IsOrganized() || cloud.fields.count(cloud::kPixelSizeField) > 0;
+}
+
+// The final fits of one ball, in the cloud's frame: the geometric fit on its shell with its
+// standard errors, and the leafy envelope seen from `viewpoint` (cloud frame).
+void MeasureBall(const cloud::PointCloud& cloud, const std::vector<std::size_t>& indices, const fitting::Sphere& start,
+                 const Eigen::Vector3d& viewpoint, const FindOptions& o, FoundObject* obj) {
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(indices.size());
+  for (std::size_t i : indices) pts.push_back(cloud.points_mm[i].cast<double>());
+  fitting::GeometricFitOptions g;
+  g.loss = fitting::RobustLoss::kHuber;
+  g.loss_scale_mm = std::max(10.0, 0.05 * start.radius_mm);
+  g.num_threads = 1;
+  // Sample consensus first, with a band of 6 % of the radius (20-50 mm: twice a scanner's noise, a
+  // clipped hedge's outer leaves): what the ball rests on (a table, a stand) or leans on lies
+  // farther from its sphere than that, and drops out; then the points the sphere rests on
+  // (within 3 robust deviations of the shell's median residual) for the geometric fit.
+  fitting::Sphere from = start;
+  {
+    fitting::RansacFitOptions ro;
+    ro.distance_threshold_mm = std::clamp(0.06 * start.radius_mm, 20.0, 50.0);
+    ro.min_radius_mm = 0.7 * start.radius_mm;
+    ro.max_radius_mm = 1.3 * start.radius_mm;
+    ro.max_iterations = 2000;
+    ro.seed = o.seed;
+    const fitting::SphereFitResult consensus = fitting::FitSphereRansac(pts, ro);
+    if (consensus.converged && (consensus.sphere.center_mm - start.center_mm).norm() < 0.5 * start.radius_mm) {
+      from = consensus.sphere;
+    }
+  }
+  fitting::SphereFitResult geo;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<Eigen::Vector3d> support = fitting::SupportingPoints(pts, from);
+    if (support.size() < 10) break;
+    geo = fitting::FitSphereGeometric(support, g, &from);
+    if (!geo.converged) break;
+    from = geo.sphere;
+    if (pass == 1) pts.swap(support);
+  }
+  geo.method = "geometric";
+  if (geo.converged) fitting::AddUncertainty(pts, nullptr, &geo);
+  obj->geometric = geo;
+  obj->fit = geo;
+  if (!o.envelope || !geo.converged) return;
+  fitting::EnvelopeFitOptions e;
+  e.viewpoint_mm = viewpoint;
+  e.top_bias_px = 0;  // no matcher: a scanner's or a model's points are where the surface is
+  const fitting::EnvelopeFit env = fitting::FitEnvelope(pts, e, &geo.sphere);
+  if (!env.fit.converged) return;
+  fitting::SphereFitResult r = env.fit;
+  r.SetExtra("surface_radius_mm", {env.surface_radius_mm});
+  r.SetExtra("leaf_depth_mm", {env.leaf_depth_mm});
+  r.SetExtra("clipped_share", {env.clipped_share});
+  fitting::AddUncertainty(pts, nullptr, &r);
+  obj->fit = r;
+}
+
+}  // namespace
+
+FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
+  o.Check();
+  FindResult res;
+  res.points = cloud.size();
+  const bool camera = IsCameraCloud(cloud);
+  Eigen::Vector3d up = o.up == "auto" ? (camera ? Eigen::Vector3d(0, -1, 0) : Eigen::Vector3d::UnitZ()) : ParseUp(o.up);
+  res.up_source = o.up != "auto" ? "given" : (camera ? "-y (a camera's cloud)" : "z (default)");
+  auto t0 = Clock::now();
+  Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  ScenePoints s = Turn(cloud, turn);
+  res.spacing_mm = cloud::MedianSpacing(cloud);
+  res.timings_ms.emplace_back("read and turn", Ms(t0));
+  t0 = Clock::now();
+  std::vector<std::uint8_t> is_ground;
+  GroundModel ground = GroundOf(s, o.ground, &is_ground);
+  if (camera && o.up == "auto" && ground.ground_points >= 50) {
+    // A camera looks down at the ground: its up is the normal of the ground it sees.
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < s.pts.size(); ++i) if (is_ground[i]) mean += s.pts[i], ++n;
+    mean /= double(n);
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (std::size_t i = 0; i < s.pts.size(); ++i) {
+      if (is_ground[i]) cov += (s.pts[i] - mean) * (s.pts[i] - mean).transpose();
+    }
+    Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+    if (normal.z() < 0) normal = -normal;
+    if (normal.z() > std::cos(35 * M_PI / 180)) {
+      up = turn.transpose() * normal;
+      turn = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      s = Turn(cloud, turn);
+      ground = GroundOf(s, o.ground, &is_ground);
+      res.up_source += ", refined to the ground's normal";
+    }
+  }
+  res.up = up;
+  res.scene_from_cloud = turn;
+  res.ground_points = ground.ground_points;
+  res.timings_ms.emplace_back("ground", Ms(t0));
+  t0 = Clock::now();
+  // Objects: what stands above the ground's band, in the top view.
+  const double band = GroundBand(ground);
+  std::vector<std::size_t> above;
+  for (std::size_t i = 0; i < s.pts.size(); ++i) {
+    const double h = ground.empty() ? 1e9 : s.pts[i].z() - ground.HeightAt(s.pts[i].x(), s.pts[i].y());
+    if (h > band) above.push_back(i);
+  }
+  res.object_points = above.size();
+  const auto clusters = TopViewClusters(s.pts, above, o.gap_mm);
+  res.timings_ms.emplace_back("objects", Ms(t0));
+  t0 = Clock::now();
+  BallFinder finder(s.pts, ground, o, res.spacing_mm);
+  struct Candidate {
+    Judgement j;
+    std::vector<std::size_t> points;  // scene indices
+    std::optional<GroundModel> local_ground;  // the lawn about a ball, without any ball
+    bool ground_seen = true;
+  };
+  std::vector<Candidate> balls, others;
+  for (const auto& cluster : clusters) {
+    if (cluster.size() < std::size_t(o.min_points)) continue;
+    std::vector<std::size_t> remaining = cluster;
+    std::vector<Judgement> failed;
+    std::vector<fitting::Sphere> accepted;
+    // Verified best first; a hypothesis where a ball was already found is skipped.
+    for (const auto& h : finder.Hypotheses(cluster)) {
+      if (remaining.size() < std::size_t(o.min_points)) break;
+      bool overlaps = false;
+      for (const auto& b : accepted) {
+        overlaps = overlaps || (h.sphere.center_mm - b.center_mm).norm() < 0.8 * (h.sphere.radius_mm + b.radius_mm);
+      }
+      if (overlaps) continue;
+      Judgement j = finder.Judge(h.sphere, remaining, remaining);
+      if (!(j.ball || j.verdict == "ellipsoid")) {
+        failed.push_back(std::move(j));
+        continue;
+      }
+      // The ball takes every remaining point inside its shell's outer edge.
+      Candidate c{j, {}, std::nullopt};
+      std::vector<std::size_t> rest;
+      for (std::size_t i : remaining) {
+        if ((s.pts[i] - j.sphere.center_mm).norm() < j.sphere.radius_mm + j.band) {
+          c.points.push_back(i);
+        } else {
+          rest.push_back(i);
+        }
+      }
+      accepted.push_back(j.sphere);
+      balls.push_back(std::move(c));
+      remaining.swap(rest);
+    }
+    // What no ball took is an object (or several) of its own.
+    std::vector<char> in_ball(s.pts.size(), 0);
+    for (const auto& b : balls) for (std::size_t i : b.points) in_ball[i] = 1;
+    std::vector<std::size_t> left;
+    for (std::size_t i : cluster) if (!in_ball[i]) left.push_back(i);
+    for (auto& part : TopViewClusters(s.pts, left, o.gap_mm)) {
+      if (part.size() < std::size_t(o.min_points)) continue;
+      Candidate c;
+      c.j.verdict = "not_a_ball";
+      // The reason of the largest failed sphere that lay in this part.
+      std::vector<char> mine(s.pts.size(), 0);
+      for (std::size_t i : part) mine[i] = 1;
+      std::size_t best = 0;
+      for (const auto& f : failed) {
+        const std::size_t overlap = std::size_t(std::count_if(f.shell.begin(), f.shell.end(), [&](std::size_t i) { return mine[i] != 0; }));
+        if (overlap > best) best = overlap, c.j = f;
+      }
+      if (best == 0) {
+        c.j.reason = pipeline::Format("no sphere of radius %.0f-%.0f mm fits its points", o.min_radius_mm, o.max_radius_mm);
+      }
+      c.points = std::move(part);
+      others.push_back(std::move(c));
+    }
+  }
+  res.timings_ms.emplace_back("balls", Ms(t0));
+  t0 = Clock::now();
+  if (!balls.empty()) {
+    // The ground under each ball again, from the lawn around it without any ball's points: a
+    // dome's foot, or a ball's lowest leaves, in a cell at its rim read as lawn would lift it.
+    std::vector<char> in_ball(s.pts.size(), 0);
+    for (const auto& b : balls) {
+      const double reach = b.j.sphere.radius_mm + b.j.band + GroundBand(ground);
+      for (std::size_t i = 0; i < s.pts.size(); ++i) {
+        if ((s.pts[i] - b.j.sphere.center_mm).squaredNorm() < reach * reach) in_ball[i] = 1;
+      }
+    }
+    for (auto& b : balls) {
+      const double half = b.j.sphere.radius_mm + 3000;
+      const Eigen::Vector2d c = b.j.sphere.center_mm.head<2>();
+      ScenePoints lawn;
+      for (std::size_t i = 0; i < s.pts.size(); ++i) {
+        if (in_ball[i] || (s.pts[i].head<2>() - c).cwiseAbs().maxCoeff() > half) continue;
+        lawn.pts.push_back(s.pts[i]), lawn.source.push_back(s.source[i]);
+      }
+      GroundModel local = GroundOf(lawn, o.ground, nullptr);
+      // Ground counts as seen when lawn lies within a metre of the ball's foot; a cloud of the
+      // hedges alone (a segmented capture) has none, and its lowest leaves are no ground.
+      b.ground_seen = !local.empty() && local.ObservedNear(b.j.sphere.center_mm.x(), b.j.sphere.center_mm.y(),
+                                                           b.j.sphere.radius_mm + 1000);
+      if (b.ground_seen) b.local_ground = std::move(local);
+    }
+    res.timings_ms.emplace_back("ground under each ball", Ms(t0));
+    t0 = Clock::now();
+  }
+  std::sort(balls.begin(), balls.end(), [](const Candidate& a, const Candidate& b) {
+    return a.j.sphere.center_mm.x() < b.j.sphere.center_mm.x();
+  });
+  const Eigen::Matrix3d back = turn.transpose();
+  auto make = [&](const Candidate& c, int id) {
+    FoundObject obj;
+    const GroundModel& ground_here = c.local_ground ? *c.local_ground : ground;
+    obj.id = id;
+    obj.verdict = c.j.verdict;
+    obj.ball = c.j.ball;
+    obj.reason = c.j.reason;
+    obj.seen_share = c.j.seen;
+    obj.lumpiness = c.j.lumpiness;
+    obj.crowding = c.j.crowding;
+    obj.axis_ratio = c.j.axis_ratio;
+    for (std::size_t i : c.points) obj.indices.push_back(s.source[i]);
+    std::sort(obj.indices.begin(), obj.indices.end());
+    std::vector<Eigen::Vector2d> top;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    double highest = -1e300;
+    for (std::size_t i : c.points) {
+      top.push_back(s.pts[i].head<2>());
+      mean += s.pts[i].head<2>();
+      highest = std::max(highest, s.pts[i].z() - ground.HeightAt(s.pts[i].x(), s.pts[i].y()));
+    }
+    obj.top_outline_mm = ConvexHull(top);
+    obj.top_center_mm = mean / double(std::max<std::size_t>(1, c.points.size()));
+    obj.height_mm = highest;
+    obj.ground_mm = ground.HeightAt(obj.top_center_mm.x(), obj.top_center_mm.y());
+    if (c.j.sphere.radius_mm > 0) {
+      const Eigen::Vector3d& cs = c.j.sphere.center_mm;
+      obj.ground_mm = ground.HeightAt(cs.x(), cs.y());
+      obj.base_height_mm = c.j.center_height;
+    }
+    if (obj.ball || obj.verdict == "ellipsoid") {
+      obj.top_center_mm = c.j.sphere.center_mm.head<2>();
+      // Where the sensor looked from: a camera's cloud has it at its origin; otherwise, from the
+      // side the points face (their mean direction from the centre), a few radii out.
+      Eigen::Vector3d facing = Eigen::Vector3d::Zero();
+      for (std::size_t i : c.j.shell) facing += (s.pts[i] - c.j.sphere.center_mm).normalized();
+      const double r = c.j.sphere.radius_mm;
+      const Eigen::Vector3d view_scene =
+          c.j.sphere.center_mm + (facing.norm() > 0 ? facing.normalized() : Eigen::Vector3d::UnitZ()) * std::max(4 * r, 2000.0);
+      const Eigen::Vector3d viewpoint = camera ? Eigen::Vector3d::Zero() : Eigen::Vector3d(back * view_scene);
+      std::vector<std::size_t> shell;
+      for (std::size_t i : c.j.shell) shell.push_back(s.source[i]);
+      MeasureBall(cloud, shell, fitting::Sphere{back * c.j.sphere.center_mm, r}, viewpoint, o, &obj);
+      obj.fit.hedge_id = id;
+      // The final fit must pin the sphere down as the finder's did (its interval covers the
+      // correlated errors of patches of the shell, which a shrub's lumps are).
+      const auto total = fitting::TotalStdError(obj.fit);
+      if (obj.ball && (!obj.fit.converged || !total || 1.96 * (*total)[3] > o.max_radius_uncertainty * obj.fit.sphere.radius_mm)) {
+        obj.ball = false;
+        obj.verdict = "not_a_ball";
+        obj.reason = obj.fit.converged && total
+                         ? pipeline::Format("its points do not pin a sphere down: radius %.0f mm +- %.0f mm (95 %%)",
+                                            obj.fit.sphere.radius_mm, 1.96 * (*total)[3])
+                         : "no sphere fits its shell: " + obj.fit.message;
+        obj.fit.not_a_ball = obj.reason;
+      }
+      if (obj.fit.converged && c.ground_seen) {
+        const Eigen::Vector3d cs = turn * obj.fit.sphere.center_mm;
+        obj.ground_mm = ground_here.HeightAt(cs.x(), cs.y());
+        obj.height_mm = cs.z() + obj.fit.sphere.radius_mm - obj.ground_mm;
+        obj.base_height_mm = (cs.z() - obj.ground_mm) / obj.fit.sphere.radius_mm;
+      } else if (!c.ground_seen) {
+        // No lawn about it: its height and whether the ground cuts it are unknown.
+        obj.ground_seen = false;
+        obj.ground_mm = obj.height_mm = obj.base_height_mm = std::numeric_limits<double>::quiet_NaN();
+        if (obj.verdict == "dome") obj.verdict = "ball";
+      }
+    } else {
+      obj.fit.method = "geometric";
+      obj.fit.converged = false;
+      obj.fit.message = c.j.reason;
+      obj.fit.not_a_ball = c.j.reason;
+    }
+    return obj;
+  };
+  int id = 1;
+  for (const auto& c : balls) res.objects.push_back(make(c, id++));
+  std::sort(others.begin(), others.end(), [](const Candidate& a, const Candidate& b) { return a.points.size() > b.points.size(); });
+  for (const auto& c : others) res.objects.push_back(make(c, id++));
+  res.ground = std::move(ground);
+  res.timings_ms.emplace_back("measure", Ms(t0));
+  return res;
+}
+
+cloud::PointCloud LabelCloud(const cloud::PointCloud& cloud, const FindResult& result) {
+  cloud::PointCloud out = cloud;
+  std::vector<float> hedge(cloud.size(), 0.f), object(cloud.size(), 0.f), ground(cloud.size(), 0.f);
+  for (const auto& o : result.objects) {
+    for (std::size_t i : o.indices) {
+      object[i] = float(o.id);
+      if (o.ball) hedge[i] = float(o.id);
+    }
+  }
+  if (!result.ground.empty()) {
+    const double band = GroundBand(result.ground);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!cloud.points_mm[i].allFinite() || object[i] != 0) continue;
+      const Eigen::Vector3d p = result.scene_from_cloud * cloud.points_mm[i].cast<double>();
+      ground[i] = std::abs(p.z() - result.ground.HeightAt(p.x(), p.y())) <= band ? 1.f : 0.f;
+    }
+  }
+  out.fields[cloud::kHedgeIdField] = std::move(hedge);
+  out.fields["object_id"] = std::move(object);
+  out.fields["ground"] = std::move(ground);
+  return out;
+}
+
+}  // namespace hedgefit::scene
