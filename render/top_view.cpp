@@ -22,6 +22,17 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
     zlo = std::min(zlo, pts[i].z()), zhi = std::max(zhi, pts[i].z());
   }
   if (!(hi.x() >= lo.x())) lo = hi = Eigen::Vector2d::Zero();
+  // The view frames the objects (with 2 m about them), not a scan's far, sparse lawn.
+  if (!result.objects.empty()) {
+    Eigen::Vector2d olo(1e300, 1e300), ohi(-1e300, -1e300);
+    for (const auto& o : result.objects) {
+      for (const auto& p : o.top_outline_mm) olo = olo.cwiseMin(p), ohi = ohi.cwiseMax(p);
+    }
+    if (ohi.x() >= olo.x()) {
+      lo = lo.cwiseMax(olo - Eigen::Vector2d::Constant(2000));
+      hi = hi.cwiseMin(ohi + Eigen::Vector2d::Constant(2000));
+    }
+  }
   const double margin = 60, span = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1.0});
   const double px = (size - 2 * margin) / span;
   const int w = int(std::ceil((hi.x() - lo.x()) * px + 2 * margin)), h = int(std::ceil((hi.y() - lo.y()) * px + 2 * margin));
@@ -44,8 +55,9 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
     } else if (kind[i] == 2) {
       c = cv::Vec3b(uchar(90 + 80 * t), uchar(120 + 80 * t), uchar(150 + 90 * t));  // brownish
     } else {
-      c = cv::Vec3b(uchar(150 + 60 * t), uchar(150 + 60 * t), uchar(150 + 60 * t));
+      c = cv::Vec3b(uchar(190 + 40 * t), uchar(190 + 40 * t), uchar(190 + 40 * t));  // ground: light grey
     }
+    if ((pts[i].head<2>().array() < lo.array()).any() || (pts[i].head<2>().array() > hi.array()).any()) continue;
     const cv::Point q = at(pts[i].head<2>());
     if (q.x >= 0 && q.y >= 0 && q.x < w && q.y < h) img.at<cv::Vec3b>(q) = c;
   }
@@ -54,13 +66,14 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
     if (o.ball && o.fit.converged) {
       const Eigen::Vector3d c = result.scene_from_cloud * o.fit.sphere.center_mm;
       cv::circle(img, at(c.head<2>()), std::max(2, int(std::lround(o.fit.sphere.radius_mm * px))), green, 2, cv::LINE_AA);
-      cv::putText(img, std::to_string(o.id), at(c.head<2>()) + cv::Point(-8, 8), cv::FONT_HERSHEY_SIMPLEX, 0.8, green, 2,
-                  cv::LINE_AA);
+      const int rad = std::max(2, int(std::lround(o.fit.sphere.radius_mm * px)));
+      cv::putText(img, std::to_string(o.id), at(c.head<2>()) + cv::Point(rad / 2 + 4, -rad / 2 - 4), cv::FONT_HERSHEY_SIMPLEX,
+                  0.7, green, 2, cv::LINE_AA);
     } else {
       std::vector<cv::Point> hull;
       for (const auto& p : o.top_outline_mm) hull.push_back(at(p));
       if (hull.size() >= 2) cv::polylines(img, hull, true, orange, 2, cv::LINE_AA);
-      cv::putText(img, std::to_string(o.id), at(o.top_center_mm) + cv::Point(-8, 8), cv::FONT_HERSHEY_SIMPLEX, 0.7,
+      cv::putText(img, std::to_string(o.id), at(o.top_center_mm) + cv::Point(6, -6), cv::FONT_HERSHEY_SIMPLEX, 0.6,
                   orange, 2, cv::LINE_AA);
     }
   }
@@ -68,8 +81,9 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
   const cv::Point bar(int(margin), h - int(margin / 2));
   cv::line(img, bar, bar + cv::Point(int(1000 * px), 0), cv::Scalar(0, 0, 0), 2);
   cv::putText(img, "1 m", bar + cv::Point(0, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  cv::putText(img, pipeline::Format("%zu balls (green circles), %zu other objects (orange)", result.Balls(),
-                                    result.objects.size() - result.Balls()),
+  const std::size_t balls = result.Balls(), others = result.objects.size() - balls;
+  cv::putText(img, pipeline::Format("%zu ball%s (green circles), %zu other object%s (orange outlines)", balls,
+                                    balls == 1 ? "" : "s", others, others == 1 ? "" : "s"),
               cv::Point(int(margin), int(margin / 2)), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   stereo::WriteImageAtomic(path, img);
 }

@@ -75,6 +75,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
     c["ground"] = {{"points", r.ground_points}, {"noise_mm", r.ground.noise_mm}, {"cell_mm", r.ground.cell_mm}};
     c["object_points"] = r.object_points;
     c["balls"] = r.Balls();
+    c["warnings"] = r.warnings;
     c["hedges"] = json::array();
     for (const auto& o : r.objects) c["hedges"].push_back(ObjectJson(r, o));
     c["timings_ms"] = json::object();
@@ -120,9 +121,10 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
 void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
   for (const auto& rep : reports) {
     const FindResult& r = rep.result;
-    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu balls of %zu objects\n",
+    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu ball%s of %zu object%s\n",
           r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
-          r.ground.noise_mm, r.Balls(), r.objects.size());
+          r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.objects.size(), r.objects.size() == 1 ? "" : "s");
+    for (const auto& w : r.warnings) Print(out, "  warning: %s\n", w.c_str());
     if (r.objects.empty()) continue;
     out << "  id  verdict      centre x, y, z (mm)               radius   95 % (r)  leaf r    points  seen  ground   height  lumpy\n";
     for (const auto& o : r.objects) {

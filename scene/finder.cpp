@@ -205,10 +205,47 @@ class BallFinder {
     return (s.center_mm.z() - ground_.HeightAt(s.center_mm.x(), s.center_mm.y())) / s.radius_mm;
   }
 
-  // Refines `start` on its shell among `idx` and judges it against `around` (the object's points).
-  Judgement Judge(const fitting::Sphere& start, const std::vector<std::size_t>& idx,
-                  const std::vector<std::size_t>& around) {
-    Judgement j;
+  struct ShapeMeasures {
+    std::optional<double> lumpiness;  // none with fewer than 4 patches holding points
+    std::size_t patches = 0;          // patches that hold 4 points or more
+    std::size_t outside = 0;          // points just outside the shell
+  };
+
+  // Lumpiness: per patch of the sphere, where the outermost points of the object lie (the 90th
+  // percentile of their distance from the centre, among those between 0.6 and 1.4 radii); a
+  // clipped ball's patches agree, a shrub's lumps, a tree's crown, a row's length do not. And the
+  // points just outside the shell (crowding's count).
+  ShapeMeasures Measures(const fitting::Sphere& sphere, double band, const std::vector<std::size_t>& around) const {
+    const double r = sphere.radius_mm;
+    constexpr int kBands = 8;
+    std::vector<std::vector<double>> patches(2 * kBands * kBands);
+    ShapeMeasures m;
+    const double crowd_from = r + band, crowd_to = crowd_from + std::max(0.15 * r, 50.0);
+    for (std::size_t i : around) {
+      const Eigen::Vector3d v = pts_[i] - sphere.center_mm;
+      const double d = v.norm();
+      if (d > crowd_from && d < crowd_to) ++m.outside;
+      if (d < 0.6 * r || d > 1.4 * r) continue;
+      patches[DirectionCell(v / d, kBands)].push_back(d);
+    }
+    std::vector<double> outer;
+    for (auto& p : patches) {
+      if (p.size() < 4) continue;
+      std::nth_element(p.begin(), p.begin() + p.size() * 9 / 10, p.end());
+      outer.push_back(p[p.size() * 9 / 10]);
+    }
+    m.patches = outer.size();
+    if (outer.size() < 4) return m;
+    const double mid = Median(outer);
+    std::vector<double> dev;
+    for (double v : outer) dev.push_back(std::abs(v - mid));
+    m.lumpiness = 1.4826 * Median(dev) / r;
+    return m;
+  }
+
+  // Refines `start` on its shell among `idx`: j.sphere, j.band and j.shell.
+  void Refine(const fitting::Sphere& start, const std::vector<std::size_t>& idx, Judgement* out) const {
+    Judgement& j = *out;
     j.sphere = start;
     {
       // Sample consensus within the hypothesis' band first, as MeasureBall does: a sphere drawn
@@ -250,7 +287,7 @@ class BallFinder {
       for (double v : res) dev.push_back(std::abs(v - med));
       const double keep = std::max(15.0, 3 * 1.4826 * Median(dev));
       std::vector<Eigen::Vector3d> shell;
-      const std::size_t step = std::max<std::size_t>(1, j.shell.size() / 5000);
+      const std::size_t step = std::max<std::size_t>(1, j.shell.size() / 1500);
       for (std::size_t k = 0; k < j.shell.size(); k += step) {
         if (std::abs(res[k] - med) <= keep) shell.push_back(pts_[j.shell[k]]);
       }
@@ -265,6 +302,23 @@ class BallFinder {
       if (!fit.converged || fit.sphere.radius_mm < o_.min_radius_mm || fit.sphere.radius_mm > o_.max_radius_mm) break;
       j.sphere = fit.sphere;
     }
+  }
+
+  // Refines `start` on its shell among `idx` and judges it against `around` (the object's points).
+  Judgement Judge(const fitting::Sphere& start, const std::vector<std::size_t>& idx,
+                  const std::vector<std::size_t>& around) {
+    Judgement j;
+    // A hypothesis far lumpier than a ball even before it is refined is not refined (the
+    // refinement's fits are most of the finder's time in a room or a tree).
+    const auto first = Measures(start, Band(start.radius_mm), around);
+    if (first.lumpiness && *first.lumpiness > 2 * o_.max_lumpiness) {
+      j.sphere = start;
+      j.lumpiness = *first.lumpiness;
+      return Reject(j, pipeline::Format("lumpy: its outermost points lie %.0f mm (%.0f %% of the radius) apart from patch to "
+                                        "patch; a clipped ball's lie within %.0f %%",
+                                        j.lumpiness * start.radius_mm, 100 * j.lumpiness, 100 * o_.max_lumpiness));
+    }
+    Refine(start, idx, &j);
     const double r = j.sphere.radius_mm;
     j.center_height = CenterHeight(j.sphere);
     if (r < o_.min_radius_mm || r > o_.max_radius_mm) {
@@ -277,32 +331,12 @@ class BallFinder {
     shell.reserve(j.shell.size());
     for (std::size_t i : j.shell) shell.push_back(pts_[i]);
     j.seen = SeenShare(shell, j.sphere.center_mm);
-    // Lumpiness: per patch of the sphere, where the outermost points of the object lie (the 90th
-    // percentile of their distance from the centre, among those between 0.6 and 1.4 radii); a
-    // clipped ball's patches agree, a shrub's lumps, a tree's crown, a row's length do not.
-    constexpr int kBands = 8;
-    std::vector<std::vector<double>> patches(2 * kBands * kBands);
-    std::size_t outside = 0;
-    const double crowd_from = r + j.band, crowd_to = crowd_from + std::max(0.15 * r, 50.0);
-    for (std::size_t i : around) {
-      const Eigen::Vector3d v = pts_[i] - j.sphere.center_mm;
-      const double d = v.norm();
-      if (d > crowd_from && d < crowd_to) ++outside;
-      if (d < 0.6 * r || d > 1.4 * r) continue;
-      patches[DirectionCell(v / d, kBands)].push_back(d);
+    const auto measures = Measures(j.sphere, j.band, around);
+    j.crowding = double(measures.outside) / double(j.shell.size());
+    if (!measures.lumpiness) {
+      return Reject(j, pipeline::Format("too few of its sphere's patches hold points (%zu) to judge its shape", measures.patches));
     }
-    j.crowding = double(outside) / double(j.shell.size());
-    std::vector<double> outer;
-    for (auto& p : patches) {
-      if (p.size() < 4) continue;
-      std::nth_element(p.begin(), p.begin() + p.size() * 9 / 10, p.end());
-      outer.push_back(p[p.size() * 9 / 10]);
-    }
-    if (outer.size() < 4) return Reject(j, pipeline::Format("too few of its sphere's patches hold points (%zu) to judge its shape", outer.size()));
-    const double mid = Median(outer);
-    std::vector<double> dev;
-    for (double v : outer) dev.push_back(std::abs(v - mid));
-    j.lumpiness = 1.4826 * Median(dev) / r;
+    j.lumpiness = *measures.lumpiness;
     if (j.seen < o_.min_seen) return Reject(j, pipeline::Format("its points cover only %.0f %% of a sphere", 100 * j.seen));
     if (j.lumpiness > o_.max_lumpiness) {
       return Reject(j, pipeline::Format("lumpy: its outermost points lie %.0f mm (%.0f %% of the radius) apart from patch to patch; "
@@ -413,7 +447,9 @@ const pipeline::OptionTable<FindOptions>& FindOptions::Table() {
 void FindOptions::Check() const {
   Table().Validate(*this);
   ground.Check();
-  if (min_radius_mm >= max_radius_mm) throw Error("option 'min_radius' must be smaller than 'max_radius'");
+  if (min_radius_mm >= max_radius_mm) {
+    throw Error(pipeline::Format("option 'min_radius' (%g mm) must be smaller than option 'max_radius' (%g mm)", min_radius_mm, max_radius_mm));
+  }
 }
 
 std::size_t FindResult::Balls() const {
@@ -527,236 +563,283 @@ void MeasureBall(const cloud::PointCloud& cloud, const std::vector<std::size_t>&
 
 }  // namespace
 
+namespace {
+
+// An object on its way to the result: a ball (its judgement and points) or what is left.
+struct Candidate {
+  Judgement j;
+  std::vector<std::size_t> points;          // scene indices
+  std::optional<GroundModel> local_ground;  // the lawn about a ball, without any ball
+  bool ground_seen = true;
+};
+
+// The cloud turned so its up is +z, and the ground.
+struct Scene {
+  ScenePoints s;
+  GroundModel ground;
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  // scene from cloud
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();       // in the cloud's frame
+  std::string up_source;
+  bool camera = false;
+};
+
+Scene SceneOf(const cloud::PointCloud& cloud, const FindOptions& o) {
+  Scene sc;
+  sc.camera = IsCameraCloud(cloud);
+  sc.up = o.up == "auto" ? (sc.camera ? Eigen::Vector3d(0, -1, 0) : Eigen::Vector3d::UnitZ()) : ParseUp(o.up);
+  sc.up_source = o.up != "auto" ? "given" : (sc.camera ? "-y (a camera's cloud)" : "z (default)");
+  sc.turn = Eigen::Quaterniond::FromTwoVectors(sc.up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  sc.s = Turn(cloud, sc.turn);
+  std::vector<std::uint8_t> is_ground;
+  sc.ground = GroundOf(sc.s, o.ground, &is_ground);
+  if (!sc.camera || o.up != "auto" || sc.ground.ground_points < 50) return sc;
+  // A camera looks down at the ground: its up is the normal of the ground it sees.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < sc.s.pts.size(); ++i) if (is_ground[i]) mean += sc.s.pts[i], ++n;
+  mean /= double(n);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < sc.s.pts.size(); ++i) {
+    if (is_ground[i]) cov += (sc.s.pts[i] - mean) * (sc.s.pts[i] - mean).transpose();
+  }
+  Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+  if (normal.z() < 0) normal = -normal;
+  if (normal.z() > std::cos(35 * M_PI / 180)) {
+    sc.up = sc.turn.transpose() * normal;
+    sc.turn = Eigen::Quaterniond::FromTwoVectors(sc.up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    sc.s = Turn(cloud, sc.turn);
+    sc.ground = GroundOf(sc.s, o.ground, nullptr);
+    sc.up_source += ", refined to the ground's normal";
+  }
+  return sc;
+}
+
+// Peels the balls off one top-view object, best hypothesis first (one where a ball was already
+// found is skipped); what no ball takes is an object of its own (or several), with the reason of
+// the largest failed sphere that lay in it.
+void PeelBalls(const std::vector<std::size_t>& cluster, const ScenePoints& s, BallFinder& finder, const FindOptions& o,
+               std::vector<Candidate>* balls, std::vector<Candidate>* others) {
+  std::vector<std::size_t> remaining = cluster;
+  std::vector<Judgement> failed;
+  std::vector<fitting::Sphere> accepted;
+  std::vector<char> in_ball(s.pts.size(), 0);
+  for (const auto& h : finder.Hypotheses(cluster)) {
+    if (remaining.size() < std::size_t(o.min_points)) break;
+    bool overlaps = false;
+    for (const auto& b : accepted) {
+      overlaps = overlaps || (h.sphere.center_mm - b.center_mm).norm() < 0.8 * (h.sphere.radius_mm + b.radius_mm);
+    }
+    if (overlaps) continue;
+    // Judged on the points about it only (what its shell, lumpiness and crowding read lies within
+    // 1.4 radii): a wall or a room around a ball costs one pass, not one per step.
+    const double reach = 1.6 * h.sphere.radius_mm;
+    std::vector<std::size_t> local;
+    for (std::size_t i : remaining) {
+      if ((s.pts[i] - h.sphere.center_mm).cwiseAbs().maxCoeff() < reach) local.push_back(i);
+    }
+    Judgement j = finder.Judge(h.sphere, local, local);
+    if (!(j.ball || j.verdict == "ellipsoid")) {
+      failed.push_back(std::move(j));
+      continue;
+    }
+    // The ball takes every remaining point inside its shell's outer edge.
+    Candidate c{j, {}, std::nullopt};
+    std::vector<std::size_t> rest;
+    for (std::size_t i : remaining) {
+      if ((s.pts[i] - j.sphere.center_mm).norm() < j.sphere.radius_mm + j.band) {
+        c.points.push_back(i), in_ball[i] = 1;
+      } else {
+        rest.push_back(i);
+      }
+    }
+    accepted.push_back(j.sphere);
+    balls->push_back(std::move(c));
+    remaining.swap(rest);
+  }
+  std::vector<std::size_t> left;
+  for (std::size_t i : cluster) if (!in_ball[i]) left.push_back(i);
+  for (auto& part : TopViewClusters(s.pts, left, o.gap_mm)) {
+    if (part.size() < std::size_t(o.min_points)) continue;
+    Candidate c;
+    c.j.verdict = "not_a_ball";
+    std::vector<char> mine(s.pts.size(), 0);
+    for (std::size_t i : part) mine[i] = 1;
+    std::size_t best = 0;
+    for (const auto& f : failed) {
+      const auto overlap = std::size_t(std::count_if(f.shell.begin(), f.shell.end(), [&](std::size_t i) { return mine[i] != 0; }));
+      if (overlap > best) best = overlap, c.j = f;
+    }
+    if (best == 0) {
+      c.j.reason = pipeline::Format("no sphere of radius %.0f-%.0f mm fits its points", o.min_radius_mm, o.max_radius_mm);
+    }
+    c.points = std::move(part);
+    others->push_back(std::move(c));
+  }
+}
+
+// The ground under each ball again, from the lawn about it without any ball's points: a dome's
+// foot, or a ball's lowest leaves, in a cell at its rim read as lawn would lift it. Ground counts
+// as seen when lawn lies within a metre of the ball's foot; a cloud of the hedges alone (a
+// segmented capture) has none, and its lowest leaves are no ground.
+void GroundUnderBalls(const ScenePoints& s, const GroundModel& ground, const FindOptions& o, std::vector<Candidate>* balls) {
+  std::vector<char> in_ball(s.pts.size(), 0);
+  for (const auto& b : *balls) {
+    const double reach = b.j.sphere.radius_mm + b.j.band + GroundBand(ground);
+    for (std::size_t i = 0; i < s.pts.size(); ++i) {
+      if ((s.pts[i] - b.j.sphere.center_mm).squaredNorm() < reach * reach) in_ball[i] = 1;
+    }
+  }
+  for (auto& b : *balls) {
+    const double half = b.j.sphere.radius_mm + 3000;
+    const Eigen::Vector2d c = b.j.sphere.center_mm.head<2>();
+    ScenePoints lawn;
+    for (std::size_t i = 0; i < s.pts.size(); ++i) {
+      if (in_ball[i] || (s.pts[i].head<2>() - c).cwiseAbs().maxCoeff() > half) continue;
+      lawn.pts.push_back(s.pts[i]), lawn.source.push_back(s.source[i]);
+    }
+    GroundModel local = GroundOf(lawn, o.ground, nullptr);
+    b.ground_seen = !local.empty() && local.ObservedNear(c.x(), c.y(), b.j.sphere.radius_mm + 1000);
+    if (b.ground_seen) b.local_ground = std::move(local);
+  }
+}
+
+// A ball's final fits (MeasureBall), checked to pin its sphere down, and its ground and height.
+void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& cloud, const FindOptions& o,
+                  FoundObject* obj) {
+  obj->top_center_mm = c.j.sphere.center_mm.head<2>();
+  // Where the sensor looked from: a camera's cloud has it at its origin; otherwise, from the side
+  // the points face (their mean direction from the centre), a few radii out.
+  Eigen::Vector3d facing = Eigen::Vector3d::Zero();
+  for (std::size_t i : c.j.shell) facing += (sc.s.pts[i] - c.j.sphere.center_mm).normalized();
+  const double r = c.j.sphere.radius_mm;
+  const Eigen::Matrix3d back = sc.turn.transpose();
+  const Eigen::Vector3d view_scene =
+      c.j.sphere.center_mm + (facing.norm() > 0 ? facing.normalized() : Eigen::Vector3d::UnitZ()) * std::max(4 * r, 2000.0);
+  const Eigen::Vector3d viewpoint = sc.camera ? Eigen::Vector3d::Zero() : Eigen::Vector3d(back * view_scene);
+  std::vector<std::size_t> shell;
+  for (std::size_t i : c.j.shell) shell.push_back(sc.s.source[i]);
+  MeasureBall(cloud, shell, fitting::Sphere{back * c.j.sphere.center_mm, r}, viewpoint, o, obj);
+  obj->fit.hedge_id = obj->id;
+  // The final fit must pin the sphere down as the finder's did (its interval covers the
+  // correlated errors of patches of the shell, which a shrub's lumps are).
+  const auto total = fitting::TotalStdError(obj->fit);
+  if (obj->ball && (!obj->fit.converged || !total || 1.96 * (*total)[3] > o.max_radius_uncertainty * obj->fit.sphere.radius_mm)) {
+    obj->ball = false;
+    obj->verdict = "not_a_ball";
+    obj->reason = obj->fit.converged && total
+                      ? pipeline::Format("its points do not pin a sphere down: radius %.0f mm +- %.0f mm (95 %%)",
+                                         obj->fit.sphere.radius_mm, 1.96 * (*total)[3])
+                      : "no sphere fits its shell: " + obj->fit.message;
+    obj->fit.not_a_ball = obj->reason;
+  }
+  if (!c.ground_seen) {
+    // No lawn about it: its height and whether the ground cuts it are unknown.
+    obj->ground_seen = false;
+    obj->ground_mm = obj->height_mm = obj->base_height_mm = std::numeric_limits<double>::quiet_NaN();
+    if (obj->verdict == "dome") obj->verdict = "ball";
+  } else if (obj->fit.converged) {
+    const GroundModel& ground = c.local_ground ? *c.local_ground : sc.ground;
+    const Eigen::Vector3d cs = sc.turn * obj->fit.sphere.center_mm;
+    obj->ground_mm = ground.HeightAt(cs.x(), cs.y());
+    obj->height_mm = cs.z() + obj->fit.sphere.radius_mm - obj->ground_mm;
+    obj->base_height_mm = (cs.z() - obj->ground_mm) / obj->fit.sphere.radius_mm;
+  }
+}
+
+FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud::PointCloud& cloud, const FindOptions& o) {
+  FoundObject obj;
+  obj.id = id;
+  obj.verdict = c.j.verdict;
+  obj.ball = c.j.ball;
+  obj.reason = c.j.reason;
+  obj.seen_share = c.j.seen;
+  obj.lumpiness = c.j.lumpiness;
+  obj.crowding = c.j.crowding;
+  obj.axis_ratio = c.j.axis_ratio;
+  for (std::size_t i : c.points) obj.indices.push_back(sc.s.source[i]);
+  std::sort(obj.indices.begin(), obj.indices.end());
+  std::vector<Eigen::Vector2d> top;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  double highest = -1e300;
+  for (std::size_t i : c.points) {
+    const Eigen::Vector3d& p = sc.s.pts[i];
+    top.push_back(p.head<2>());
+    mean += p.head<2>();
+    highest = std::max(highest, p.z() - sc.ground.HeightAt(p.x(), p.y()));
+  }
+  obj.top_outline_mm = ConvexHull(top);
+  obj.top_center_mm = mean / double(std::max<std::size_t>(1, c.points.size()));
+  obj.height_mm = highest;
+  obj.ground_mm = sc.ground.HeightAt(obj.top_center_mm.x(), obj.top_center_mm.y());
+  if (obj.ball || obj.verdict == "ellipsoid") {
+    MeasureFound(c, sc, cloud, o, &obj);
+  } else {
+    obj.fit.method = "geometric";
+    obj.fit.converged = false;
+    obj.fit.message = c.j.reason;
+    obj.fit.not_a_ball = c.j.reason;
+  }
+  return obj;
+}
+
+}  // namespace
+
 FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
   o.Check();
   FindResult res;
   res.points = cloud.size();
-  const bool camera = IsCameraCloud(cloud);
-  Eigen::Vector3d up = o.up == "auto" ? (camera ? Eigen::Vector3d(0, -1, 0) : Eigen::Vector3d::UnitZ()) : ParseUp(o.up);
-  res.up_source = o.up != "auto" ? "given" : (camera ? "-y (a camera's cloud)" : "z (default)");
   auto t0 = Clock::now();
-  Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  ScenePoints s = Turn(cloud, turn);
+  auto lap = [&](const char* step) {
+    res.timings_ms.emplace_back(step, Ms(t0));
+    t0 = Clock::now();
+  };
   res.spacing_mm = cloud::MedianSpacing(cloud);
-  res.timings_ms.emplace_back("read and turn", Ms(t0));
-  t0 = Clock::now();
-  std::vector<std::uint8_t> is_ground;
-  GroundModel ground = GroundOf(s, o.ground, &is_ground);
-  if (camera && o.up == "auto" && ground.ground_points >= 50) {
-    // A camera looks down at the ground: its up is the normal of the ground it sees.
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < s.pts.size(); ++i) if (is_ground[i]) mean += s.pts[i], ++n;
-    mean /= double(n);
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (std::size_t i = 0; i < s.pts.size(); ++i) {
-      if (is_ground[i]) cov += (s.pts[i] - mean) * (s.pts[i] - mean).transpose();
-    }
-    Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
-    if (normal.z() < 0) normal = -normal;
-    if (normal.z() > std::cos(35 * M_PI / 180)) {
-      up = turn.transpose() * normal;
-      turn = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      s = Turn(cloud, turn);
-      ground = GroundOf(s, o.ground, &is_ground);
-      res.up_source += ", refined to the ground's normal";
-    }
-  }
-  res.up = up;
-  res.scene_from_cloud = turn;
-  res.ground_points = ground.ground_points;
-  res.timings_ms.emplace_back("ground", Ms(t0));
-  t0 = Clock::now();
+  Scene sc = SceneOf(cloud, o);
+  res.up = sc.up;
+  res.up_source = sc.up_source;
+  res.scene_from_cloud = sc.turn;
+  res.ground_points = sc.ground.ground_points;
+  lap("up and ground");
   // Objects: what stands above the ground's band, in the top view.
-  const double band = GroundBand(ground);
+  const double band = GroundBand(sc.ground);
   std::vector<std::size_t> above;
-  for (std::size_t i = 0; i < s.pts.size(); ++i) {
-    const double h = ground.empty() ? 1e9 : s.pts[i].z() - ground.HeightAt(s.pts[i].x(), s.pts[i].y());
-    if (h > band) above.push_back(i);
+  for (std::size_t i = 0; i < sc.s.pts.size(); ++i) {
+    const Eigen::Vector3d& p = sc.s.pts[i];
+    if (sc.ground.empty() || p.z() - sc.ground.HeightAt(p.x(), p.y()) > band) above.push_back(i);
   }
   res.object_points = above.size();
-  const auto clusters = TopViewClusters(s.pts, above, o.gap_mm);
-  res.timings_ms.emplace_back("objects", Ms(t0));
-  t0 = Clock::now();
-  BallFinder finder(s.pts, ground, o, res.spacing_mm);
-  struct Candidate {
-    Judgement j;
-    std::vector<std::size_t> points;  // scene indices
-    std::optional<GroundModel> local_ground;  // the lawn about a ball, without any ball
-    bool ground_seen = true;
-  };
+  const auto clusters = TopViewClusters(sc.s.pts, above, o.gap_mm);
+  lap("objects");
+  BallFinder finder(sc.s.pts, sc.ground, o, res.spacing_mm);
   std::vector<Candidate> balls, others;
   for (const auto& cluster : clusters) {
-    if (cluster.size() < std::size_t(o.min_points)) continue;
-    std::vector<std::size_t> remaining = cluster;
-    std::vector<Judgement> failed;
-    std::vector<fitting::Sphere> accepted;
-    // Verified best first; a hypothesis where a ball was already found is skipped.
-    for (const auto& h : finder.Hypotheses(cluster)) {
-      if (remaining.size() < std::size_t(o.min_points)) break;
-      bool overlaps = false;
-      for (const auto& b : accepted) {
-        overlaps = overlaps || (h.sphere.center_mm - b.center_mm).norm() < 0.8 * (h.sphere.radius_mm + b.radius_mm);
-      }
-      if (overlaps) continue;
-      Judgement j = finder.Judge(h.sphere, remaining, remaining);
-      if (!(j.ball || j.verdict == "ellipsoid")) {
-        failed.push_back(std::move(j));
-        continue;
-      }
-      // The ball takes every remaining point inside its shell's outer edge.
-      Candidate c{j, {}, std::nullopt};
-      std::vector<std::size_t> rest;
-      for (std::size_t i : remaining) {
-        if ((s.pts[i] - j.sphere.center_mm).norm() < j.sphere.radius_mm + j.band) {
-          c.points.push_back(i);
-        } else {
-          rest.push_back(i);
-        }
-      }
-      accepted.push_back(j.sphere);
-      balls.push_back(std::move(c));
-      remaining.swap(rest);
-    }
-    // What no ball took is an object (or several) of its own.
-    std::vector<char> in_ball(s.pts.size(), 0);
-    for (const auto& b : balls) for (std::size_t i : b.points) in_ball[i] = 1;
-    std::vector<std::size_t> left;
-    for (std::size_t i : cluster) if (!in_ball[i]) left.push_back(i);
-    for (auto& part : TopViewClusters(s.pts, left, o.gap_mm)) {
-      if (part.size() < std::size_t(o.min_points)) continue;
-      Candidate c;
-      c.j.verdict = "not_a_ball";
-      // The reason of the largest failed sphere that lay in this part.
-      std::vector<char> mine(s.pts.size(), 0);
-      for (std::size_t i : part) mine[i] = 1;
-      std::size_t best = 0;
-      for (const auto& f : failed) {
-        const std::size_t overlap = std::size_t(std::count_if(f.shell.begin(), f.shell.end(), [&](std::size_t i) { return mine[i] != 0; }));
-        if (overlap > best) best = overlap, c.j = f;
-      }
-      if (best == 0) {
-        c.j.reason = pipeline::Format("no sphere of radius %.0f-%.0f mm fits its points", o.min_radius_mm, o.max_radius_mm);
-      }
-      c.points = std::move(part);
-      others.push_back(std::move(c));
-    }
+    if (cluster.size() >= std::size_t(o.min_points)) PeelBalls(cluster, sc.s, finder, o, &balls, &others);
   }
-  res.timings_ms.emplace_back("balls", Ms(t0));
-  t0 = Clock::now();
+  lap("balls");
   if (!balls.empty()) {
-    // The ground under each ball again, from the lawn around it without any ball's points: a
-    // dome's foot, or a ball's lowest leaves, in a cell at its rim read as lawn would lift it.
-    std::vector<char> in_ball(s.pts.size(), 0);
-    for (const auto& b : balls) {
-      const double reach = b.j.sphere.radius_mm + b.j.band + GroundBand(ground);
-      for (std::size_t i = 0; i < s.pts.size(); ++i) {
-        if ((s.pts[i] - b.j.sphere.center_mm).squaredNorm() < reach * reach) in_ball[i] = 1;
-      }
-    }
-    for (auto& b : balls) {
-      const double half = b.j.sphere.radius_mm + 3000;
-      const Eigen::Vector2d c = b.j.sphere.center_mm.head<2>();
-      ScenePoints lawn;
-      for (std::size_t i = 0; i < s.pts.size(); ++i) {
-        if (in_ball[i] || (s.pts[i].head<2>() - c).cwiseAbs().maxCoeff() > half) continue;
-        lawn.pts.push_back(s.pts[i]), lawn.source.push_back(s.source[i]);
-      }
-      GroundModel local = GroundOf(lawn, o.ground, nullptr);
-      // Ground counts as seen when lawn lies within a metre of the ball's foot; a cloud of the
-      // hedges alone (a segmented capture) has none, and its lowest leaves are no ground.
-      b.ground_seen = !local.empty() && local.ObservedNear(b.j.sphere.center_mm.x(), b.j.sphere.center_mm.y(),
-                                                           b.j.sphere.radius_mm + 1000);
-      if (b.ground_seen) b.local_ground = std::move(local);
-    }
-    res.timings_ms.emplace_back("ground under each ball", Ms(t0));
-    t0 = Clock::now();
+    GroundUnderBalls(sc.s, sc.ground, o, &balls);
+    lap("ground under each ball");
   }
   std::sort(balls.begin(), balls.end(), [](const Candidate& a, const Candidate& b) {
     return a.j.sphere.center_mm.x() < b.j.sphere.center_mm.x();
   });
-  const Eigen::Matrix3d back = turn.transpose();
-  auto make = [&](const Candidate& c, int id) {
-    FoundObject obj;
-    const GroundModel& ground_here = c.local_ground ? *c.local_ground : ground;
-    obj.id = id;
-    obj.verdict = c.j.verdict;
-    obj.ball = c.j.ball;
-    obj.reason = c.j.reason;
-    obj.seen_share = c.j.seen;
-    obj.lumpiness = c.j.lumpiness;
-    obj.crowding = c.j.crowding;
-    obj.axis_ratio = c.j.axis_ratio;
-    for (std::size_t i : c.points) obj.indices.push_back(s.source[i]);
-    std::sort(obj.indices.begin(), obj.indices.end());
-    std::vector<Eigen::Vector2d> top;
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    double highest = -1e300;
-    for (std::size_t i : c.points) {
-      top.push_back(s.pts[i].head<2>());
-      mean += s.pts[i].head<2>();
-      highest = std::max(highest, s.pts[i].z() - ground.HeightAt(s.pts[i].x(), s.pts[i].y()));
-    }
-    obj.top_outline_mm = ConvexHull(top);
-    obj.top_center_mm = mean / double(std::max<std::size_t>(1, c.points.size()));
-    obj.height_mm = highest;
-    obj.ground_mm = ground.HeightAt(obj.top_center_mm.x(), obj.top_center_mm.y());
-    if (c.j.sphere.radius_mm > 0) {
-      const Eigen::Vector3d& cs = c.j.sphere.center_mm;
-      obj.ground_mm = ground.HeightAt(cs.x(), cs.y());
-      obj.base_height_mm = c.j.center_height;
-    }
-    if (obj.ball || obj.verdict == "ellipsoid") {
-      obj.top_center_mm = c.j.sphere.center_mm.head<2>();
-      // Where the sensor looked from: a camera's cloud has it at its origin; otherwise, from the
-      // side the points face (their mean direction from the centre), a few radii out.
-      Eigen::Vector3d facing = Eigen::Vector3d::Zero();
-      for (std::size_t i : c.j.shell) facing += (s.pts[i] - c.j.sphere.center_mm).normalized();
-      const double r = c.j.sphere.radius_mm;
-      const Eigen::Vector3d view_scene =
-          c.j.sphere.center_mm + (facing.norm() > 0 ? facing.normalized() : Eigen::Vector3d::UnitZ()) * std::max(4 * r, 2000.0);
-      const Eigen::Vector3d viewpoint = camera ? Eigen::Vector3d::Zero() : Eigen::Vector3d(back * view_scene);
-      std::vector<std::size_t> shell;
-      for (std::size_t i : c.j.shell) shell.push_back(s.source[i]);
-      MeasureBall(cloud, shell, fitting::Sphere{back * c.j.sphere.center_mm, r}, viewpoint, o, &obj);
-      obj.fit.hedge_id = id;
-      // The final fit must pin the sphere down as the finder's did (its interval covers the
-      // correlated errors of patches of the shell, which a shrub's lumps are).
-      const auto total = fitting::TotalStdError(obj.fit);
-      if (obj.ball && (!obj.fit.converged || !total || 1.96 * (*total)[3] > o.max_radius_uncertainty * obj.fit.sphere.radius_mm)) {
-        obj.ball = false;
-        obj.verdict = "not_a_ball";
-        obj.reason = obj.fit.converged && total
-                         ? pipeline::Format("its points do not pin a sphere down: radius %.0f mm +- %.0f mm (95 %%)",
-                                            obj.fit.sphere.radius_mm, 1.96 * (*total)[3])
-                         : "no sphere fits its shell: " + obj.fit.message;
-        obj.fit.not_a_ball = obj.reason;
-      }
-      if (obj.fit.converged && c.ground_seen) {
-        const Eigen::Vector3d cs = turn * obj.fit.sphere.center_mm;
-        obj.ground_mm = ground_here.HeightAt(cs.x(), cs.y());
-        obj.height_mm = cs.z() + obj.fit.sphere.radius_mm - obj.ground_mm;
-        obj.base_height_mm = (cs.z() - obj.ground_mm) / obj.fit.sphere.radius_mm;
-      } else if (!c.ground_seen) {
-        // No lawn about it: its height and whether the ground cuts it are unknown.
-        obj.ground_seen = false;
-        obj.ground_mm = obj.height_mm = obj.base_height_mm = std::numeric_limits<double>::quiet_NaN();
-        if (obj.verdict == "dome") obj.verdict = "ball";
-      }
-    } else {
-      obj.fit.method = "geometric";
-      obj.fit.converged = false;
-      obj.fit.message = c.j.reason;
-      obj.fit.not_a_ball = c.j.reason;
-    }
-    return obj;
-  };
-  int id = 1;
-  for (const auto& c : balls) res.objects.push_back(make(c, id++));
   std::sort(others.begin(), others.end(), [](const Candidate& a, const Candidate& b) { return a.points.size() > b.points.size(); });
-  for (const auto& c : others) res.objects.push_back(make(c, id++));
-  res.ground = std::move(ground);
-  res.timings_ms.emplace_back("measure", Ms(t0));
+  int id = 1;
+  for (const auto& c : balls) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
+  for (const auto& c : others) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
+  if (res.points > 0 && (res.object_points < std::size_t(o.min_points) || sc.ground.empty())) {
+    res.warnings.push_back(pipeline::Format(
+        "no object stands out of the ground model (%zu of %zu points are ground): a cloud of one hedge alone, without a "
+        "lawn, is measured by `compare`; or give the cloud's --up",
+        res.ground_points, res.points));
+  } else if (sc.ground.noise_mm > 50) {
+    res.warnings.push_back(pipeline::Format(
+        "the ground's points scatter %.0f mm about the terrain model: it is rough, stepped or cluttered, and heights "
+        "above it are less certain",
+        sc.ground.noise_mm));
+  }
+  res.ground = std::move(sc.ground);
+  lap("measure");
   return res;
 }
 

@@ -91,6 +91,9 @@ struct FindResult {
   GroundModel ground;             ///< in the scene frame
   std::vector<FoundObject> objects;
   std::vector<std::pair<std::string, double>> timings_ms;  ///< per step
+  /// What makes the result doubtful, one sentence each: no ground told apart from the objects (a
+  /// cloud of one hedge alone, or the wrong up), a rough or tilted ground.
+  std::vector<std::string> warnings;
   std::size_t Balls() const;
 };
 

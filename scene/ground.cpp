@@ -196,6 +196,30 @@ void HarmonicFill(std::vector<float>& h, int nx, int ny, const std::vector<float
   h.swap(cur);
 }
 
+// The progressive opening (Zhang et al. 2003) on the cells' lows: windows doubling up to
+// max_window; a cell is not ground when it stands above the opened surface by more than the slope
+// allows over the window's growth. 1 for the ground cells.
+std::vector<std::uint8_t> ProgressiveOpening(const std::vector<float>& low, int nx, int ny, const GroundOptions& options,
+                                             double cell) {
+  const std::size_t cells = low.size();
+  std::vector<std::uint8_t> ground(cells, 0);
+  for (std::size_t c = 0; c < cells; ++c) ground[c] = !std::isnan(low[c]);
+  std::vector<float> surface = low;
+  int previous_w = 1;
+  for (int h = 1;; h *= 2) {
+    const int w = 2 * h + 1;
+    const std::vector<float> opened = MinMaxFilter(MinMaxFilter(surface, nx, ny, h, true), nx, ny, h, false);
+    const double dh = options.step_mm + options.slope * (w - previous_w) * cell;
+    for (std::size_t c = 0; c < cells; ++c) {
+      if (ground[c] && low[c] - opened[c] > dh) ground[c] = 0;
+    }
+    surface = opened;
+    previous_w = w;
+    if ((2 * h + 1) * cell >= options.max_window_mm || h > std::max(nx, ny)) break;
+  }
+  return ground;
+}
+
 double Median(std::vector<double> v) {
   if (v.empty()) return 0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -288,24 +312,7 @@ GroundModel FitGround(const std::vector<Eigen::Vector3f>& points, const GroundOp
     std::nth_element(b, b + std::size_t(0.02 * n), e);
     low[c] = *(b + std::size_t(0.02 * n));
   }
-  // The progressive opening: windows doubling up to max_window; a cell is not ground when it
-  // stands above the opened surface by more than the slope allows over the window's growth.
-  std::vector<std::uint8_t> ground(cells, 0);
-  for (std::size_t c = 0; c < cells; ++c) ground[c] = !std::isnan(low[c]);
-  std::vector<float> surface = low;
-  int previous_w = 1;
-  for (int h = 1;; h *= 2) {
-    const int w = 2 * h + 1;
-    const std::vector<float> opened =
-        MinMaxFilter(MinMaxFilter(surface, g.nx, g.ny, h, true), g.nx, g.ny, h, false);
-    const double dh = options.step_mm + options.slope * (w - previous_w) * cell;
-    for (std::size_t c = 0; c < cells; ++c) {
-      if (ground[c] && low[c] - opened[c] > dh) ground[c] = 0;
-    }
-    surface = opened;
-    previous_w = w;
-    if ((2 * h + 1) * cell >= options.max_window_mm || h > std::max(g.nx, g.ny)) break;
-  }
+  std::vector<std::uint8_t> ground = ProgressiveOpening(low, g.nx, g.ny, options, cell);
   // Each ground cell's height: the median of its points near its low (the lawn's returns, with
   // their noise, not its lowest one).
   std::vector<float> height(cells, kEmpty);

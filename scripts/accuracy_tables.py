@@ -6,7 +6,7 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|hard|random|leaves|headline [--slow]
+Usage: scripts/accuracy_tables.py lab|hard|random|leaves|find|headline [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   hard      the envelope fit's AER / LD per ball of `bench garden --hard`, both renderers
@@ -14,6 +14,9 @@ Usage: scripts/accuracy_tables.py lab|hard|random|leaves|headline [--slow]
   leaves    per leaf preset (`bench garden --leaves`), both renderers: the envelope's AER, LD, interval
             coverage and width, and the outline's own error in px against the truth; with and without
             the outline
+  find      `hedgefit find` per data set: `bench find` (4 gardens per simulated sensor), the five real
+            Velodyne scans of a calibration sphere and PCL's test clouds, with defaults: balls found,
+            objects wrongly called balls, radius, centre and ground errors, time
   headline  README's lab and garden rows (reads what lab and random wrote; runs nothing new)
 Run from the repository's root after a build; the JSON goes to build/docs/accuracy/.
 """
@@ -203,6 +206,59 @@ def leaves():
         print(line)
     print("| targets (issue 42) | every preset | | 2 / 4 | 3 | 90 % | 5 | | |")
 
+def find():
+    OUT.mkdir(parents=True, exist_ok=True)
+    out = OUT / "find.json"
+    subprocess.run([str(HEDGEFIT), "bench", "find", "--gardens", "4", "--json", str(out)], cwd=ROOT, check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    rows = json.loads(out.read_text())
+    print("| data | clouds | points per cloud | balls found | other objects called balls | radius error, mean / worst | "
+          "centre error, worst | ground error, worst | time per cloud, mean / worst |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    names = {"lidar16": "simulated 16-beam LiDAR driving past, 1.5 m up", "lidar32": "simulated 32-beam LiDAR driving past",
+             "terrestrial": "simulated terrestrial scan, two stations", "photogrammetry": "simulated photogrammetry model, 10 views fused, 1 % outliers"}
+    for sensor, label in names.items():
+        rs = [r for r in rows if r["sensor"] == sensor]
+        if not rs:
+            continue
+        balls = [b for r in rs for b in r["balls"]]
+        found = [b for b in balls if b["found"]]
+        dr = [100 * abs(b["radius_mm"] - b["true_radius_mm"]) / b["true_radius_mm"] for b in found]
+        dc = [100 * b["center_error_mm"] / b["true_radius_mm"] for b in found]
+        dg = [abs(b["ground_error_mm"]) for b in found]
+        secs = [r["seconds"] for r in rs]
+        pts = [r["points"] for r in rs]
+        false = sum(len(r["false_balls"]) for r in rs)
+        print(f"| {label} | {len(rs)} gardens | {min(pts) / 1e3:.0f}-{max(pts) / 1e3:.0f} k | {len(found)} of {len(balls)} | "
+              f"{false} | {sum(dr) / len(dr):.2f} / {max(dr):.2f} % of r | {max(dc):.2f} % of r | {max(dg):.1f} mm | "
+              f"{sum(secs) / len(secs):.2f} / {max(secs):.2f} s |")
+    data = ROOT.parent / "shared/data"
+    scans = sorted((data / "sphere_scans/example2").glob("L1_S*.xyz"))
+    if scans:
+        radii, found, others, secs = [], 0, 0, []
+        for scan in scans:
+            d = json.loads(subprocess.run([str(HEDGEFIT), "find", str(scan), "--format", "json"], cwd=ROOT, check=True,
+                                          capture_output=True, text=True).stdout)["clouds"][0]
+            balls = [h for h in d["hedges"] if h["ball"]]
+            found += len(balls) >= 1
+            others += max(0, len(balls) - 1)
+            radii += [h["radius_mm"] for h in balls[:1]]
+            secs.append(sum(d["timings_ms"].values()) / 1000)
+        print(f"| real Velodyne scans of a calibration sphere (radius \"around 0.3 m\"), `sphere_scans/example2` | "
+              f"{len(scans)} scans | 14 k | {found} of {len(scans)} | {others} | radius "
+              f"{', '.join(f'{r:.1f}' for r in radii)} mm | | | {sum(secs) / len(secs):.2f} / {max(secs):.2f} s |")
+    clouds = sorted(p for p in (data / "pcl_test").glob("*.pcd") if not p.name.startswith("stereo_"))
+    if clouds:
+        called, secs = 0, []
+        for c in clouds:
+            d = json.loads(subprocess.run([str(HEDGEFIT), "find", str(c), "--format", "json"], cwd=ROOT, check=True,
+                                          capture_output=True, text=True).stdout)["clouds"][0]
+            called += d["balls"]
+            secs.append(sum(d["timings_ms"].values()) / 1000)
+        print(f"| PCL's test clouds without a ball (a table with a mug, five people, a lamppost, milk cartons, the "
+              f"bunny, planes), `pcl_test` | {len(clouds)} clouds | 0.4-307 k | no ball in them | {called} | | | | "
+              f"{sum(secs) / len(secs):.2f} / {max(secs):.2f} s |")
+
 
 def headline():
     def summary(name, method):
@@ -221,6 +277,16 @@ def headline():
           " | 1.58 / 15.9 mm |")
     print("| leafy hedges, envelope radius / centre error | 12 random gardens of leafy balls on each renderer | " +
           "; ".join(x or "not run" for x in (g_h, g_p)) + " | 4.02 / 18.3 mm (outdoor) |")
+    f = OUT / "find.json"
+    if f.exists():
+        rows = json.loads(f.read_text())
+        balls = [b for r in rows for b in r["balls"]]
+        found = [b for b in balls if b["found"]]
+        false = sum(len(r["false_balls"]) for r in rows)
+        dr = max(100 * abs(b["radius_mm"] - b["true_radius_mm"]) / b["true_radius_mm"] for b in found)
+        print(f"| balls in any cloud (`find`) | {len(rows)} simulated garden scans: LiDAR, terrestrial, photogrammetry "
+              f"(roses, trees, rows, benches beside them) | {len(found)} of {len(balls)} found, {false} false, radius "
+              f"within {dr:.2f} % | |")
     # The matcher and the speed: read from the outputs docs/commands.md shows (make_docs_shown.py
     # regenerates them), so README quotes the same run.
     text = (ROOT / "docs/commands.md").read_text()
@@ -248,6 +314,8 @@ if __name__ == "__main__":
         leaves()
     elif what in GARDENS:
         garden(what)
+    elif what == "find":
+        find()
     elif what == "headline":
         headline()
     else:

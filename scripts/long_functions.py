@@ -17,7 +17,7 @@ ap.add_argument("--fail-over", type=int, default=0)
 ap.add_argument("dirs", nargs="*")
 args = ap.parse_args()
 root = pathlib.Path(__file__).resolve().parent.parent
-dirs = args.dirs or ["pipeline", "cloud", "stereo", "fitting", "render", "sim", "bench", "apps", "python", "tools", "fuzz"]
+dirs = args.dirs or ["pipeline", "cloud", "stereo", "fitting", "eval", "scene", "io", "cli", "render", "sim", "bench", "apps", "python", "tools", "fuzz"]
 
 HEAD = re.compile(r"^(?:  )?(?:[A-Za-z_][\w:<>,\*& ~]*?\s)?([A-Za-z_][\w:~]*)\s*\([^;]*$")
 SKIP = re.compile(r"^\s*(if|for|while|switch|return|else|namespace|struct|class|enum|using|typedef|#)")

@@ -14,8 +14,8 @@ cd "$(dirname "$0")/.."
 H=./build/apps/hedgefit
 [ -x "$H" ] || { echo "make_docs: build first ($H is missing)" >&2; exit 1; }
 mkdir -p docs/cli
-for c in info pipeline plugins compare simulate calibrate render convert measure stream trim rig check-rig \
-         "bench lab" "bench garden"; do
+for c in info pipeline plugins compare find simulate calibrate render convert measure stream trim rig check-rig \
+         "bench lab" "bench garden" "bench find"; do
   "$H" $c --help > "docs/cli/${c// /-}.txt"
 done
 

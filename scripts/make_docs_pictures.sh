@@ -57,3 +57,7 @@ if [ -f $D/stereo_left.png ]; then
     --point-size 4 -o docs/pcl_outdoor_shrub.png
 fi
 echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruction_z2300.png docs/garden_row_overlay.png docs/garden_row_povray_overlay.png docs/trim_row2.png docs/pcl_outdoor_shrub.png"
+# Hedges in any cloud: a simulated 16-beam LiDAR drive past a garden, and a real Velodyne scan.
+[ -f build/scans/lidar16_garden1.ply ] || $H bench find --sensors lidar16 --gardens 1 --dir build/scans > /dev/null
+$H find build/scans/lidar16_garden1.ply --plot docs/find_lidar_garden.png > /dev/null
+$H find ../shared/data/sphere_scans/example2/L1_S3.xyz --plot docs/find_velodyne.png > /dev/null
