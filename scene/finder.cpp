@@ -123,10 +123,11 @@ struct Judgement {
   bool ball = false;
 };
 
+// Hypotheses of balls in one object, and their judgement (scene frame, up +z).
 class BallFinder {
  public:
-  BallFinder(const std::vector<Eigen::Vector3d>& pts, const GroundModel& ground, const FindOptions& o, double spacing)
-      : pts_(pts), ground_(ground), o_(o), spacing_(spacing), rng_(o.seed) {}
+  BallFinder(const std::vector<Eigen::Vector3d>& pts, const GroundModel& ground, const FindOptions& o)
+      : pts_(pts), ground_(ground), o_(o), rng_(o.seed) {}
 
   // The shell's half-width about the mean-leaf sphere: a leafy hedge's points lie a leaf layer deep.
   // Up to 90 mm (the deepest clipped shell, holly's, is about 80 mm), plus the sensor's noise as
@@ -388,7 +389,6 @@ class BallFinder {
   const std::vector<Eigen::Vector3d>& pts_;
   const GroundModel& ground_;
   const FindOptions& o_;
-  double spacing_;
   std::mt19937_64 rng_;
 };
 
@@ -810,7 +810,7 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
   res.object_points = above.size();
   const auto clusters = TopViewClusters(sc.s.pts, above, o.gap_mm);
   lap("objects");
-  BallFinder finder(sc.s.pts, sc.ground, o, res.spacing_mm);
+  BallFinder finder(sc.s.pts, sc.ground, o);
   std::vector<Candidate> balls, others;
   for (const auto& cluster : clusters) {
     if (cluster.size() >= std::size_t(o.min_points)) PeelBalls(cluster, sc.s, finder, o, &balls, &others);
