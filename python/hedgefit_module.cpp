@@ -3,6 +3,8 @@
 // library code as the `hedgefit` command; errors raise hedgefit.Error (a ValueError) with the
 // command's one-line message.
 
+#include <sstream>
+
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -27,7 +29,10 @@
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
 #include "render/render_stages.hpp"
+#include "scene/find_report.hpp"
+#include "scene/finder.hpp"
 #include "scene/scene_stages.hpp"
+#include "cloud/describe.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/capture_batch.hpp"
 #include "stereo/rig.hpp"
@@ -336,6 +341,49 @@ void AddPlanFunctions(py::module_& m) {
 
 }  // namespace
 
+// Hedges in any cloud: find.
+void AddFindFunctions(py::module_& m) {
+  m.def(
+      "find",
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, double scale, std::uint64_t seed,
+         const py::kwargs& options) {
+        std::map<std::string, pipeline::OptionValue> given;
+        const auto specs = scene::FindOptions::Table().Specs();
+        for (const auto& [key, value] : options) {
+          const std::string name = key.cast<std::string>();
+          const bool declared = std::any_of(specs.begin(), specs.end(), [&](const auto& s) { return s.name == name; });
+          if (!declared) throw Error("find: unknown option '" + name + "'; see `hedgefit plugins` (segment.hedges)");
+          given[name] = FromPython(name, value);
+        }
+        scene::FindOptions o;
+        scene::FindOptions::Table().Apply(given, &o);
+        o.seed = seed;
+        cloud::PointCloud c = CloudFrom(xyz, py::none(), py::dict());
+        scene::FindReport rep;
+        rep.scale = scale > 0 ? scale : cloud::GuessScale(c);
+        rep.scale_source = scale > 0 ? "given" : (rep.scale == 1000.0 ? "metres, guessed" : "mm, guessed");
+        if (rep.scale != 1.0) {
+          for (auto& p : c.points_mm) p *= float(rep.scale);
+        }
+        std::ostringstream text;
+        std::vector<float> hedge_id;
+        {
+          py::gil_scoped_release release;
+          rep.result = scene::FindHedges(c, o);
+          hedge_id = scene::LabelCloud(c, rep.result).fields[cloud::kHedgeIdField];
+          scene::WriteFindJson(text, {rep});
+        }
+        py::dict out = py::module_::import("json").attr("loads")(text.str())["clouds"][py::int_(0)];
+        out["hedge_id"] = py::array_t<float>(py::ssize_t(hedge_id.size()), hedge_id.data());
+        return out;
+      },
+      py::arg("xyz"), py::arg("scale") = 0.0, py::arg("seed") = 42,
+      "`hedgefit find` on (N, 3) points: the ground, the objects on it and every hedge ball among them. scale: "
+      "multiplies the points (1000 for metres; 0 = guessed from their span and spacing). Keyword arguments are "
+      "segment.hedges' options (min_radius=300, up='-y', ...). Returns the dict `find --format json` gives per cloud "
+      "('hedges': id, verdict, ball, center_mm, radius_mm, ...) and 'hedge_id', each point's ball (0: none).");
+}
+
 PYBIND11_MODULE(hedgefit, m) {
   m.doc() = "hedgefit: measure spherical hedges from a binocular camera (clouds as numpy arrays, sphere fits, "
             "stereo measurement, trim plans, JSON pipelines)";
@@ -351,6 +399,7 @@ PYBIND11_MODULE(hedgefit, m) {
   });
   AddCloudFunctions(m);
   AddFitFunctions(m);
+  AddFindFunctions(m);
   AddCaptureFunctions(m);
   AddPlanFunctions(m);
 }

@@ -112,6 +112,36 @@ class Trim(unittest.TestCase):
         self.assertAlmostEqual(t["volume_seen_l"], volume, delta=0.1 * volume)
 
 
+class Find(unittest.TestCase):
+    def test_two_balls_on_a_lawn_in_metres(self):
+        # A 10 x 6 m lawn sampled every 25 mm with 3 mm noise and two balls of radius 400 and 600
+        # mm standing on it, their upper halves seen all round, all in metres: find must guess the
+        # units, find both balls and nothing else, radius and centre within 1 % (3 mm noise over
+        # thousands of points pins them to well under a millimetre).
+        rng = np.random.default_rng(4)
+        g = np.mgrid[0:10000:25, 0:6000:25].reshape(2, -1).T.astype(float)
+        lawn = np.c_[g, 3 * rng.normal(size=len(g))]
+        balls = [(np.array([3000.0, 3000.0, 400.0]), 400.0), (np.array([7000.0, 3000.0, 600.0]), 600.0)]
+        pts = [lawn[[all(np.hypot(*(p[:2] - c[:2])) > r for c, r in balls) for p in lawn]]]
+        for c, r in balls:
+            d = rng.normal(size=(40000, 3))
+            d /= np.linalg.norm(d, axis=1)[:, None]
+            d = d[d[:, 2] > -0.3]
+            pts.append(c + d * (r + 3 * rng.normal(size=(len(d), 1))))
+        xyz = np.vstack(pts) / 1000.0
+        found = hedgefit.find(xyz)
+        self.assertEqual(found["scale"], 1000.0)
+        got = sorted((h for h in found["hedges"] if h["ball"]), key=lambda h: h["center_mm"][0])
+        self.assertEqual(len(got), 2, [(h["verdict"], h.get("not_a_ball")) for h in found["hedges"]])
+        for h, (c, r) in zip(got, balls):
+            self.assertAlmostEqual(h["radius_mm"], r, delta=0.01 * r)
+            self.assertLess(np.linalg.norm(np.array(h["center_mm"]) - c), 0.01 * r)
+            self.assertAlmostEqual(h["ground_mm"], 0.0, delta=10.0)
+        self.assertEqual(len(found["hedge_id"]), len(xyz))
+        with self.assertRaises(hedgefit.Error):
+            hedgefit.find(xyz, min_radus=100)
+
+
 class Measure(unittest.TestCase):
     def test_a_simulated_capture(self):
         with tempfile.TemporaryDirectory() as tmp:
