@@ -807,8 +807,15 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
     const Eigen::Vector3d& p = sc.s.pts[i];
     if (sc.ground.empty() || p.z() - sc.ground.HeightAt(p.x(), p.y()) > band) above.push_back(i);
   }
+  // No object stands out of the ground model (a cloud of one hedge alone, with no lawn): the
+  // whole cloud is searched as one object, and the result says so.
+  const bool no_ground = above.size() < std::size_t(o.min_points);
+  if (no_ground) {
+    above.resize(sc.s.pts.size());
+    std::iota(above.begin(), above.end(), std::size_t(0));
+  }
   res.object_points = above.size();
-  const auto clusters = TopViewClusters(sc.s.pts, above, o.gap_mm);
+  const auto clusters = no_ground ? std::vector<std::vector<std::size_t>>{above} : TopViewClusters(sc.s.pts, above, o.gap_mm);
   lap("objects");
   BallFinder finder(sc.s.pts, sc.ground, o);
   std::vector<Candidate> balls, others;
@@ -827,10 +834,10 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
   int id = 1;
   for (const auto& c : balls) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
   for (const auto& c : others) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
-  if (res.points > 0 && (res.object_points < std::size_t(o.min_points) || sc.ground.empty())) {
+  if (res.points > 0 && no_ground) {
     res.warnings.push_back(pipeline::Format(
-        "no object stands out of the ground model (%zu of %zu points are ground): a cloud of one hedge alone, without a "
-        "lawn, is measured by `compare`; or give the cloud's --up",
+        "no object stands out of the ground model (%zu of %zu points are ground): the whole cloud was searched as one "
+        "object, with no ground under it (a cloud of one hedge alone; or give the cloud's --up)",
         res.ground_points, res.points));
   } else if (sc.ground.noise_mm > 50) {
     res.warnings.push_back(pipeline::Format(
