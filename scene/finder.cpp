@@ -590,8 +590,11 @@ Scene SceneOf(const cloud::PointCloud& cloud, const FindOptions& o) {
   sc.up_source = o.up != "auto" ? "given" : (sc.camera ? "-y (a camera's cloud)" : "z (default)");
   sc.turn = Eigen::Quaterniond::FromTwoVectors(sc.up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   sc.s = Turn(cloud, sc.turn);
+  // A camera's cloud is often its hedges alone (segmented): their undersides are no ground.
+  GroundOptions go = o.ground;
+  go.drop_small_patches = sc.camera;
   std::vector<std::uint8_t> is_ground;
-  sc.ground = GroundOf(sc.s, o.ground, &is_ground);
+  sc.ground = GroundOf(sc.s, go, &is_ground);
   if (!sc.camera || o.up != "auto" || sc.ground.ground_points < 50) return sc;
   // A camera looks down at the ground: its up is the normal of the ground it sees.
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -608,7 +611,7 @@ Scene SceneOf(const cloud::PointCloud& cloud, const FindOptions& o) {
     sc.up = sc.turn.transpose() * normal;
     sc.turn = Eigen::Quaterniond::FromTwoVectors(sc.up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     sc.s = Turn(cloud, sc.turn);
-    sc.ground = GroundOf(sc.s, o.ground, nullptr);
+    sc.ground = GroundOf(sc.s, go, nullptr);
     sc.up_source += ", refined to the ground's normal";
   }
   return sc;

@@ -220,6 +220,36 @@ std::vector<std::uint8_t> ProgressiveOpening(const std::vector<float>& low, int 
   return ground;
 }
 
+// Ground spreads beyond what stands on it: a patch of ground cells under 1.5 m^2 (cells joined
+// across a one-cell gap, as a sparse scanner's rings are) is the underside of an object with no
+// lawn about it (a segmented capture's hedges), not ground.
+void DropSmallPatches(std::vector<std::uint8_t>* ground, int nx, int ny, double cell) {
+  const std::size_t min_cells = std::size_t(std::ceil(1.5e6 / (cell * cell)));
+  std::vector<int> label(ground->size(), -1);
+  std::vector<std::size_t> stack, patch;
+  for (std::size_t start = 0; start < ground->size(); ++start) {
+    if (!(*ground)[start] || label[start] >= 0) continue;
+    patch.clear();
+    stack.assign(1, start);
+    label[start] = int(start);
+    while (!stack.empty()) {
+      const std::size_t c = stack.back();
+      stack.pop_back();
+      patch.push_back(c);
+      const int x = int(c % nx), y = int(c / nx);
+      for (int v = std::max(0, y - 2); v <= std::min(ny - 1, y + 2); ++v) {
+        for (int u = std::max(0, x - 2); u <= std::min(nx - 1, x + 2); ++u) {
+          const std::size_t n = std::size_t(v) * nx + u;
+          if ((*ground)[n] && label[n] < 0) label[n] = int(start), stack.push_back(n);
+        }
+      }
+    }
+    if (patch.size() < min_cells) {
+      for (std::size_t c : patch) (*ground)[c] = 0;
+    }
+  }
+}
+
 double Median(std::vector<double> v) {
   if (v.empty()) return 0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -313,6 +343,7 @@ GroundModel FitGround(const std::vector<Eigen::Vector3f>& points, const GroundOp
     low[c] = *(b + std::size_t(0.02 * n));
   }
   std::vector<std::uint8_t> ground = ProgressiveOpening(low, g.nx, g.ny, options, cell);
+  if (options.drop_small_patches) DropSmallPatches(&ground, g.nx, g.ny, cell);
   // Each ground cell's height: the median of its points near its low (the lawn's returns, with
   // their noise, not its lowest one).
   std::vector<float> height(cells, kEmpty);

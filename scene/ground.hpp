@@ -24,6 +24,10 @@ struct GroundOptions {
   double max_window_mm = 5000;
   double slope = 0.5;            ///< steepest ground, rise over run (0.5: 27 degrees)
   double step_mm = 150;          ///< a cell this far above the opened surface is never ground (PMF's initial dh)
+  /// Patches of ground cells under 1.5 m^2 are dropped: the undersides of objects with no lawn
+  /// about them, as in a camera's cloud of segmented hedges (set by FindHedges for a camera's
+  /// cloud; a sparse scan's lawn comes in patches, so not by default).
+  bool drop_small_patches = false;
   void Check() const;
   static const pipeline::OptionTable<GroundOptions>& Table();
 };
