@@ -149,11 +149,11 @@ void HarmonicFill(std::vector<float>& h, int nx, int ny, const std::vector<float
   for (std::size_t c = 0; c < h.size(); ++c) if (std::isnan(h[c])) unknown.push_back(c);
   if (unknown.size() == h.size()) return;
   std::vector<float> cur = h;
-  std::vector<std::size_t> todo = unknown;
-  while (!todo.empty()) {
+  std::vector<std::size_t> pending = unknown;
+  while (!pending.empty()) {
     std::vector<std::size_t> next;
     std::vector<std::pair<std::size_t, float>> set;
-    for (std::size_t c : todo) {
+    for (std::size_t c : pending) {
       const int x = int(c % nx), y = int(c / nx);
       double sum = 0;
       int n = 0;
@@ -167,7 +167,7 @@ void HarmonicFill(std::vector<float>& h, int nx, int ny, const std::vector<float
     }
     if (set.empty()) break;
     for (const auto& [c, f] : set) cur[c] = f;
-    todo.swap(next);
+    pending.swap(next);
   }
   // Gauss-Seidel only where it matters: holes narrower than ~20 cells settle in 150 sweeps, and
   // far from any ground the first guess is as good as any.
