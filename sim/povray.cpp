@@ -451,16 +451,21 @@ constexpr double kDepthRangeMm = 8000;
 // The garden; with `depth`, every surface's texture is its distance from the camera (no light,
 // no sky) for RenderPovrayGardenSurface.
 std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc, cv::Size canvas, bool depth) {
-  const cv::Matx33d level_from_camera = GardenLevelFromCamera(sc);
+  const cv::Matx44d pose = GardenLevelFromCameraPose(sc);  // the camera in the garden
+  const cv::Matx33d garden_from_camera = pose.get_minor<3, 3>(0, 0);
+  const cv::Vec3d camera_in_garden(pose(0, 3), pose(1, 3), pose(2, 3));
   const double H = sc.camera_height_mm;  // the lawn: y = H in the level frame
   std::ostringstream o;
   o.setf(std::ios::fixed);
   o.precision(2);
   o << "#version 3.7;\nglobal_settings { assumed_gamma 1.0 max_trace_level 6 }\n" << Camera(rig, right, canvas);
-  // In the depth render every texture below is this one (the union's rotation about the camera
-  // keeps distances from it).
-  const std::string depth_texture = "texture { pigment { function { sqrt(x * x + y * y + z * z) / " +
-                                    std::to_string(kDepthRangeMm) +
+  // In the depth render every texture below is this one: the distance from the camera, in the
+  // garden's frame (POV-Ray's y is the level frame's -y; a texture moves with its object).
+  const std::string dx = "(x - " + std::to_string(camera_in_garden[0]) + ")",
+                    dy = "(y + " + std::to_string(camera_in_garden[1]) + ")",
+                    dz = "(z - " + std::to_string(camera_in_garden[2]) + ")";
+  const std::string depth_texture = "texture { pigment { function { sqrt(" + dx + " * " + dx + " + " + dy + " * " + dy +
+                                    " + " + dz + " * " + dz + ") / " + std::to_string(kDepthRangeMm) +
                                     " } color_map { [0 rgb 0] [1 rgb 1] } } finish { ambient 1 diffuse 0 } }";
   auto tex = [&](const std::string& texture) { return depth ? depth_texture : texture; };
   if (!depth) o << "sky_sphere { pigment { gradient y color_map { [0.0 rgb <0.80, 0.85, 0.92>] [0.25 rgb <0.50, 0.66, 0.90>]\n"
@@ -538,16 +543,25 @@ std::string GardenSceneText(const SimRig& rig, bool right, const GardenScene& sc
   }
   for (std::size_t i = 0; i < sc.hedges.size(); ++i) {
     const GardenHedge& g = sc.hedges[i];
-    const cv::Vec3d c = level_from_camera * GardenHedgeCenter(sc, i);
-    o << "  sphere { " << Pov(c) << ", " << InnerRadius(g) << " "
-      << tex("texture { pigment { granite color_map { [0 rgb <0.02, 0.03, 0.01>] [1 rgb <0.06, 0.09, 0.03>] } scale 15 }"
-             " finish { ambient 0.05 diffuse 0.6 } }")
-      << " }\n";
-    o.precision(2);
-    WriteLeaves(o, GardenLeaves(g, c, sc.texture_seed * 7919 + i), 1.0);
-    o.precision(6);
+    const cv::Vec3d c = GardenLevelCenter(sc, g);
+    std::vector<std::pair<cv::Vec3d, GardenHedge>> balls{{c, g}};
+    if (const auto bulge = GardenBulge(g, c)) {  // the same leaves on a ball of its own
+      GardenHedge b = g;
+      b.radius_mm = bulge->second;
+      balls.emplace_back(bulge->first, b);
+    }
+    for (std::size_t k = 0; k < balls.size(); ++k) {
+      o << "  sphere { " << Pov(balls[k].first) << ", " << InnerRadius(balls[k].second) << " "
+        << tex("texture { pigment { granite color_map { [0 rgb <0.02, 0.03, 0.01>] [1 rgb <0.06, 0.09, 0.03>] } scale 15 }"
+               " finish { ambient 0.05 diffuse 0.6 } }")
+        << " }\n";
+      o.precision(2);
+      WriteLeaves(o, GardenLeaves(balls[k].second, balls[k].first, sc.texture_seed * 7919 + i + 977 * k), 1.0);
+      o.precision(6);
+    }
   }
-  o << "  " << Matrix(level_from_camera.t(), cv::Vec3d(0, 0, 0)) << "\n}\n";
+  const cv::Matx33d camera_from_garden = garden_from_camera.t();
+  o << "  " << Matrix(camera_from_garden, -(camera_from_garden * camera_in_garden)) << "\n}\n";
   return o.str();
 }
 
@@ -576,6 +590,11 @@ cv::Mat RenderPovrayGardenSurface(const SimRig& rig, const GardenScene& sc, cons
   return out;
 }
 
+cv::Mat RenderPovrayGarden(const SimRig& rig, bool right, const GardenScene& sc, const std::string& work_dir) {
+  return RenderPovrayText(
+      rig, right, [&](cv::Size canvas) { return PovrayGardenScene(rig, right, sc, canvas); }, work_dir);
+}
+
 std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale, const CameraModel& camera,
                                            const std::vector<std::string>& presets, std::uint64_t seed) {
   const SimRig rig = PovrayRig(scale);
@@ -588,7 +607,7 @@ std::vector<std::string> WritePovrayGarden(const std::string& dir, double scale,
         return ApplyCameraModel(img, camera, right, view++ / 2);
       },
       [](const GardenScene& sc, std::size_t i) {
-        const cv::Vec3d c = GardenLevelFromCamera(sc) * GardenHedgeCenter(sc, i);
+        const cv::Vec3d c = GardenLevelCenter(sc, sc.hedges[i]);
         return PovLeafSurfaceRadius(sc.hedges[i], c, GardenLeaves(sc.hedges[i], c, sc.texture_seed * 7919 + i));
       });
 }

@@ -38,6 +38,10 @@ std::string PovrayGardenScene(const SimRig& rig, bool right, const GardenScene& 
 /// `work_dir`; throws hedgefit::Error without POV-Ray.
 cv::Mat RenderPovrayGardenSurface(const SimRig& rig, const GardenScene& scene, const std::string& work_dir);
 
+/// One view of a garden rendered by POV-Ray in `work_dir` (8-bit BGR, before any camera model).
+/// Throws hedgefit::Error when POV-Ray is missing or fails.
+cv::Mat RenderPovrayGarden(const SimRig& rig, bool right, const GardenScene& scene, const std::string& work_dir);
+
 /// Whether `povray` is on PATH.
 bool HavePovray();
 

@@ -332,14 +332,20 @@ cv::Mat RenderSphere(const SimRig& rig, bool right, const SphereScene& sc, const
 
 namespace {
 
-// The garden is built in a level frame (x right, y down along gravity, z forward, origin at the
-// left camera); the camera is pitched down about x.
+// The garden is built in a level frame (x right, y down along gravity, z forward); the camera
+// stands at (view_x, 0, view_z) turned by its heading about y, and is pitched down about its x.
 struct GardenFrame {
-  cv::Matx33d level_from_camera;
-  explicit GardenFrame(double pitch_deg) {
-    const double p = pitch_deg * kPi / 180, c = std::cos(p), s = std::sin(p);
+  cv::Matx33d level_from_camera;   // the camera's own level frame (pitch only)
+  cv::Matx33d garden_from_camera;  // heading and pitch
+  cv::Vec3d camera_in_garden;      // the left camera's centre in the garden's level frame
+  explicit GardenFrame(const GardenScene& sc) {
+    const double p = sc.pitch_deg * kPi / 180, c = std::cos(p), s = std::sin(p);
     // Camera z (forward) points down by p: (0, sin p, cos p) in the level frame.
     level_from_camera = cv::Matx33d(1, 0, 0, 0, c, s, 0, -s, c);
+    const double h = sc.view_heading_deg * kPi / 180, ch = std::cos(h), sh = std::sin(h);
+    const cv::Matx33d turn(ch, 0, sh, 0, 1, 0, -sh, 0, ch);  // +z towards +x
+    garden_from_camera = turn * level_from_camera;
+    camera_in_garden = cv::Vec3d(sc.view_x_mm, 0, sc.view_z_mm);
   }
 };
 
@@ -441,6 +447,16 @@ GardenHit TraceGarden(const GardenScene& sc, const cv::Vec3d& o, const cv::Vec3d
       if (t > 0 && t < h.t) {
         h = GardenHit{t, hedges ? kLabelHedge + int(i) : int(kLabelWall), hedges ? 1 : 8, leaf, c, g.leaf.size_mm / 16};
       }
+      if (const auto bulge = GardenBulge(g, c)) {  // the same leaves, the hedge's label
+        GardenHedge b = g;
+        b.radius_mm = bulge->second;
+        if (shadow_ray) t = HitSphere(o, d, bulge->first, b.radius_mm - b.leaf_depth_mm / 2);
+        else t = HitLeafyBall(o, d, bulge->first, b, seed + i, &leaf);
+        if (t > 0 && t < h.t) {
+          h = GardenHit{t, hedges ? kLabelHedge + int(i) : int(kLabelWall), hedges ? 1 : 8, leaf, bulge->first,
+                        g.leaf.size_mm / 16};
+        }
+      }
     }
   };
   trace_balls(sc.hedges, sc.texture_seed + 100, true);
@@ -482,12 +498,30 @@ GardenHit TraceGarden(const GardenScene& sc, const cv::Vec3d& o, const cv::Vec3d
 
 cv::Vec3d GardenLevelCenter(const GardenScene& sc, const GardenHedge& ball) { return LevelCenter(sc, ball); }
 
-cv::Vec3d GardenHedgeCenter(const GardenScene& sc, std::size_t i) {
-  if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
-  return GardenFrame(sc.pitch_deg).level_from_camera.t() * LevelCenter(sc, sc.hedges[i]);
+std::optional<std::pair<cv::Vec3d, double>> GardenBulge(const GardenHedge& g, const cv::Vec3d& c) {
+  if (!(g.bulge_mm > 0) || !(g.bulge_radius_mm > 0)) return std::nullopt;
+  const double h = g.bulge_heading_deg * kPi / 180;
+  const cv::Vec3d u(std::sin(h), 0, std::cos(h));
+  return std::make_pair(c + (g.radius_mm + g.bulge_mm - g.bulge_radius_mm) * u, g.bulge_radius_mm);
 }
 
-cv::Matx33d GardenLevelFromCamera(const GardenScene& sc) { return GardenFrame(sc.pitch_deg).level_from_camera; }
+cv::Vec3d GardenHedgeCenter(const GardenScene& sc, std::size_t i) {
+  if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
+  const GardenFrame f(sc);
+  return f.garden_from_camera.t() * (LevelCenter(sc, sc.hedges[i]) - f.camera_in_garden);
+}
+
+cv::Matx33d GardenLevelFromCamera(const GardenScene& sc) { return GardenFrame(sc).level_from_camera; }
+
+cv::Matx44d GardenLevelFromCameraPose(const GardenScene& sc) {
+  const GardenFrame f(sc);
+  cv::Matx44d m = cv::Matx44d::eye();
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) m(r, k) = f.garden_from_camera(r, k);
+    m(r, 3) = f.camera_in_garden[r];
+  }
+  return m;
+}
 
 double GardenHedgeSurfaceRadius(const GardenScene& sc, std::size_t i) {
   if (i >= sc.hedges.size()) throw Error("garden: no hedge " + std::to_string(i));
@@ -505,11 +539,11 @@ double GardenHedgeSurfaceRadius(const GardenScene& sc, std::size_t i) {
 }
 
 cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const RenderOptions& options) {
-  const GardenFrame frame(sc.pitch_deg);
+  const GardenFrame frame(sc);
   const cv::Vec3d sun = cv::normalize(cv::Vec3d(-0.55, -0.62, -0.35));  // towards the sun: high, left, behind
   const std::uint64_t seed = sc.texture_seed;
   return Render(rig, right, options, [&](const cv::Vec3d& o_cam, const cv::Vec3d& d_cam) -> cv::Vec3d {
-    const cv::Vec3d o = frame.level_from_camera * o_cam, d = frame.level_from_camera * d_cam;
+    const cv::Vec3d o = frame.garden_from_camera * o_cam + frame.camera_in_garden, d = frame.garden_from_camera * d_cam;
     const GardenHit h = TraceGarden(sc, o, d, false);
     if (options.labels) return cv::Vec3d(h.what, 0, 0);
     if (h.kind == 0) {  // sky: brighter towards the horizon
@@ -567,18 +601,18 @@ cv::Mat RenderGarden(const SimRig& rig, bool right, const GardenScene& sc, const
 }
 
 cv::Mat RenderGardenSurface(const SimRig& rig, const GardenScene& sc) {
-  const GardenFrame frame(sc.pitch_deg);
+  const GardenFrame frame(sc);
   const SimCamera& cam = rig.left;
   const auto rays = Rays(cam, 1);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::Mat out(cam.size, CV_32FC3, cv::Scalar(nan, nan, nan));
-  const cv::Matx33d camera_from_level = frame.level_from_camera.t();
+  const cv::Matx33d camera_from_level = frame.garden_from_camera.t();
   pipeline::ParallelFor(std::size_t(cam.size.height), 0, 16, [&](std::size_t v0, std::size_t v1) {
     for (int v = int(v0); v < int(v1); ++v) {
       for (int u = 0; u < cam.size.width; ++u) {
         const cv::Point2f& r = (*rays)[std::size_t(v) * cam.size.width + u];
-        const cv::Vec3d d = frame.level_from_camera * cv::Vec3d(r.x, r.y, 1.0);
-        const GardenHit h = TraceGarden(sc, cv::Vec3d(0, 0, 0), d, false);
+        const cv::Vec3d d = frame.garden_from_camera * cv::Vec3d(r.x, r.y, 1.0);
+        const GardenHit h = TraceGarden(sc, frame.camera_in_garden, d, false);
         if (h.kind == 0) continue;
         const cv::Vec3d p = camera_from_level * (h.t * d);
         out.at<cv::Vec3f>(v, u) = cv::Vec3f(float(p[0]), float(p[1]), float(p[2]));

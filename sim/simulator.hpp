@@ -7,6 +7,8 @@
 #include <opencv2/core.hpp>
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -89,7 +91,16 @@ struct GardenHedge {
   double leaf_depth_mm = 30;   ///< depth of the leaf shell below the envelope
   LeafShape leaf;
   double sink_share = 0.05;    ///< how far the ball sinks into the lawn, over its radius (a dome: 0.3-0.5)
+  /// A bulge (a shoot the shears missed): a ball of the same leaves, bulge_radius_mm across, whose
+  /// envelope reaches bulge_mm past the hedge's, towards bulge_heading_deg (about the vertical in the
+  /// garden's level frame, from +z towards +x) at the hedge's equator. 0 = none. It is part of the
+  /// hedge (its label) but not of its sphere (the truth files' centre and radius).
+  double bulge_mm = 0, bulge_radius_mm = 0, bulge_heading_deg = 0;
 };
+
+/// The bulge of `ball` (GardenHedge::bulge_mm) as a ball of its own, centred in the level frame
+/// given the hedge's centre `center`; nullopt when it has none.
+std::optional<std::pair<cv::Vec3d, double>> GardenBulge(const GardenHedge& ball, const cv::Vec3d& center);
 
 /// A garden: hedge balls on a mown lawn, a terracotta pot, a clipped hedge row at 5.2 m, a fence
 /// at 6.6 m, two round-crowned trees, sky, and a low sun casting hard shadows. The camera stands
@@ -106,7 +117,16 @@ struct GardenScene {
   /// that overlap into irregular bushes. Not hedges: labelled kLabelWall, not in the truth.
   std::vector<GardenHedge> shrub_lobes;
   bool overcast = false;               ///< no sun: soft light from the whole sky, no shadows
+  /// Where the camera stands: its foot's x and z in the garden's level frame (mm) and its heading
+  /// about the vertical (degrees, from +z towards +x). All 0 (every preset): at the garden's origin
+  /// looking along +z. A ring of captures about a hedge moves the camera through one garden: the
+  /// leaves, lawn, light and background stay where they are.
+  double view_x_mm = 0, view_z_mm = 0, view_heading_deg = 0;
 };
+
+/// The left camera's pose in the garden's level frame (x right, y down along gravity, z forward
+/// from the origin's view; mm): p_level = R p_camera + t, as a 4 x 4 matrix.
+cv::Matx44d GardenLevelFromCameraPose(const GardenScene& scene);
 
 /// A leafy ball's (a hedge's or a shrub lobe's) centre in the garden's level frame (mm): it sits
 /// on the lawn.
@@ -115,8 +135,9 @@ cv::Vec3d GardenLevelCenter(const GardenScene& scene, const GardenHedge& ball);
 /// Hedge `i`'s centre in the left camera frame (mm).
 cv::Vec3d GardenHedgeCenter(const GardenScene& scene, std::size_t i);
 
-/// The rotation from the left camera frame to the garden's level frame (x right, y down along
-/// gravity, z forward along the ground; the origin stays at the left camera): p_level = M p_cam.
+/// The rotation from the left camera frame to the camera's own level frame (x right, y down along
+/// gravity, z forward along the ground, heading as the camera; the origin stays at the left
+/// camera): p_level = M p_cam. With a view pose, GardenLevelFromCameraPose is the garden's.
 cv::Matx33d GardenLevelFromCamera(const GardenScene& scene);
 
 /// Hedge `i`'s mean leaf-surface radius: the envelope minus the mean radial leaf depth over the
