@@ -8,6 +8,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "pipeline/error.hpp"
 #include "pipeline/parallel.hpp"
@@ -73,6 +74,7 @@ struct ShellLikelihood {
   const std::vector<Eigen::Vector3d>* pts;
   const std::vector<double>* bias;  // per point: one pixel's footprint there (mm, at most 4), the top bias' unit; may be null
   Eigen::Vector3d view;      // viewpoint, in the centred frame
+  const std::vector<Eigen::Vector3d>* views = nullptr;  // per point (several captures), centred; null: `view`
   double log_outlier;        // log(share / width of the uniform outlier density)
   double log_inlier_share;   // log(1 - share)
   // The outline's tangent rays (origins in the centred frame) and each one's pixels per mm at its
@@ -80,6 +82,9 @@ struct ShellLikelihood {
   std::vector<cloud::TangentRay> rays;
   std::vector<double> px_per_mm;
   double top_bias_px = 0;    // the prior's centre for beta
+  double radius_prior_mm = std::numeric_limits<double>::quiet_NaN();  // R's prior (EnvelopeFitOptions), NaN = none
+  double radius_prior_sd_mm = 1;
+  std::vector<double> shape_prior = {};  // parameters 4.. (leaves, noise, share, top bias, outline) held near these; empty = none
 
   // The outline's negative log-likelihood and the top bias' prior, with their gradient added to
   // `grad`. The outline is ragged as the front is: each outline point lies a depth x (px) inside
@@ -147,7 +152,7 @@ struct ShellLikelihood {
     double g_c[3] = {0, 0, 0}, g_R = 0, g_lambda = 0, g_sigma = 0, g_u = 0, g_beta = 0;
     for (std::size_t i = begin; i < end; ++i) {
       const Eigen::Vector3d& q = (*pts)[i];
-      const Eigen::Vector3d d = q - c, r = q - view;
+      const Eigen::Vector3d d = q - c, r = q - (views ? (*views)[i] : view);
       const double s = d.norm(), rn = r.norm();
       // Depth is seen along the view ray: its radial share is cos(theta) at the point.
       double cos_t = -r.dot(d) / (rn * s + 1e-12);
@@ -221,6 +226,18 @@ class ParallelShellCost : public ceres::FirstOrderFunction {
     for (const double v : partial) total += v;
     std::array<double, kParams> outline_grad{};
     total += model_.OutlineSum(p, gradient ? outline_grad.data() : nullptr);
+    if (std::isfinite(model_.radius_prior_mm)) {  // R known from elsewhere (several captures fused)
+      const double z = (p[3] - model_.radius_prior_mm) / model_.radius_prior_sd_mm;
+      total += 0.5 * z * z;
+      outline_grad[3] += z / model_.radius_prior_sd_mm;
+    }
+    // The leaves' shape known from elsewhere (EnvelopeFitOptions::shape_prior): held within 0.02
+    // of each parameter (2 % of a scale, a logit's 0.02).
+    for (std::size_t k = 0; k < model_.shape_prior.size() && 4 + k < std::size_t(kParams); ++k) {
+      const double z = (p[4 + k] - model_.shape_prior[k]) / 0.02;
+      total += 0.5 * z * z;
+      outline_grad[4 + k] += z / 0.02;
+    }
     cost[0] = total * inv_n;
     bool finite = std::isfinite(cost[0]);
     if (gradient) {
@@ -291,12 +308,14 @@ void EnvelopeFitOptions::Check() const { Table().Validate(*this); }
 struct ShellData {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> centred;
+  std::vector<Eigen::Vector3d> views;  // per point (centred), when the points come from several viewpoints
   std::vector<double> bias;
   double spread = 0, width = 0, mean_bias = 0, mean_footprint = 0;
 };
 
 ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
-                       const SphereFitResult& start, const std::vector<double>* pixel_mm) {
+                       const SphereFitResult& start, const std::vector<double>* pixel_mm,
+                       const std::vector<Eigen::Vector3d>* viewpoints) {
   ShellData d;
   Eigen::Vector3d& mean = d.mean;
   std::vector<Eigen::Vector3d>& centred = d.centred;
@@ -305,6 +324,10 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
   mean /= double(points_mm.size());
   centred.resize(points_mm.size());
   std::vector<double> res(points_mm.size());
+  if (viewpoints) {
+    d.views.resize(points_mm.size());
+    for (std::size_t i = 0; i < points_mm.size(); ++i) d.views[i] = (*viewpoints)[i] - mean;
+  }
   for (std::size_t i = 0; i < points_mm.size(); ++i) {
     centred[i] = points_mm[i] - mean;
     res[i] = (points_mm[i] - start.sphere.center_mm).norm() - start.sphere.radius_mm;
@@ -328,13 +351,16 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
     const std::size_t n = (centred.size() + std::size_t(options.max_points) - 1) / std::size_t(options.max_points);
     std::vector<Eigen::Vector3d> thinned;
     std::vector<double> thinned_bias;
+    std::vector<Eigen::Vector3d> thinned_views;
     thinned.reserve(centred.size() / n + 1);
     for (std::size_t i = 0; i < centred.size(); i += n) {
       thinned.push_back(centred[i]);
       if (!bias.empty()) thinned_bias.push_back(bias[i]);
+      if (!d.views.empty()) thinned_views.push_back(d.views[i]);
     }
     centred.swap(thinned);
     bias.swap(thinned_bias);
+    d.views.swap(thinned_views);
   }
   double& mean_bias = d.mean_bias;  // the mean footprint, then the start's top bias in mm
   for (const double b : bias) mean_bias += b;
@@ -455,11 +481,13 @@ std::optional<Eigen::Vector4d> SandwichStdError(const ShellLikelihood& model, co
   std::vector<ShellLikelihood> blocks(kBlocks, model);
   std::vector<std::vector<Eigen::Vector3d>> block_pts(kBlocks);
   std::vector<std::vector<double>> block_bias(kBlocks);
+  std::vector<std::vector<Eigen::Vector3d>> block_views(kBlocks);
   for (auto& b : blocks) b.rays.clear(), b.px_per_mm.clear();
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const int b = sector((pts[i] - c).normalized()) + (polar[i] >= median ? 8 : 0);
     block_pts[std::size_t(b)].push_back(pts[i]);
     if (model.bias) block_bias[std::size_t(b)].push_back((*model.bias)[i]);
+    if (model.views) block_views[std::size_t(b)].push_back((*model.views)[i]);
   }
   for (std::size_t k = 0; k < model.rays.size(); ++k) {
     const Eigen::Vector3d w = c - model.rays[k].origin_mm;
@@ -473,6 +501,7 @@ std::optional<Eigen::Vector4d> SandwichStdError(const ShellLikelihood& model, co
   for (int b = 0; b < kBlocks; ++b) {
     blocks[std::size_t(b)].pts = &block_pts[std::size_t(b)];
     blocks[std::size_t(b)].bias = model.bias ? &block_bias[std::size_t(b)] : nullptr;
+    blocks[std::size_t(b)].views = model.views ? &block_views[std::size_t(b)] : nullptr;
     if (block_pts[std::size_t(b)].empty() && blocks[std::size_t(b)].rays.empty()) continue;
     double g[kParams] = {};
     blocks[std::size_t(b)].Sum(p, 0, block_pts[std::size_t(b)].size(), g);
@@ -511,8 +540,13 @@ std::optional<Eigen::Vector4d> SandwichStdError(const ShellLikelihood& model, co
 
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
                         const Sphere* initial, const std::vector<double>* pixel_mm,
-                        const std::vector<cloud::TangentRay>* outline) {
+                        const std::vector<cloud::TangentRay>* outline,
+                        const std::vector<Eigen::Vector3d>* viewpoints) {
   options.Check();
+  if (viewpoints && viewpoints->size() != points_mm.size()) {
+    throw Error("envelope fit: " + std::to_string(viewpoints->size()) + " viewpoints for " +
+                std::to_string(points_mm.size()) + " points");
+  }
   if (pixel_mm && pixel_mm->empty()) pixel_mm = nullptr;  // a cloud without the field
   if (pixel_mm && pixel_mm->size() != points_mm.size()) {
     throw Error("envelope fit: " + std::to_string(pixel_mm->size()) + " pixel sizes for " +
@@ -541,11 +575,21 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
     r.message = "no starting sphere: " + start.message;
     return out;
   }
-  const ShellData d = PrepareShell(points_mm, options, start, pixel_mm);
+  const ShellData d = PrepareShell(points_mm, options, start, pixel_mm, viewpoints);
   const Eigen::Vector3d& mean = d.mean;
-  ShellLikelihood model{&d.centred, d.bias.empty() ? nullptr : &d.bias, options.viewpoint_mm - mean,
+  ShellLikelihood model{&d.centred, d.bias.empty() ? nullptr : &d.bias, options.viewpoint_mm - mean, nullptr,
                         std::log(options.outlier_share / d.width), std::log(1 - options.outlier_share), {}, {}, 0.0};
+  if (!d.views.empty()) {
+    model.views = &d.views;
+    // The sandwich's patches are taken about the mean view.
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    for (const auto& w : d.views) v += w;
+    model.view = v / double(d.views.size());
+  }
   model.top_bias_px = options.top_bias_px;
+  model.radius_prior_mm = options.radius_prior_mm;
+  model.radius_prior_sd_mm = options.radius_prior_sd_mm;
+  model.shape_prior = options.shape_prior;
   if (outline != nullptr) {
     // Each ray's pixels per mm where it grazes the start's sphere: the distance along it to the
     // point nearest the centre.
@@ -569,6 +613,7 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   r.sphere.center_mm = Eigen::Vector3d(p[0], p[1], p[2]) + mean;
   r.sphere.radius_mm = p[3];
   r.converged = true;
+  out.shape.assign(p + 4, p + kParams);
   r.rms_mm = RmsResidual(points_mm, r.sphere);
   // Inliers: points the model explains better than the outlier density.
   r.inliers = points_mm.size();
@@ -603,7 +648,7 @@ namespace detail {
 double ShellCost(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& viewpoint_mm, double outlier_share,
                  double outlier_width_mm, const double* p, double* gradient, const std::vector<double>* footprint_mm,
                  const std::vector<cloud::TangentRay>* rays, const std::vector<double>* px_per_mm, double top_bias_px) {
-  ShellLikelihood model{&points, footprint_mm, viewpoint_mm, std::log(outlier_share / outlier_width_mm),
+  ShellLikelihood model{&points, footprint_mm, viewpoint_mm, nullptr, std::log(outlier_share / outlier_width_mm),
                         std::log(1 - outlier_share), {}, {}, top_bias_px};
   if (rays != nullptr && px_per_mm != nullptr) model.rays = *rays, model.px_per_mm = *px_per_mm;
   double cost = 0;

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -43,6 +44,14 @@ struct EnvelopeFitOptions {
   /// over 4 mm (beyond those it was measured at) count as 4 mm. With an outline it is fitted
   /// per hedge, this value the centre of its prior (1 px wide).
   double top_bias_px = 0.5;
+  /// A prior on the envelope's radius (mm; NaN = none) and its standard deviation: the radius
+  /// known from elsewhere (several captures of the hedge fused), so one capture's cap, whose
+  /// radius trades against its centre's depth, gives its centre alone.
+  double radius_prior_mm = std::numeric_limits<double>::quiet_NaN();
+  double radius_prior_sd_mm = 1;
+  /// The leaves' and the outline's parameters (EnvelopeFit::shape of another fit) to hold this fit
+  /// to; empty = free.
+  std::vector<double> shape_prior;
   void Check() const;
   static const pipeline::OptionTable<EnvelopeFitOptions>& Table();  ///< the options, declared once
 };
@@ -62,6 +71,9 @@ struct EnvelopeFit {
   /// cluster sandwich over patches of the sphere and sectors of the outline, so correlated
   /// errors count once), with the top bias' and the leaves' parameters free.
   std::optional<Eigen::Vector4d> std_error_mm;
+  /// The fitted leaves' and outline's parameters as the search holds them (for
+  /// EnvelopeFitOptions::shape_prior).
+  std::vector<double> shape;
 };
 
 /// Fits the envelope, starting from `initial` (e.g. a geometric fit) or a Hyper fit.
@@ -70,9 +82,12 @@ struct EnvelopeFit {
 /// is added.
 /// `outline` (optional): the hedge's outline as tangent rays (stereo::MeasureOutlines, both views):
 /// the envelope is fitted to touch them too, and the top bias is fitted (about top_bias_px).
+/// `viewpoints` (optional, one per point): where each point was seen from, for points fused from
+/// several captures (options.viewpoint_mm is then unused); the outline's rays carry their own.
 EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options = {},
                         const Sphere* initial = nullptr, const std::vector<double>* pixel_mm = nullptr,
-                        const std::vector<cloud::TangentRay>* outline = nullptr);
+                        const std::vector<cloud::TangentRay>* outline = nullptr,
+                        const std::vector<Eigen::Vector3d>* viewpoints = nullptr);
 
 namespace detail {
 /// The shell model's mean negative log-likelihood over `points` at the 10 parameters p (centre x,

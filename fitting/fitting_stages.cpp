@@ -87,9 +87,17 @@ void AddFitters(pipeline::Registry& r) {
                   const HedgeGroup& g = groups[k];
                   const std::vector<Eigen::Vector3d> pts = PointsAt(c, g.indices);
                   const std::vector<double> pixel_mm = FieldAt(c, kPixelSizeField, g.indices);
+                  // A fused cloud says where each point was seen from.
+                  std::vector<Eigen::Vector3d> views;
+                  const std::vector<double> vx = FieldAt(c, "view_x_mm", g.indices), vy = FieldAt(c, "view_y_mm", g.indices),
+                                            vz = FieldAt(c, "view_z_mm", g.indices);
+                  if (vx.size() == pts.size() && vy.size() == pts.size() && vz.size() == pts.size()) {
+                    for (std::size_t i = 0; i < pts.size(); ++i) views.emplace_back(vx[i], vy[i], vz[i]);
+                  }
                   FitInputs in;
                   in.points_mm = &pts;
                   in.pixel_mm = &pixel_mm;
+                  in.viewpoints = &views;
                   in.seed = seed;
                   in.inliers = m.has_inliers ? &inliers[k] : nullptr;
                   in.one_hedge = g.id >= 1;
@@ -164,7 +172,11 @@ void AddTrimDepth(pipeline::Registry& r) {
                    DoubleOption("tolerance", 5, "cut depths up to this count as on target", "mm").Min(0),
                    DoubleOption("bin_deg", 0, "angular size of a volume bin; 0 = about 20 points per bin", "deg")
                        .Range(0, 90),
-                   IntOption("min_bin_points", 3, "a volume bin with fewer points is unseen").Min(1)},
+                   IntOption("min_bin_points", 3, "a volume bin with fewer points is unseen").Min(1),
+                   StringOption("up", "-y",
+                                "the vertical the bins' rings are taken about: -y for a camera's cloud (y is down), "
+                                "+z for most maps and scans; x, y, z, -x, -y or -z")
+                       .Choices({"x", "y", "z", "-x", "-y", "-z"})},
                   {"cloud"},
                   {"cloud", "trim_plans"},
                   {}},
@@ -178,7 +190,10 @@ void AddTrimDepth(pipeline::Registry& r) {
           to.tolerance_mm = o.GetDouble("tolerance");
           to.bin_deg = o.GetDouble("bin_deg");
           to.min_bin_points = int(o.GetInt("min_bin_points"));
-          return std::make_unique<LambdaStage>(o, [trim, to, center](const Options& opts, Context& ctx) {
+          const std::string up_name = o.GetString("up");
+          Eigen::Vector3d up = Eigen::Vector3d::Zero();
+          up[up_name.back() - 'x'] = up_name[0] == '-' ? -1 : 1;
+          return std::make_unique<LambdaStage>(o, [trim, to, center, up](const Options& opts, Context& ctx) {
             PointCloud& c = ctx.Get<PointCloud>("cloud");
             RequireMillimetres(c, trim);
             const std::vector<HedgeGroup> groups = HedgeGroups(c);
@@ -188,6 +203,7 @@ void AddTrimDepth(pipeline::Registry& r) {
             for (const HedgeGroup& g : groups) {
               const std::string hedge = g.id ? "hedge " + std::to_string(g.id) : "the cloud";
               Sphere target;
+              TrimOptions hedge_to = to;
               target.radius_mm = opts.GetDouble("radius");
               if (center.size() == 3) {
                 target.center_mm = Eigen::Vector3d(center[0], center[1], center[2]);
@@ -214,9 +230,12 @@ void AddTrimDepth(pipeline::Registry& r) {
                               " has no converged fit to centre the target on; put a fitters.* stage before it or give 'center'");
                 }
                 target.center_mm = fit->sphere.center_mm;
+                // A leafy envelope's fit says what share of the leaves lie on it: each bin's
+                // radius is then taken where they lie (TrimOptions::clipped_share).
+                if (const auto w = fit->Extra("clipped_share")) hedge_to.clipped_share = std::clamp(*w, 0.05, 1.0);
               }
               const std::vector<Eigen::Vector3d> pts = PointsAt(c, g.indices);
-              TrimPlan plan = PlanTrim(pts, target, to);
+              TrimPlan plan = PlanTrim(pts, target, hedge_to, up);
               plan.hedge_id = g.id;
               for (std::size_t k = 0; k < g.indices.size(); ++k) depth[g.indices[k]] = plan.depth_mm[k];
               const std::string prefix = groups.size() > 1 ? "hedge" + std::to_string(g.id) + "." : "";

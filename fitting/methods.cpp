@@ -184,12 +184,14 @@ SphereFitResult FitEnvelopeFrom(const EnvelopeFitOptions& p, const std::string& 
     failed.message = "no starting sphere: " + start.message;
     return failed;
   }
-  const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm, in.outline);
+  const bool from_views = in.viewpoints && in.viewpoints->size() == in.points_mm->size();
+  const EnvelopeFit e = FitEnvelope(*in.points_mm, p, &start.sphere, in.pixel_mm, in.outline, from_views ? in.viewpoints : nullptr);
   SphereFitResult r = e.fit;
   r.wall_ms += start.wall_ms;
   if (r.converged) {
     r.SetExtra("surface_radius_mm", {e.surface_radius_mm});
     r.SetExtra("leaf_depth_mm", {e.leaf_depth_mm});
+    r.SetExtra("clipped_share", {e.clipped_share});
     if (e.top_bias_mm != 0) r.SetExtra("top_bias_mm", {e.top_bias_mm});
     if (e.outline_rays > 0) {
       if (e.std_error_mm) r.std_error_mm = *e.std_error_mm, r.std_error_own = true;

@@ -26,6 +26,9 @@ struct FitInputs {
   /// Optional: the hedge's outline as tangent rays (stereo::MeasureOutlines); the envelope fit
   /// fits to it too.
   const std::vector<cloud::TangentRay>* outline = nullptr;
+  /// Optional, one per point: where each point was seen from (a fused cloud of several captures,
+  /// its view_x/y/z_mm fields; null or empty: the cloud's origin); the envelope fit uses it.
+  const std::vector<Eigen::Vector3d>* viewpoints = nullptr;
   std::uint64_t seed = 42;                                  ///< for methods that sample
   const Sphere* previous = nullptr;  ///< an earlier fit, for options such as initial = previous
   std::vector<std::size_t>* inliers = nullptr;  ///< out: inlier indices, for methods that have them

@@ -24,6 +24,28 @@ double Percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+// The directions no point came from, on a 15-degree grid about the pole: [elevation, azimuth] of
+// each cell none of whose bins was seen (elevation from the pole's equator towards the pole,
+// azimuth about it from the grid's x, PlanTrim's frame).
+nlohmann::json UnseenDirections(const TrimPlan& t) {
+  constexpr int kBands = 12, kSectors = 24;
+  std::vector<int> seen(kBands * kSectors, 0), any(kBands * kSectors, 0);
+  const Eigen::Vector3d z = t.pole.normalized(), x = z.unitOrthogonal(), y = z.cross(x);
+  for (const TrimBin& b : t.bins) {
+    const double el = std::asin(std::clamp(b.direction.dot(z), -1.0, 1.0)) * 180 / M_PI;
+    double az = std::atan2(b.direction.dot(y), b.direction.dot(x)) * 180 / M_PI;
+    if (az < 0) az += 360;
+    const int band = std::clamp(int((el + 90) / 15), 0, kBands - 1), sector = std::clamp(int(az / 15), 0, kSectors - 1);
+    any[band * kSectors + sector] = 1;
+    seen[band * kSectors + sector] |= b.seen ? 1 : 0;
+  }
+  nlohmann::json out = nlohmann::json::array();
+  for (int k = 0; k < kBands * kSectors; ++k) {
+    if (any[k] && !seen[k]) out.push_back({-90 + 15 * (k / kSectors) + 7.5, 15 * (k % kSectors) + 7.5});
+  }
+  return out;
+}
+
 }  // namespace
 
 TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& target, const TrimOptions& o,
@@ -37,7 +59,9 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   if (!(o.tolerance_mm >= 0) || !std::isfinite(o.tolerance_mm)) throw Error("trim: option 'tolerance' must be >= 0 mm");
   if (o.min_bin_points < 1) throw Error("trim: option 'min_bin_points' must be >= 1");
   if (!pole.allFinite() || pole.norm() == 0) throw Error("trim: the grid's pole must be a non-zero vector");
+  if (!(o.clipped_share > 0 && o.clipped_share <= 1)) throw Error("trim: option 'clipped_share' must be in (0, 1]");
   TrimPlan plan;
+  plan.pole = pole.normalized();
   plan.target = target;
   const double R = target.radius_mm;
   // An orthonormal frame with z along the pole: rings of equal cos(theta) about it.
@@ -92,8 +116,21 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     const auto it = bins.find(cell);
     return it != bins.end() && int(it->second.size()) >= o.min_bin_points;
   };
-  double seen = 0, cut_angle = 0, volume_mm3 = 0;
+  double seen = 0, cut_angle = 0, volume_mm3 = 0, r_max = 0;
+  // Every cell, seen or not, with its centre's direction.
+  plan.bins.resize(std::size_t(grid.rings) * std::size_t(grid.sectors));
+  for (int ring = 0; ring < grid.rings; ++ring) {
+    const double ct = -1 + (ring + 0.5) * 2.0 / grid.rings, st = std::sqrt(std::max(0.0, 1 - ct * ct));
+    for (int sector = 0; sector < grid.sectors; ++sector) {
+      const double phi = (sector + 0.5) * 2 * M_PI / grid.sectors - M_PI;
+      TrimBin& b = plan.bins[std::size_t(ring) * std::size_t(grid.sectors) + std::size_t(sector)];
+      b.direction = ct * z + st * (std::cos(phi) * x + std::sin(phi) * y);
+      b.solid_angle_sr = grid.cell_sr;
+    }
+  }
   for (auto& [cell, radii] : bins) {
+    TrimBin& b = plan.bins[std::size_t(cell)];
+    b.points = int(radii.size());
     if (int(radii.size()) < o.min_bin_points) continue;
     // A bin on the edge of the seen part (a neighbour unseen) is on average half covered.
     const int ring = int(cell / grid.sectors), sector = int(cell % grid.sectors);
@@ -103,8 +140,12 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     if (ring > 0) edge = edge || !is_seen(cell - grid.sectors);
     if (ring + 1 < grid.rings) edge = edge || !is_seen(cell + grid.sectors);
     const double sr = grid.cell_sr * (edge ? 0.5 : 1.0);
+    b.weight = edge ? 0.5 : 1.0;
     seen += sr;
-    const double r = Percentile(radii, 0.5);
+    const double r = Percentile(radii, 1 - o.clipped_share / 2);
+    b.seen = true;
+    b.radius_mm = r;
+    r_max = std::max(r_max, r);
     // Only bins that need cutting: counting every r > R would add the noise of the bins on the
     // target (half of them read a little outside) as volume.
     if (r - R > o.tolerance_mm) cut_angle += sr, volume_mm3 += sr * (r * r * r - R * R * R) / 3;
@@ -113,6 +154,9 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   plan.cut_share = seen > 0 ? cut_angle / seen : 0;
   plan.volume_seen_l = volume_mm3 * 1e-6;
   plan.volume_all_round_l = plan.seen_share > 0 ? plan.volume_seen_l / plan.seen_share : 0;
+  if (r_max - R > o.tolerance_mm) {
+    plan.volume_unseen_max_l = (4 * M_PI - seen) * (r_max * r_max * r_max - R * R * R) / 3 * 1e-6;
+  }
   plan.cut_p50_mm = Percentile(cut, 0.5);
   plan.cut_p90_mm = Percentile(cut, 0.9);
   plan.cut_p99_mm = Percentile(cut, 0.99);
@@ -138,25 +182,27 @@ std::string TrimPlansJson(const std::string& cloud, const std::vector<TrimPlan>&
                              {"cut_max_mm", r3(t.cut_max_mm)},
                              {"seen_share", r3(t.seen_share)},
                              {"volume_seen_l", r3(t.volume_seen_l)},
-                             {"volume_all_round_l", r3(t.volume_all_round_l)}});
+                             {"volume_all_round_l", r3(t.volume_all_round_l)},
+                             {"volume_unseen_max_l", r3(t.volume_unseen_max_l)},
+                             {"unseen", UnseenDirections(t)}});
   }
   return out.dump(2);
 }
 
 void PrintTrimTable(std::ostream& out, const std::vector<TrimPlan>& plans) {
   char line[256];
-  std::snprintf(line, sizeof(line), "%-5s %-28s %7s %8s %6s %6s %6s %7s %6s %9s %10s\n", "hedge",
+  std::snprintf(line, sizeof(line), "%-5s %-28s %7s %8s %6s %6s %6s %7s %6s %9s %10s %11s\n", "hedge",
                 "target centre (x, y, z) mm", "R mm", "cut %", "p50", "p90", "p99", "max mm", "seen %", "volume L",
-                "all round");
+                "all round", "unseen <= L");
   out << line;
   for (const auto& t : plans) {
     char centre[64];
     std::snprintf(centre, sizeof(centre), "(%.0f, %.0f, %.0f)", t.target.center_mm.x(), t.target.center_mm.y(),
                   t.target.center_mm.z());
-    std::snprintf(line, sizeof(line), "%-5d %-28s %7.1f %7.1f%% %6.1f %6.1f %6.1f %7.1f %5.1f%% %9.2f %10.2f\n",
+    std::snprintf(line, sizeof(line), "%-5d %-28s %7.1f %7.1f%% %6.1f %6.1f %6.1f %7.1f %5.1f%% %9.2f %10.2f %11.2f\n",
                   t.hedge_id ? t.hedge_id : 1, centre, t.target.radius_mm, 100 * t.cut_share, t.cut_p50_mm,
                   t.cut_p90_mm, t.cut_p99_mm, t.cut_max_mm, 100 * t.seen_share, t.volume_seen_l,
-                  t.volume_all_round_l);
+                  t.volume_all_round_l, t.volume_unseen_max_l);
     out << line;
   }
 }

@@ -16,7 +16,14 @@
 /// part (a neighbour unseen) counts half its solid angle: on average it is half covered. The sum covers only what the
 /// camera saw; `seen_share` says how much of the sphere that is, and `volume_all_round_l` scales
 /// the seen volume to the whole sphere on the assumption that the unseen side sticks out as the
-/// seen side does.
+/// seen side does; `volume_unseen_max_l` bounds the unseen rest: what it would hold if every
+/// unseen direction stuck out as far as the farthest seen one. Each bin is kept (`bins`), so a
+/// caller can mark the directions no point came from as unseen rather than extrapolate to them.
+///
+/// A leafy hedge's points lie at and below its envelope (the leaves the shears cut flush with it,
+/// and deeper ones seen through gaps): a bin's radius is then the (1 - w / 2) quantile of its
+/// points' distances, w the share on the envelope (the envelope fit's clipped_share): the middle
+/// of the leaves on the envelope, where the shears cut. w = 1 (the default) is the median.
 
 #include <Eigen/Core>
 
@@ -35,6 +42,17 @@ struct TrimOptions {
   /// bin over the part seen, between 0.5 and 15 degrees).
   double bin_deg = 0.0;
   int min_bin_points = 3;     ///< a bin with fewer points is unseen
+  double clipped_share = 1.0; ///< share of a bin's points on the envelope (see above); 1 = the median
+};
+
+/// One volume bin of a plan: a direction from the target centre and the cell about it.
+struct TrimBin {
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  ///< the cell's centre, unit
+  double solid_angle_sr = 0;  ///< the whole cell's
+  int points = 0;
+  bool seen = false;          ///< at least min_bin_points points
+  double weight = 0;          ///< the share of its solid angle the plan counted: 1, 0.5 on the seen part's edge, 0 unseen
+  double radius_mm = 0;       ///< the surface's distance from the target centre (seen bins only)
 };
 
 struct TrimPlan {
@@ -50,7 +68,12 @@ struct TrimPlan {
   double seen_share = 0;          ///< solid angle of the seen bins / 4 pi
   double volume_seen_l = 0;       ///< litres outside the target, over the seen bins
   double volume_all_round_l = 0;  ///< volume_seen_l / seen_share (see above); 0 if nothing seen
+  /// The most the unseen rest could hold: every unseen direction as far out as the farthest seen
+  /// bin (0 when no seen bin needs cutting).
+  double volume_unseen_max_l = 0;
   double bin_deg = 0;             ///< the bin size used, degrees
+  std::vector<TrimBin> bins;      ///< every cell of the grid, seen or not
+  Eigen::Vector3d pole = Eigen::Vector3d::UnitY();  ///< the grid's pole (the vertical)
 };
 
 /// Plans the trim of one hedge's points (mm) to `target`. `pole` is the axis the bins' rings

@@ -129,5 +129,52 @@ TEST(Trim, StageCentresOnTheFitAndWritesTheField) {
   EXPECT_THROW(pipeline::Pipeline::FromJson(R"([{"type": "filters.trim_depth"}])", "p", reg, {}, {"cloud"}), Error);
 }
 
+// A leafy hedge seen all round but for its top and bottom (as a ring of captures sees it): a third
+// of the points on the envelope (clipped leaves), the rest an exponential depth (mean 15 mm)
+// below it, plus 1 mm of noise. The envelope is what the shears cut to.
+TEST(Trim, ALeafyHedgesVolumeIsToItsEnvelopeAndTheUnseenRestIsBounded) {
+  constexpr double kEnvelope = 500, kTarget = 460, kLeafMean = 15, kShare = 1.0 / 3, kSeenBand = 0.8;
+  std::mt19937 rng(8);
+  std::normal_distribution<double> g(0, 1);
+  std::exponential_distribution<double> leaf(1 / kLeafMean);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Eigen::Vector3d> pts;
+  while (pts.size() < 150000) {
+    const Eigen::Vector3d d = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+    if (std::abs(d.y()) > kSeenBand) continue;  // the top and bottom caps: unseen
+    const double depth = u(rng) < kShare ? 0.0 : leaf(rng);
+    pts.push_back((kEnvelope - depth + g(rng)) * d);
+  }
+  const Sphere target{Eigen::Vector3d::Zero(), kTarget};
+  const double shell = (std::pow(kEnvelope, 3) - std::pow(kTarget, 3)) / 3;  // per steradian
+  const double seen_sr = 4 * M_PI * kSeenBand;                                // |cos| < 0.8: 80 % of the sphere
+  TrimOptions leafy;
+  leafy.clipped_share = kShare;
+  leafy.bin_deg = 6;
+  const TrimPlan plan = PlanTrim(pts, target, leafy, -Eigen::Vector3d::UnitY());
+  // Over the seen part (edge bins count half, so the plan's own seen share is the reference):
+  // the envelope's volume within 5 %; the bins' radii are quantiles of ~100 points each.
+  EXPECT_NEAR(plan.seen_share, kSeenBand, 0.05);
+  EXPECT_NEAR(plan.volume_seen_l, shell * 4 * M_PI * plan.seen_share * 1e-6, 0.05 * shell * seen_sr * 1e-6);
+  // The median (a bare surface's rule) reads the leaves' middle: well under the envelope's volume
+  // (the median depth is ~0.4 of the mean leaf, 6 mm here: about 15 % less).
+  TrimOptions bare = leafy;
+  bare.clipped_share = 1;
+  EXPECT_LT(PlanTrim(pts, target, bare, -Eigen::Vector3d::UnitY()).volume_seen_l, 0.9 * plan.volume_seen_l);
+  // The unseen caps are marked, not extrapolated: bins there hold no points, and the bound (each
+  // unseen direction as far out as the farthest seen bin) is at least what they truly hold.
+  int unseen_top = 0;
+  for (const TrimBin& b : plan.bins) unseen_top += (!b.seen && b.direction.y() < -0.9) ? 1 : 0;
+  EXPECT_GT(unseen_top, 0);
+  for (const TrimBin& b : plan.bins) {
+    if (std::abs(b.direction.y()) < 0.7) {
+      EXPECT_TRUE(b.seen);
+    }
+  }
+  const double unseen_truth_l = shell * 4 * M_PI * (1 - plan.seen_share) * 1e-6;
+  EXPECT_GE(plan.volume_unseen_max_l, unseen_truth_l);
+  EXPECT_LT(plan.volume_unseen_max_l, 1.5 * unseen_truth_l);  // the farthest bin: the envelope plus its noise
+}
+
 }  // namespace
 }  // namespace hedgefit::fitting
