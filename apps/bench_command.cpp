@@ -5,6 +5,7 @@
 #include "cli/stage_flags.hpp"
 #include "cloud/cleaning.hpp"
 #include "bench/find_bench.hpp"
+#include "bench/around_bench.hpp"
 #include "bench/garden_bench.hpp"
 #include "bench/lab_bench.hpp"
 #include "cloud/cloud_io.hpp"
@@ -144,6 +145,36 @@ void AddFindBench(CLI::App* bench, CommandFn* run) {
   });
 }
 
+void AddAroundBench(CLI::App* bench, CommandFn* run) {
+  auto* cmd = bench->add_subcommand(
+      "around", "Rings and arcs of captures around a hedge ball and a row of two, with true and odometry-like poses: "
+                "fused radius, centre, coverage, registered poses and the trim plan against the truth");
+  cmd->footer(
+      "Examples:\n"
+      "  hedgefit bench around                                  # hedgefit's renderer, ~10 minutes the first time\n"
+      "  hedgefit bench around --renderer povray --scenes single --captures 4 --json around-pov.json\n"
+      "  hedgefit bench around --scenes bulge --layouts ring --captures 6 --registration centres+gicp\n"
+      "Captures, manifests (exact and odometry), TUM trajectories and truths are kept in --dir and reused.\n");
+  struct Args {
+    bench::AroundBenchOptions o;
+    StageFlags flags;
+    std::string json;
+  };
+  auto a = std::make_shared<Args>();
+  a->flags.Add(cmd, bench::AroundBenchOptions::Table().Specs(), {}, "Sets");
+  cmd->add_option("--json", a->json, "also write the table as JSON here")->group("Output");
+  cmd->callback([=]() {
+    *run = [=]() {
+      fitting::QuietSolverWarnings();
+      bench::AroundBenchOptions::Table().Apply(a->flags.Given(), &a->o);
+      const bench::AroundBenchResult result = bench::RunAroundBench(a->o);
+      bench::PrintAroundBench(result);
+      if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, bench::AroundBenchJson(result));
+      return kExitOk;
+    };
+  });
+}
+
 }  // namespace
 
 void AddBenchCommand(CLI::App& app, CommandFn* run) {
@@ -151,6 +182,7 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   AddLabBench(bench, run);
   AddGardenBench(bench, run);
   AddFindBench(bench, run);
+  AddAroundBench(bench, run);
 }
 
 }  // namespace hedgefit::apps

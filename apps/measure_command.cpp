@@ -20,6 +20,16 @@
 #include "fitting/methods.hpp"
 #include "fitting/sphere_fit.hpp"
 #include "stereo/capture.hpp"
+#include "around/around_report.hpp"
+#include "around/fusion.hpp"
+#include "around/poses.hpp"
+#include "around/views.hpp"
+#include "cli/stage_flags.hpp"
+#include "cloud/cloud_io.hpp"
+#include "fitting/methods.hpp"
+#include "render/around_view.hpp"
+
+#include <iostream>
 
 namespace hedgefit::apps {
 
@@ -31,7 +41,52 @@ struct MeasureArgs {
   std::string left, right, rig, overlay, methods = "ransac_ray";
   bool no_clean = false, print_pipeline = false, pretty = false;
   CaptureFlags capture;
+  // Several captures with poses (around/).
+  std::string manifest, trajectory, captures, fused, plot, format = "json";
+  StageFlags fuse_flags;
 };
+
+// `measure --manifest` / `--trajectory`: every capture measured alone, then fused.
+int RunMeasureAround(const MeasureArgs& a) {
+  std::vector<around::PosedCapture> captures;
+  std::string source;
+  if (!a.manifest.empty()) {
+    captures = around::ReadManifest(a.manifest);
+    source = a.manifest;
+  } else {
+    if (a.captures.empty()) throw InputError("--trajectory: give --captures DIR, the folder of TIME_left.png / TIME_right.png");
+    captures = around::ReadTumCaptures(a.trajectory, a.captures);
+    source = a.trajectory;
+  }
+  std::vector<std::string> inputs = {source};
+  for (const auto& c : captures) {
+    if (c.rig.empty() && a.rig.empty()) {
+      throw InputError(source + ": capture " + c.name + " has no rig: give --rig or a \"rig\" in the manifest");
+    }
+    stereo::ReadRig(c.rig.empty() ? a.rig : c.rig);
+    stereo::CheckCaptureImages(c.left, c.right);
+    inputs.push_back(c.left), inputs.push_back(c.right);
+  }
+  if (!a.fused.empty()) cloud::CheckCloudOutput("--fused", a.fused, inputs);
+  if (!a.plot.empty()) pipeline::CheckImageOutput("--plot", a.plot, {".png"}, inputs);
+  around::FuseOptions fo;
+  around::FuseOptions::Table().Apply(a.fuse_flags.Given(), &fo);
+  fo.Check();
+  fitting::QuietSolverWarnings();
+  const std::vector<around::View> views = around::MeasureViews(captures, a.rig, a.capture.Resolve(pipeline::Registry::Global()));
+  const around::FuseResult r = around::Fuse(views, fo);
+  if (a.format == "table") {
+    around::PrintFuseTable(std::cout, r);
+  } else {
+    for (const std::string& line : around::FuseJsonLines(r, a.pretty)) std::printf("%s\n", line.c_str());
+  }
+  std::fflush(stdout);
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "hedgefit: warning: %s\n", w.c_str());
+  if (!a.fused.empty()) cloud::WriteCloud(a.fused, r.cloud);
+  if (!a.plot.empty()) render::WriteAroundView(r, a.plot);
+  if (r.hedges.empty()) throw ProcessingError(source + ": no hedge could be fused from the captures");
+  return kExitOk;
+}
 
 }  // namespace
 
@@ -49,11 +104,27 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       "fit and capture times, and with --garden the hedge's image box; not_a_ball (and a warning) when the\n"
       "points are not a ball's (a shrub taken for a hedge: see README, compare). Every capture checks its\n"
       "rig against its own images (rig_check: ok, widened, unusable; docs/commands.md). Exit 2 when no fit\n"
-      "converges, 3 when a result is unusable (its line's \"unusable\" says why).\n");
+      "converges, 3 when a result is unusable (its line's \"unusable\" says why).\n"
+      "Several captures around a hedge (docs/around.md):\n"
+      "  hedgefit measure --manifest build/around/hedgefit/single_ring_4/manifest_odometry.json --plot around.png\n"
+      "  hedgefit measure --trajectory poses.tum --captures DIR --rig rig.yaml --fused fused.pcd\n");
   auto a = std::make_shared<MeasureArgs>();
-  cmd->add_option("--left", a->left, "left image")->required();
-  cmd->add_option("--right", a->right, "right image")->required();
-  cmd->add_option("--rig", a->rig, "rig file from `hedgefit calibrate`")->required();
+  cmd->add_option("--left", a->left, "left image");
+  cmd->add_option("--right", a->right, "right image");
+  cmd->add_option("--rig", a->rig, "rig file from `hedgefit calibrate` (with --manifest: for captures that name none)");
+  auto* manifest = cmd->add_option("--manifest", a->manifest,
+                                   "several captures with the poses of their left cameras (JSON: docs/around.md): each "
+                                   "measured, then fused into one measurement per hedge");
+  auto* trajectory = cmd->add_option("--trajectory", a->trajectory,
+                                     "the same from a TUM trajectory ('time tx ty tz qx qy qz qw', metres) and --captures");
+  cmd->add_option("--captures", a->captures, "with --trajectory: the folder of TIME_left.png / TIME_right.png");
+  cmd->add_option("--fused", a->fused, "with --manifest: also write the fused cloud (world frame; hedge_id, capture fields)");
+  cmd->add_option("--plot", a->plot, "with --manifest: also draw the fused hedges from above with each camera (PNG)");
+  cmd->add_option("--format", a->format, "with --manifest: json (JSON Lines) or table")
+      ->check(CLI::IsMember({"json", "table"}))
+      ->capture_default_str();
+  manifest->excludes(trajectory);
+  a->fuse_flags.Add(cmd, around::FuseOptions::Table().Specs(), {}, "Fusing (--manifest, --trajectory)");
   cmd->add_option("--method", a->methods,
                   "fit method(s), comma-separated (see `hedgefit compare --help`); envelope for leafy hedges")
       ->capture_default_str();
@@ -66,6 +137,13 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
+      if (!a->manifest.empty() || !a->trajectory.empty()) {
+        if (!a->left.empty() || !a->right.empty()) throw InputError("--left/--right and --manifest/--trajectory: give one capture or a manifest");
+        return RunMeasureAround(*a);
+      }
+      if (a->left.empty() || a->right.empty() || a->rig.empty()) {
+        throw InputError("measure: give --left, --right and --rig (one capture), or --manifest (several captures with poses)");
+      }
       const pipeline::Registry& registry = pipeline::Registry::Global();
       const stereo::ConvertOptions o = a->capture.Resolve(registry);
       const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--method");

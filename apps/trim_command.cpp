@@ -26,7 +26,7 @@ namespace {
 using json = nlohmann::ordered_json;
 
 struct TrimArgs {
-  std::string cloud, center, method = "ransac_geometric", output, render, format = "table";
+  std::string cloud, center, method = "ransac_geometric", output, render, format = "table", up = "-y";
   double radius = 0, tolerance = 5, scale = 1;
   bool no_clean = false, print_pipeline = false;
 };
@@ -39,7 +39,7 @@ json Stages(const TrimArgs& a, const std::vector<double>& center) {
     for (const auto& stage : DefaultCleaning()) p.push_back(json(stage));
   }
   if (center.empty()) p.push_back({{"type", fitting::FindFitMethod(a.method, "--method").stage}});
-  json trim = {{"type", "filters.trim_depth"}, {"radius", a.radius}, {"tolerance", a.tolerance}};
+  json trim = {{"type", "filters.trim_depth"}, {"radius", a.radius}, {"tolerance", a.tolerance}, {"up", a.up}};
   if (!center.empty()) trim["center"] = center;
   p.push_back(trim);
   if (!a.output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", a.output}, {"encoding", "binary_compressed"}});
@@ -71,10 +71,15 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       ->capture_default_str();
   cmd->add_option("-o,--output", a->output, "also write the cloud with a 'cut_depth' field (PCD)");
   cmd->add_option("--render", a->render, "also render the cloud coloured by cut depth with the target drawn (PNG)");
+  cmd->add_option("--up", a->up,
+                  "the vertical (the volume bins' rings are taken about it, and 'unseen' directions are given about "
+                  "it): -y for a camera's cloud and a fused one in its frame, z for most maps")
+      ->check(CLI::IsMember({"x", "y", "z", "-x", "-y", "-z"}))
+      ->capture_default_str();
   cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
   cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and outlier removal (filters.hedge_outlier) before the fit");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
-  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--center", "--method", "--tolerance"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
+  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--center", "--method", "--tolerance", "--up"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);

@@ -1,5 +1,6 @@
 #include "cli/run.hpp"
 
+#include <algorithm>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -59,6 +60,8 @@ int ReportParseError(const CLI::App& app, const CLI::ParseError& e) {
   std::cerr << "hedgefit: " << command.substr(std::string("hedgefit ").size()) << ": " << e.what() << hint;
   if (!unexpected.empty() && std::string(e.what()).find("not expected") == std::string::npos) {
     std::cerr << " (not taken: " << unexpected << "; files are given with their options)";
+  } else if (std::any_of(words.begin(), words.end(), [](const std::string& w) { return w.rfind("-", 0) != 0; })) {
+    std::cerr << " (files are given with their options)";
   }
   std::cerr << "; run '" << command << " --help'\n";
   return kExitBadInput;

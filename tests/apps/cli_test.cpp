@@ -94,8 +94,8 @@ TEST(Cli, BadInputsGiveOneLineAndExitCodeOne) {
   ExpectOneLineError(RunHedgefit("info", dir), 1, "hedgefit: info: FILE is required; run 'hedgefit info --help'");
   // Images given without their options: the command's own help, and the words it did not take.
   ExpectOneLineError(RunHedgefit("measure l.png r.png --rig rig.yaml", dir), 1,
-                     "hedgefit: measure: --left is required (not taken: 'l.png', 'r.png'; files are given with their "
-                     "options); run 'hedgefit measure --help'");
+                     "hedgefit: measure: The following arguments were not expected: r.png l.png (files are given with "
+                     "their options); run 'hedgefit measure --help'");
   ExpectOneLineError(RunHedgefit("bench lab --nope", dir), 1, "hedgefit: bench lab: ");
 }
 

@@ -1,0 +1,23 @@
+#pragma once
+/// Each posed capture measured alone, the way `measure --garden --method envelope` measures it
+/// (every hedge by depth, the default cleaning, each hedge's outline, the envelope fit), kept in
+/// its camera frame for fusion.hpp.
+
+#include <string>
+#include <vector>
+
+#include "around/fusion.hpp"
+#include "around/poses.hpp"
+#include "stereo/capture.hpp"
+
+namespace hedgefit::around {
+
+/// Measures `capture` with `rig` (the capture's own when it names one). A capture that cannot be
+/// measured (no hedge found, an unreadable image) comes back with `failed` set; the caller decides.
+View MeasureView(const PosedCapture& capture, const std::string& rig, const stereo::ConvertOptions& options);
+
+/// MeasureView for each capture, in order, on up to two threads.
+std::vector<View> MeasureViews(const std::vector<PosedCapture>& captures, const std::string& rig,
+                               const stereo::ConvertOptions& options);
+
+}  // namespace hedgefit::around

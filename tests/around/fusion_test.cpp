@@ -1,0 +1,237 @@
+// Several captures around a hedge, fused: the manifest and TUM readers, and the fusion itself on
+// synthetic leafy balls whose truth is known (each capture sees the cap facing it, leaves at an
+// exponential depth below the envelope plus noise along the view ray, as the envelope model has it),
+// with exact poses and with odometry-like errors.
+
+#include "around/fusion.hpp"
+#include "around/poses.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "fitting/methods.hpp"
+#include "pipeline/error.hpp"
+
+namespace hedgefit::around {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string TempDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("hedgefit_around_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d.string();
+}
+
+void Touch(const std::string& path) { std::ofstream(path) << "x"; }
+
+Eigen::Isometry3d Pose(double heading_deg, const Eigen::Vector3d& centre, double distance) {
+  // A camera `distance` from `centre` (level), looking at it; y down, as OpenCV's.
+  const double h = heading_deg * M_PI / 180;
+  const Eigen::Vector3d forward(std::sin(h), 0, std::cos(h));
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(2) = forward;
+  T.linear().col(1) = Eigen::Vector3d::UnitY();
+  T.linear().col(0) = Eigen::Vector3d::UnitY().cross(forward);
+  T.translation() = centre - distance * forward;
+  return T;
+}
+
+TEST(Poses, AManifestReadsBackAsWritten) {
+  const std::string dir = TempDir("manifest");
+  std::vector<PosedCapture> caps(2);
+  for (int k = 0; k < 2; ++k) {
+    caps[std::size_t(k)].name = "c" + std::to_string(k);
+    caps[std::size_t(k)].left = "c" + std::to_string(k) + "_left.png";
+    caps[std::size_t(k)].right = "c" + std::to_string(k) + "_right.png";
+    caps[std::size_t(k)].time_s = k * 0.5;
+    caps[std::size_t(k)].world_from_camera = Pose(40.0 * k, Eigen::Vector3d(100, 600, 2000), 2300);
+  }
+  WriteManifest(dir + "/m.json", caps, "rig.yaml");
+  const std::vector<PosedCapture> back = ReadManifest(dir + "/m.json");
+  ASSERT_EQ(back.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(back[std::size_t(k)].left, (fs::path(dir) / caps[std::size_t(k)].left).string());
+    EXPECT_EQ(back[std::size_t(k)].rig, (fs::path(dir) / "rig.yaml").string());  // relative to the manifest
+    // Written to 1e-9: the poses agree to far below a micrometre and a microdegree.
+    EXPECT_LT((back[std::size_t(k)].world_from_camera.matrix() - caps[std::size_t(k)].world_from_camera.matrix()).norm(), 1e-6);
+  }
+}
+
+TEST(Poses, ATumTrajectoryFindsItsCapturesByTime) {
+  const std::string dir = TempDir("tum");
+  std::vector<PosedCapture> caps(3);
+  for (int k = 0; k < 3; ++k) {
+    caps[std::size_t(k)].time_s = 1700000000.25 + k;
+    caps[std::size_t(k)].world_from_camera = Pose(30.0 * k, Eigen::Vector3d(0, 500, 0), 2000);
+    char stem[64];
+    std::snprintf(stem, sizeof(stem), "%.6f", *caps[std::size_t(k)].time_s);
+    Touch(dir + "/" + stem + "_left.png");
+    Touch(dir + "/" + stem + "_right.png");
+  }
+  WriteTum(dir + "/t.tum", caps);
+  const std::vector<PosedCapture> back = ReadTumCaptures(dir + "/t.tum", dir);
+  ASSERT_EQ(back.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(*back[std::size_t(k)].time_s, *caps[std::size_t(k)].time_s, 1e-6);
+    EXPECT_NE(back[std::size_t(k)].left.find("_left.png"), std::string::npos);
+    EXPECT_NE(back[std::size_t(k)].right.find("_right.png"), std::string::npos);
+    // Metres with 9 decimals: within a micrometre; the quaternion to 1e-9.
+    EXPECT_LT((back[std::size_t(k)].world_from_camera.translation() - caps[std::size_t(k)].world_from_camera.translation()).norm(), 1e-3);
+    EXPECT_LT(RotationDeg(back[std::size_t(k)].world_from_camera * caps[std::size_t(k)].world_from_camera.inverse()), 1e-6);
+  }
+}
+
+TEST(Poses, BadManifestsAndTrajectoriesSayWhatIsWrong) {
+  const std::string dir = TempDir("bad");
+  auto expect_error = [](const std::function<void()>& f, const std::string& part) {
+    try {
+      f();
+      ADD_FAILURE() << "no error; expected one naming '" << part << "'";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  std::ofstream(dir + "/a.json") << R"({"captures": [{"left": "l.png", "right": "r.png", "world_from_camera": [1, 0, 0]}]})";
+  expect_error([&] { ReadManifest(dir + "/a.json"); }, "16 numbers");
+  std::ofstream(dir + "/b.json") << R"({"captures": [{"left": "l.png", "right": "r.png",
+      "world_from_camera": [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}]})";
+  expect_error([&] { ReadManifest(dir + "/b.json"); }, "not a rigid motion");
+  std::ofstream(dir + "/c.json") << R"({"captures": [{"left": "l.png"}]})";
+  expect_error([&] { ReadManifest(dir + "/c.json"); }, "capture 1");
+  std::ofstream(dir + "/t.tum") << "1.0 0 0 0 0 0 0 2\n";
+  expect_error([&] { ReadTumCaptures(dir + "/t.tum", dir); }, "unit length");
+  std::ofstream(dir + "/u.tum") << "# a comment\n5.0 0 0 0 0 0 0 1\n";
+  expect_error([&] { ReadTumCaptures(dir + "/u.tum", dir); }, "no capture");
+  expect_error([&] { ReadManifest(dir + "/missing.json"); }, "cannot read");
+}
+
+// A leafy ball as one camera sees it: the cap facing it, each point a ray's first leaf: the
+// envelope less an exponential depth (mean kLeafMm) for the two thirds not clipped, plus noise.
+constexpr double kRadius = 500, kLeafMm = 12, kNoiseMm = 1.5;
+
+ViewHedge SeeBall(const Eigen::Vector3d& centre_world, const Eigen::Isometry3d& world_from_camera, std::mt19937* rng) {
+  ViewHedge h;
+  h.id = 1;
+  const Eigen::Isometry3d camera_from_world = world_from_camera.inverse();
+  const Eigen::Vector3d c = camera_from_world * centre_world;
+  std::normal_distribution<double> g(0, 1);
+  std::exponential_distribution<double> leaf(1 / kLeafMm);
+  std::uniform_real_distribution<double> u(0, 1);
+  while (h.points_mm.size() < 6000) {
+    const Eigen::Vector3d d = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
+    const Eigen::Vector3d on = c + kRadius * d;
+    const Eigen::Vector3d ray = on.normalized();
+    const double facing = -ray.dot(d);
+    if (facing < 0.25) continue;  // grazing: stereo loses it
+    const double depth = (u(*rng) < 1.0 / 3 ? 0.0 : leaf(*rng)) / facing + kNoiseMm * g(*rng);
+    h.points_mm.push_back(on + depth * ray);
+  }
+  h.fit = fitting::RunFitMethod("envelope", h.points_mm, {}, 42, true);
+  return h;
+}
+
+std::vector<View> Ring(int n, const Eigen::Vector3d& centre, double distance, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::vector<View> views;
+  for (int k = 0; k < n; ++k) {
+    View v;
+    v.name = std::to_string(k + 1);
+    v.world_from_camera = Pose(360.0 * k / n, centre, distance);
+    v.hedges.push_back(SeeBall(centre, v.world_from_camera, &rng));
+    views.push_back(v);
+  }
+  return views;
+}
+
+TEST(Fuse, ARingWithExactPosesGivesTheWholeBall) {
+  const Eigen::Vector3d centre(200, 600, 3000);
+  const std::vector<View> views = Ring(6, centre, 2300, 5);
+  FuseOptions o;
+  o.registration = "none";
+  const FuseResult r = Fuse(views, o);
+  ASSERT_EQ(r.hedges.size(), 1u);
+  const FusedHedge& h = r.hedges[0];
+  // 36000 points, noise 1.5 mm and 12 mm leaves: the fit settles to a few tenths of a millimetre;
+  // 1 mm is the issue's target, 2 mm for the centre.
+  EXPECT_NEAR(h.fit.fit.sphere.radius_mm, kRadius, 1.0);
+  EXPECT_LT((h.fit.fit.sphere.center_mm - centre).norm(), 2.0);
+  // The stated errors hold the truth (95 %, with the 1.5 factor a handful of runs allows).
+  for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(h.fit.fit.sphere.center_mm[k] - centre[k]), 1.5 * 1.96 * h.std_error_mm[k]);
+  // Caps facing six cameras round the level: everything but the top and bottom. A cap with
+  // cos(angle to the camera) > 0.25 from 2.3 m covers about a third of the sphere each.
+  EXPECT_GT(h.coverage, 0.70);
+  for (double c : h.view_coverage) EXPECT_LT(c, 0.45);
+  EXPECT_EQ(h.views.size(), 6u);
+  EXPECT_EQ(r.cloud.size(), 36000u);
+  EXPECT_EQ(r.cloud.fields.at("capture").size(), r.cloud.size());
+  // The world's vertical from the cameras' -y.
+  EXPECT_LT((r.up + Eigen::Vector3d::UnitY()).norm(), 1e-9);
+}
+
+TEST(Fuse, OdometryErrorsAreCorrectedAndAFarPoseIsLeftOut) {
+  const Eigen::Vector3d centre(0, 600, 0);
+  std::vector<View> views = Ring(5, centre, 2300, 9);
+  std::vector<Eigen::Isometry3d> truth;
+  for (const View& v : views) truth.push_back(v.world_from_camera);
+  // Odometry: the first capture exact, the others off by 40-90 mm and 1-2 degrees of heading.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (std::size_t k = 1; k < views.size(); ++k) {
+    const Eigen::Vector3d dt(u(rng), 0.1 * u(rng), u(rng));
+    views[k].world_from_camera.translation() += (40 + 10 * double(k)) * dt.normalized();
+    views[k].world_from_camera.linear() =
+        Eigen::AngleAxisd((1 + 0.25 * double(k)) * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+        views[k].world_from_camera.linear();
+  }
+  // ... and a sixth capture whose pose puts its ball 2 m away: another place, not this hedge.
+  View far = Ring(1, centre, 2300, 11)[0];
+  far.name = "far";
+  far.world_from_camera.translation() += Eigen::Vector3d(2000, 0, 0);
+  views.push_back(far);
+  const FuseResult r = Fuse(views, FuseOptions());
+  ASSERT_EQ(r.poses.size(), 6u);
+  EXPECT_FALSE(r.poses[5].used);
+  EXPECT_NE(r.poses[5].left_out.find("within"), std::string::npos) << r.poses[5].left_out;
+  ASSERT_FALSE(r.warnings.empty());
+  ASSERT_EQ(r.hedges.size(), 1u);
+  const FusedHedge& h = r.hedges[0];
+  EXPECT_EQ(h.views.size(), 5u);
+  // The ball is where the first capture (exact) puts it, to that capture's own centre with the
+  // fused radius: 6000 points with 1.5 mm of noise pin it to a few tenths of a millimetre.
+  EXPECT_NEAR(h.fit.fit.sphere.radius_mm, kRadius, 1.0);
+  EXPECT_LT((h.fit.fit.sphere.center_mm - centre).norm(), 1.0);
+  for (std::size_t k = 0; k < 5; ++k) {
+    ASSERT_TRUE(r.poses[k].used) << r.poses[k].left_out;
+    // One ball pins each capture's position relative to it, not its turn about it (3 of 6):
+    // what the hedge needs, so its centre seen through each refined pose is the fused one (the
+    // captures' centres agree to their own few tenths of a millimetre; 40-110 mm before).
+    const Eigen::Vector3d seen = r.poses[k].refined * views[k].hedges[0].fit.sphere.center_mm;
+    EXPECT_LT((seen - h.fit.fit.sphere.center_mm).norm(), 2.0) << k;
+    if (k > 0) {
+      EXPECT_EQ(r.poses[k].determined_dof, 3) << k;
+    }
+  }
+}
+
+TEST(Fuse, CoverageOfAHemisphereIsHalf) {
+  std::vector<Eigen::Vector3d> pts;
+  std::mt19937 rng(1);
+  std::normal_distribution<double> g(0, 1);
+  while (pts.size() < 200000) {
+    const Eigen::Vector3d d = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+    if (d.z() > 0) pts.push_back(500 * d);
+  }
+  // Cells straddling the rim hold points on one side: up to a ring's worth (1/18) more than half.
+  const double c = CoveredShare(pts, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), 10, 3);
+  EXPECT_GE(c, 0.5);
+  EXPECT_LE(c, 0.5 + 1.0 / 18 + 0.01);
+}
+
+}  // namespace
+}  // namespace hedgefit::around
