@@ -13,7 +13,13 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-double Round(double v, double unit) { return std::isfinite(v) ? std::round(v / unit) * unit : v; }
+// To `unit` (a power of ten), printed without a binary tail (round(v * 1000) / 1000 is the double
+// nearest the decimal; round(v / 0.001) * 0.001 is not), and without a negative zero.
+double Round(double v, double unit) {
+  if (!std::isfinite(v)) return v;
+  const double scale = std::round(1 / unit);
+  return std::round(v * scale) / scale + 0.0;
+}
 
 json Vec(const Eigen::VectorXd& v, double unit) {
   json a = json::array();

@@ -15,7 +15,7 @@
 #include "pipeline/registry.hpp"
 
 /// Bumped whenever Registry, Stage, Context or PointCloud change layout.
-#define HEDGEFIT_PLUGIN_ABI_VERSION 4
+#define HEDGEFIT_PLUGIN_ABI_VERSION 5
 
 extern "C" {
 struct HedgefitPluginInfo {

@@ -6,7 +6,7 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|hard|random|leaves|find|headline [--slow]
+Usage: scripts/accuracy_tables.py lab|hard|random|leaves|find|around|headline [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   hard      the envelope fit's AER / LD per ball of `bench garden --hard`, both renderers
@@ -17,6 +17,8 @@ Usage: scripts/accuracy_tables.py lab|hard|random|leaves|find|headline [--slow]
   find      `hedgefit find` per data set: `bench find` (4 gardens per simulated sensor), the five real
             Velodyne scans of a calibration sphere and PCL's test clouds, with defaults: balls found,
             objects wrongly called balls, radius, centre and ground errors, time
+  around    `bench around`: rings and arcs of 4 and 8 captures around a ball, a ball with a bulge on its
+            far side and a row of two, exact and odometry-like poses, fused and scored (POV-Ray: rings)
   headline  README's lab and garden rows (reads what lab and random wrote; runs nothing new)
 Run from the repository's root after a build; the JSON goes to build/docs/accuracy/.
 """
@@ -260,6 +262,37 @@ def find():
               f"{sum(secs) / len(secs):.2f} / {max(secs):.2f} s |")
 
 
+AROUND = [("hedgefit's renderer", "hedgefit", [["--scenes", "single,bulge,row", "--layouts", "ring,arc", "--captures", "4,8"]]),
+          ("POV-Ray, real camera", "povray", [["--scenes", "single,bulge,row", "--layouts", "ring", "--captures", "4"],
+                                              ["--scenes", "single,bulge", "--layouts", "ring", "--captures", "8"]])]
+
+
+def around():
+    """`bench around` on both renderers: the fused hedge against the truth, per set and pose error."""
+    print("| renderer | scene | captures | poses | used | radius error mm | centre error mm | stated se of R mm | "
+          "x, y, z, r within 95 % | sphere covered | one capture covers | one capture alone: radius error mm | "
+          "given poses, worst mm / deg | registered, worst mm / deg | trim volume seen / truth L |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    OUT.mkdir(parents=True, exist_ok=True)
+    for label, renderer, runs in AROUND:
+        for k, flags in enumerate(runs):
+            first = ROOT / "build/around" / renderer / "single_ring_4" / "manifest.json"
+            if renderer == "povray" and not first.exists() and not SLOW:
+                continue
+            out = OUT / f"around_{renderer}_{k}.json"
+            cmd = [str(HEDGEFIT), "bench", "around", "--renderer", renderer, *flags, "--dir", "build/around", "--json", str(out)]
+            proc = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            if proc.returncode != 0:
+                raise SystemExit(f"accuracy_tables: {' '.join(cmd)} failed:\n{proc.stderr}")
+            for r in json.loads(out.read_text()):
+                trim = f"{r['trim_volume_l']:.1f} / {r['trim_truth_l']:.1f}" if r["trim_truth_l"] > 0 else ""
+                print(f"| {label} | {r['scene']} | {r['layout']} of {r['captures']} | {r['poses']} | {r['used']} | "
+                      f"{r['radius_error_mm']:.2f} | {r['center_error_mm']:.2f} | {r['radius_se_mm']:.2f} | "
+                      f"{100 * r['inside_share']:.0f} % | {100 * r['coverage']:.1f} % | {100 * r['view_coverage']:.1f} % | "
+                      f"{r['single_radius_error_mm']:.2f} | {r['given_pose_mm']:.0f} / {r['given_pose_deg']:.2f} | "
+                      f"{r['pose_mm']:.1f} / {r['pose_deg']:.2f} | {trim} |")
+
+
 def headline():
     def summary(name, method):
         p = OUT / f"{name}.json"
@@ -316,6 +349,8 @@ if __name__ == "__main__":
         garden(what)
     elif what == "find":
         find()
+    elif what == "around":
+        around()
     elif what == "headline":
         headline()
     else:

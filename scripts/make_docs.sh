@@ -15,7 +15,7 @@ H=./build/apps/hedgefit
 [ -x "$H" ] || { echo "make_docs: build first ($H is missing)" >&2; exit 1; }
 mkdir -p docs/cli
 for c in info pipeline plugins compare find simulate calibrate render convert measure stream trim rig check-rig \
-         "bench lab" "bench garden" "bench find"; do
+         "bench lab" "bench garden" "bench find" "bench around"; do
   "$H" $c --help > "docs/cli/${c// /-}.txt"
 done
 

@@ -61,3 +61,7 @@ echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruct
 [ -f build/scans/lidar16_garden1.ply ] || $H bench find --sensors lidar16 --gardens 1 --dir build/scans > /dev/null
 $H find build/scans/lidar16_garden1.ply --plot docs/find_lidar_garden.png > /dev/null
 $H find ../shared/data/sphere_scans/example2/L1_S3.xyz --plot docs/find_velodyne.png > /dev/null
+# Around the hedge: a row of two balls fused from eight captures with odometry-like poses.
+[ -f build/around/hedgefit/row_ring_8/manifest_odometry.json ] || \
+  $H bench around --scenes row --layouts ring --captures 8 --poses odometry --dir build/around > /dev/null
+$H measure --manifest build/around/hedgefit/row_ring_8/manifest_odometry.json --plot docs/around_row.png > /dev/null
