@@ -29,6 +29,9 @@
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
 #include "render/render_stages.hpp"
+#include "around/around_report.hpp"
+#include "around/fusion.hpp"
+#include "around/views.hpp"
 #include "scene/find_report.hpp"
 #include "scene/finder.hpp"
 #include "scene/scene_stages.hpp"
@@ -384,6 +387,57 @@ void AddFindFunctions(py::module_& m) {
       "('hedges': id, verdict, ball, center_mm, radius_mm, ...) and 'hedge_id', each point's ball (0: none).");
 }
 
+// Around the hedge: several captures with poses, fused.
+void AddAroundFunctions(py::module_& m) {
+  m.def(
+      "fuse",
+      [](const std::string& manifest, const std::string& rig, const std::string& captures, const py::kwargs& options) {
+        std::map<std::string, pipeline::OptionValue> given;
+        const auto specs = around::FuseOptions::Table().Specs();
+        for (const auto& [key, value] : options) {
+          const std::string name = key.cast<std::string>();
+          const bool declared = std::any_of(specs.begin(), specs.end(), [&](const auto& sp) { return sp.name == name; });
+          if (!declared) throw Error("fuse: unknown option '" + name + "'; see `hedgefit measure --help` (Fusing)");
+          given[name] = FromPython(name, value);
+        }
+        around::FuseOptions o;
+        around::FuseOptions::Table().Apply(given, &o);
+        o.Check();
+        const bool tum = manifest.size() > 4 && manifest.substr(manifest.size() - 4) != "json";
+        if (tum && captures.empty()) throw Error("fuse: a TUM trajectory needs captures='DIR' (TIME_left.png, TIME_right.png)");
+        std::vector<std::string> lines;
+        around::FuseResult r;
+        {
+          py::gil_scoped_release release;
+          const std::vector<around::PosedCapture> caps =
+              tum ? around::ReadTumCaptures(manifest, captures) : around::ReadManifest(manifest);
+          for (const auto& c : caps) {
+            if (c.rig.empty() && rig.empty()) throw Error(manifest + ": capture " + c.name + " has no rig: give rig=");
+          }
+          stereo::ConvertOptions co;
+          r = around::Fuse(around::MeasureViews(caps, rig, co), o);
+          lines = around::FuseJsonLines(r, false);
+        }
+        const py::object loads = py::module_::import("json").attr("loads");
+        py::list hedges, poses;
+        for (const std::string& line : lines) {
+          py::dict d = loads(line);
+          (d.contains("hedge") ? hedges : poses).append(d);
+        }
+        for (const std::string& w : r.warnings) PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1);
+        py::dict out;
+        out["hedges"] = hedges;
+        out["captures"] = poses;
+        out["cloud"] = CloudDict(r.cloud);
+        return out;
+      },
+      py::arg("manifest"), py::arg("rig") = "", py::arg("captures") = "",
+      "`hedgefit measure --manifest` (or a TUM trajectory with captures='DIR'): each capture measured, the poses "
+      "registered and each hedge fitted to all its points. Keyword arguments are the fusing options "
+      "(registration='none', match_gate=0.6, ...). Returns {'hedges': [...], 'captures': [...], 'cloud': the fused "
+      "cloud as read_cloud gives it}; a capture left out is a warning.");
+}
+
 PYBIND11_MODULE(hedgefit, m) {
   m.doc() = "hedgefit: measure spherical hedges from a binocular camera (clouds as numpy arrays, sphere fits, "
             "stereo measurement, trim plans, JSON pipelines)";
@@ -400,6 +454,7 @@ PYBIND11_MODULE(hedgefit, m) {
   AddCloudFunctions(m);
   AddFitFunctions(m);
   AddFindFunctions(m);
+  AddAroundFunctions(m);
   AddCaptureFunctions(m);
   AddPlanFunctions(m);
 }

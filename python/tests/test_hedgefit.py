@@ -186,6 +186,33 @@ class Measure(unittest.TestCase):
             self.assertTrue(any("recalibrate" in str(w.message) for w in said), [str(w.message) for w in said])
 
 
+class Around(unittest.TestCase):
+    def test_a_ring_of_captures_fused(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            subprocess.run([EXE, "bench", "around", "--scenes", "single", "--layouts", "ring", "--captures", "3",
+                            "--scale", "0.5", "--poses", "exact", "--dir", tmp], check=True, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+            d = os.path.join(tmp, "hedgefit", "single_ring_3")
+            with open(os.path.join(d, "around.truth.json")) as f:
+                truth = json.load(f)["hedges"][0]
+            r = hedgefit.fuse(os.path.join(d, "manifest.json"), registration="none")
+            self.assertEqual(len(r["hedges"]), 1)
+            self.assertEqual(len(r["captures"]), 3)
+            h = r["hedges"][0]
+            # Half scale: one capture's envelope is good to about 2 mm; three with exact poses to 3 mm
+            # on the radius and 5 mm on the centre (a wrong frame or a lost capture is far more).
+            self.assertLess(abs(h["radius_mm"] - truth["radius_mm"]), 3.0)
+            self.assertLess(np.linalg.norm(np.array(h["center_mm"]) - truth["center_mm"]), 5.0)
+            self.assertEqual(len(r["cloud"]["xyz"]), h["points"])
+            self.assertEqual(set(np.unique(r["cloud"]["capture"])), {1.0, 2.0, 3.0})
+            # The TUM trajectory of the same captures gives the same hedge.
+            t = hedgefit.fuse(os.path.join(d, "trajectory.tum"), rig=os.path.join(d, "rig.yaml"), captures=d,
+                              registration="none")
+            self.assertAlmostEqual(t["hedges"][0]["radius_mm"], h["radius_mm"], places=6)
+            with self.assertRaises(hedgefit.Error):
+                hedgefit.fuse(os.path.join(d, "manifest.json"), registraton="none")
+
+
 class Pipelines(unittest.TestCase):
     def test_a_pipeline_on_a_sample_cloud(self):
         cloud = os.path.join(SOURCE, "sample_clouds", "cap_z2300_a60_o0.pcd")
