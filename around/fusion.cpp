@@ -388,6 +388,7 @@ void RegisterAndLeaveOut(const std::vector<View>& views, const FuseOptions& o, S
       const std::string why = JudgePose(views, *s, seen_by, v, anchor, o, &p);
       if (why.empty()) continue;
       s->used[std::size_t(v)] = false, p.used = false, p.left_out = why, p.refined = p.given;
+      p.correction_mm = p.correction_deg = 0;
       dropped = true;
     }
     if (!dropped) break;
@@ -450,13 +451,19 @@ void RefitWithFusedRadius(State* s, const FuseOptions& o, std::vector<View>* vie
       if (!e.fit.converged) continue;
       h.fit.sphere = e.fit.sphere;
       if (e.std_error_mm) h.fit.std_error_mm = e.std_error_mm;
-      s->odd.erase({x.view, x.hedge});
+      // An odd one that now agrees with the others (its centre through its pose within 10 mm of
+      // theirs: what the odometry's error leaves before it is registered) counts from now on.
+      const Eigen::Vector3d seen = s->poses[std::size_t(x.view)] * e.fit.sphere.center_mm;
+      if (odd && (seen - joint.fit.sphere.center_mm).norm() < 10) s->odd.erase({x.view, x.hedge});
     }
   }
 }
 
-// Marks the sightings whose own radius is far from their hedge's median (5 %, and 4 standard
-// errors): a capture that took a bulge or a neighbour in with the ball.
+// Marks the sightings whose own radius is more than 2 % from the median of their hedge's
+// sightings: a capture that took a bulge or a neighbour in with the ball (one capture's own radius
+// is good to 0.2-3 mm on both renderers' gardens; a row's far ball peeking round the near one made
+// it 13 mm large, a bulge 47 mm small). Its own standard error is no guide: such a fit is poor, and
+// its wide interval would excuse it.
 void MarkOdd(const std::vector<View>& views, State* s) {
   for (const auto& mem : Members(s->sightings, s->clusters)) {
     if (mem.size() < 3) continue;
@@ -466,9 +473,7 @@ void MarkOdd(const std::vector<View>& views, State* s) {
     const double median = radii[radii.size() / 2];
     for (std::size_t m : mem) {
       const ViewHedge& h = views[std::size_t(s->sightings[m].view)].hedges[s->sightings[m].hedge];
-      const double se = h.fit.std_error_mm ? (*h.fit.std_error_mm)[3] : 2.0;
-      const double off = std::abs(h.fit.sphere.radius_mm - median);
-      if (off > 0.05 * median && off > 4 * se) s->odd.insert({s->sightings[m].view, s->sightings[m].hedge});
+      if (std::abs(h.fit.sphere.radius_mm - median) > 0.02 * median) s->odd.insert({s->sightings[m].view, s->sightings[m].hedge});
     }
   }
 }
@@ -610,7 +615,40 @@ FuseResult Fuse(const std::vector<View>& input, const FuseOptions& o) {
   out.up = up.normalized();
   // The fused hedges (matched again through the refined poses), numbered along the world's x.
   s.sightings = Match(views, s.poses, s.used, o.match_gate_radii, &s.clusters);
-  const auto members = Members(s.sightings, s.clusters);
+  // A capture's view of a hedge that still disagrees after it was refitted (a neighbour merged
+  // with the ball in its segmentation) is left out of the fit, and said so; a capture with no other
+  // view is left out.
+  auto members = Members(s.sightings, s.clusters);
+  for (auto& mem : members) {
+    std::vector<std::size_t> kept;
+    for (std::size_t m : mem) {
+      const Sighting& x = s.sightings[m];
+      if (!s.odd.count({x.view, x.hedge})) {
+        kept.push_back(m);
+        continue;
+      }
+      const ViewHedge& h = views[std::size_t(x.view)].hedges[x.hedge];
+      const Eigen::Vector3d c = s.poses[std::size_t(x.view)] * CentreOf(h);
+      out.warnings.push_back(pipeline::Format(
+          "capture %s: its view of the hedge near (%.0f, %.0f, %.0f) mm is left out: its own sphere (r %.1f mm) "
+          "disagrees with the other captures' (a neighbour or a bulge taken in with the ball)",
+          views[std::size_t(x.view)].name.c_str(), c.x(), c.y(), c.z(), h.fit.sphere.radius_mm));
+    }
+    if (!kept.empty()) mem = kept;
+  }
+  for (int v = 0; v < V; ++v) {
+    if (!s.used[std::size_t(v)]) continue;
+    bool any = false;
+    for (const auto& mem : members) {
+      for (std::size_t m : mem) any = any || s.sightings[m].view == v;
+    }
+    if (!any) {
+      s.used[std::size_t(v)] = false;
+      PoseResult& p = out.poses[std::size_t(v)];
+      p.used = false, p.refined = p.given, p.correction_mm = p.correction_deg = 0;
+      p.left_out = "its views of the hedges disagree with the other captures'";
+    }
+  }
   std::vector<std::pair<int, FusedHedge>> fused;
   for (int j = 0; j < s.clusters; ++j) {
     if (auto f = FuseHedge(views, s, members[std::size_t(j)], out.up, o, &out.warnings)) fused.emplace_back(j, *f);

@@ -262,7 +262,8 @@ def find():
               f"{sum(secs) / len(secs):.2f} / {max(secs):.2f} s |")
 
 
-AROUND = [("hedgefit's renderer", "hedgefit", [["--scenes", "single,bulge,row", "--layouts", "ring,arc", "--captures", "4,8"]]),
+AROUND = [("hedgefit's renderer", "hedgefit", [["--scenes", "single,bulge,row", "--layouts", "ring,arc", "--captures", "4,8"],
+                                               ["--scenes", "row", "--layouts", "pass", "--captures", "4,8"]]),
           ("POV-Ray, real camera", "povray", [["--scenes", "single,bulge,row", "--layouts", "ring", "--captures", "4"],
                                               ["--scenes", "single,bulge", "--layouts", "ring", "--captures", "8"]])]
 
