@@ -16,7 +16,7 @@ namespace hedgefit::around {
 /// measured (no hedge found, an unreadable image) comes back with `failed` set; the caller decides.
 View MeasureView(const PosedCapture& capture, const std::string& rig, const stereo::ConvertOptions& options);
 
-/// MeasureView for each capture, in order, on up to two threads.
+/// MeasureView for each capture, in order (one after another: each capture's own stages use both cores).
 std::vector<View> MeasureViews(const std::vector<PosedCapture>& captures, const std::string& rig,
                                const stereo::ConvertOptions& options);
 
