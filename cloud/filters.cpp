@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <unordered_map>
 
 #include <pcl/sample_consensus/ransac.h>
@@ -14,6 +15,7 @@
 #include "pipeline/error.hpp"
 #include "cloud/pcl_adapter.hpp"
 #include "cloud/neighbour_search.hpp"
+#include "cloud/pixel_grid.hpp"
 #include "cloud/voxel_neighbours.hpp"
 
 namespace hedgefit::cloud {
@@ -140,6 +142,11 @@ const OptionTable<LocalOutlierOptions>& LocalOutlierOptions::Table() {
       OptionTable<O>()
           .Add("k", &O::k, "neighbours compared with each point", "points").Range(2, 1000)
           .Add("threshold", &O::threshold, "remove points whose local outlier factor exceeds this", "ratio").Min(1.0)
+          .Add("neighbours", &O::neighbours,
+               "pixels: on a stereo capture's cloud (pixel_u, pixel_v) each point's neighbours from the pixels about "
+               "it where those surely hold the nearest (a facing surface), else from a 3-D search: the same "
+               "neighbours, found faster; space: a 3-D search for every point")
+          .Choices({"pixels", "space"})
           .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024)
           .Add("keep_organized", &O::keep_organized, "set removed points to NaN instead of dropping them");
   return table;
@@ -147,10 +154,77 @@ const OptionTable<LocalOutlierOptions>& LocalOutlierOptions::Table() {
 
 void LocalOutlierOptions::Check() const { Table().Validate(*this); }
 
-std::vector<float> LocalOutlierFactors(const PointCloud& cloud, int k, int num_threads) {
-  if (k < 1) throw Error("filters.local_outlier: k must be at least 1");
+namespace {
+
+// Each finite point's `k` nearest others in 3-D, as positions in `finite` with their distances
+// (row j of `nbr` and `dist`, the k-th nearest last): on the image grid where `grid` is given and
+// its window surely holds them (PixelGrid::Nearest's `exact`), else with a k-d tree (built only
+// when some point needs it). Either way the k nearest of the cloud.
+void NearestOthers(const PointCloud& cloud, const std::vector<std::uint32_t>& finite, std::size_t kk,
+                   const std::optional<internal::PixelGrid>& grid, int num_threads, std::vector<std::uint32_t>* nbr,
+                   std::vector<float>* dist) {
+  const std::size_t n = finite.size();
+  nbr->assign(n * kk, 0);
+  dist->assign(n * kk, 0.0f);
+  std::vector<char> in_space(n, grid ? 0 : 1);
+  if (grid) {
+    std::vector<std::int32_t> pos_of(cloud.size(), -1);
+    for (std::size_t j = 0; j < n; ++j) pos_of[finite[j]] = std::int32_t(j);
+    ParallelFor(n, num_threads, 512, [&](std::size_t begin, std::size_t end) {
+      std::vector<std::uint32_t> idx(kk);
+      std::vector<float> sq(kk);
+      std::vector<std::uint64_t> scratch;
+      for (std::size_t j = begin; j < end; ++j) {
+        bool exact = false;
+        if (grid->Nearest(finite[j], kk, idx.data(), sq.data(), &scratch, &exact) < kk || !exact) {
+          in_space[j] = 1;
+          continue;
+        }
+        for (std::size_t t = 0; t < kk; ++t) {
+          (*nbr)[j * kk + t] = std::uint32_t(pos_of[idx[t]]);
+          (*dist)[j * kk + t] = std::sqrt(sq[t]);
+        }
+      }
+    });
+  }
+  std::vector<std::size_t> rest;
+  for (std::size_t j = 0; j < n; ++j) {
+    if (in_space[j]) rest.push_back(j);
+  }
+  if (rest.empty()) return;
   const internal::FiniteIndex index(cloud);
-  const auto& finite = index.finite();
+  ParallelFor(rest.size(), num_threads, 512, [&](std::size_t begin, std::size_t end) {
+    std::vector<std::uint32_t> pos(kk + 1);
+    std::vector<float> sq(kk + 1);
+    for (std::size_t r = begin; r < end; ++r) {
+      const std::size_t j = rest[r];
+      const std::size_t found = index.Nearest(cloud.points_mm[finite[j]].data(), kk + 1, pos.data(), sq.data());
+      // Drop the point itself (by position, so that a duplicate of it counts as a neighbour).
+      std::size_t m = 0;
+      for (std::size_t t = 0; t < found && m < kk; ++t) {
+        if (pos[t] == j) continue;
+        (*nbr)[j * kk + m] = pos[t];
+        (*dist)[j * kk + m] = std::sqrt(sq[t]);
+        ++m;
+      }
+      for (; m < kk; ++m) (*nbr)[j * kk + m] = (*nbr)[j * kk + m - 1], (*dist)[j * kk + m] = (*dist)[j * kk + m - 1];
+    }
+  });
+}
+
+std::vector<std::uint32_t> FiniteIndices(const PointCloud& cloud) {
+  std::vector<std::uint32_t> finite;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (IsFinite(cloud.points_mm[i])) finite.push_back(static_cast<std::uint32_t>(i));
+  }
+  return finite;
+}
+
+}  // namespace
+
+std::vector<float> LocalOutlierFactors(const PointCloud& cloud, int k, int num_threads, bool on_pixels) {
+  if (k < 1) throw Error("filters.local_outlier: k must be at least 1");
+  const std::vector<std::uint32_t> finite = FiniteIndices(cloud);
   const std::size_t n = finite.size();
   std::vector<float> factors(cloud.size(), 0.0f);
   if (n < 2) {
@@ -159,25 +233,10 @@ std::vector<float> LocalOutlierFactors(const PointCloud& cloud, int k, int num_t
   }
   const std::size_t kk = std::min<std::size_t>(std::size_t(k), n - 1);
   // Pass 1: each point's k nearest others (by position in `finite`) and their distances.
-  std::vector<std::uint32_t> nbr(n * kk);
-  std::vector<float> dist(n * kk), kdist(n);
-  ParallelFor(n, num_threads, 512, [&](std::size_t begin, std::size_t end) {
-    std::vector<std::uint32_t> pos(kk + 1);
-    std::vector<float> sq(kk + 1);
-    for (std::size_t j = begin; j < end; ++j) {
-      const std::size_t found = index.Nearest(cloud.points_mm[finite[j]].data(), kk + 1, pos.data(), sq.data());
-      // Drop the point itself (by position, so that a duplicate of it counts as a neighbour).
-      std::size_t m = 0;
-      for (std::size_t t = 0; t < found && m < kk; ++t) {
-        if (pos[t] == j) continue;
-        nbr[j * kk + m] = pos[t];
-        dist[j * kk + m] = std::sqrt(sq[t]);
-        ++m;
-      }
-      for (; m < kk; ++m) nbr[j * kk + m] = nbr[j * kk + m - 1], dist[j * kk + m] = dist[j * kk + m - 1];
-      kdist[j] = dist[j * kk + kk - 1];
-    }
-  });
+  std::vector<std::uint32_t> nbr;
+  std::vector<float> dist, kdist(n);
+  NearestOthers(cloud, finite, kk, on_pixels ? internal::PixelGrid::Of(cloud) : std::nullopt, num_threads, &nbr, &dist);
+  for (std::size_t j = 0; j < n; ++j) kdist[j] = dist[j * kk + kk - 1];
   // Pass 2: local reachability density, the inverse mean reach distance max(k-distance(o), d(p, o)).
   // Points stacked on one spot have a zero mean; a floor of 1e-9 mm keeps their density finite.
   std::vector<double> lrd(n);
@@ -201,7 +260,8 @@ std::vector<float> LocalOutlierFactors(const PointCloud& cloud, int k, int num_t
 
 FilterResult LocalOutlierRemoval(const PointCloud& cloud, const LocalOutlierOptions& options) {
   options.Check();
-  const std::vector<float> factors = LocalOutlierFactors(cloud, options.k, options.num_threads);
+  const std::vector<float> factors =
+      LocalOutlierFactors(cloud, options.k, options.num_threads, options.neighbours == "pixels");
   std::vector<bool> keep(cloud.size(), false);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     keep[i] = IsFinite(cloud.points_mm[i]) && !(factors[i] > options.threshold);
@@ -284,6 +344,10 @@ const OptionTable<HedgeOutlierOptions>& HedgeOutlierOptions::Table() {
                "for hedges found by depth (a hedge_id field): statistical (mean_k 30, 1 sigma) or local (as a stereo "
                "capture of one hedge)")
           .Choices({"statistical", "local"})
+          .Add("neighbours", &O::neighbours,
+               "the local outlier factor's neighbours: pixels (from the pixels about each point where they surely "
+               "hold the nearest, as filters.local_outlier) or space (a 3-D search)")
+          .Choices({"pixels", "space"})
           .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024);
   return table;
 }
@@ -307,6 +371,7 @@ FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOpti
   }
   LocalOutlierOptions lo;
   lo.num_threads = options.num_threads;
+  lo.neighbours = options.neighbours;
   const FilterResult local = LocalOutlierRemoval(cloud, lo);
   SpacingOutlierOptions sp;
   sp.num_threads = options.num_threads;

@@ -54,6 +54,11 @@ inline constexpr const char* kHedgeIdField = "hedge_id";
 /// mm: the lateral footprint of the matcher's pixel), written by the stereo reprojection.
 inline constexpr const char* kPixelSizeField = "pixel_mm";
 
+/// The per-point fields that say which pixel of the rectified left image a capture's point was
+/// measured at (column, row), written by the stereo reprojection: neighbours on the image grid.
+inline constexpr const char* kPixelUField = "pixel_u";
+inline constexpr const char* kPixelVField = "pixel_v";
+
 /// The values of field `name` at `indices`, as doubles; empty when the cloud has no such field.
 std::vector<double> FieldAt(const PointCloud& cloud, const std::string& name, const std::vector<std::size_t>& indices);
 

@@ -13,7 +13,7 @@ const pipeline::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
   static const auto table =
       pipeline::OptionTable<O>()
           .Add("organized", &O::organized, "keep the image grid (NaN where no point)")
-          .Add("extra_fields", &O::extra_fields, "add disparity, sigma_z and pixel_mm fields")
+          .Add("extra_fields", &O::extra_fields, "add disparity, sigma_z, pixel_mm, pixel_u and pixel_v fields")
           .Add("sigma_disparity", &O::sigma_disparity_px, "disparity noise for sigma_z where the refinement gave none", "px")
           .Min(0)
           .Add("keep_filled", &O::keep_filled, "also reproject hole-filled (unmeasured) disparities");
@@ -30,7 +30,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
   const cv::Matx33d R1t = cv::Matx33d(rig.R1).t();
   const double f = rig.P1.at<double>(0, 0), b = rig.baseline_mm;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<float> disp_field, sigma_field, pixel_field, hedge_field;
+  std::vector<float> disp_field, sigma_field, pixel_field, hedge_field, u_field, v_field;
   const bool labelled = !hedge_labels.empty();
   for (int y = 0; y < disparity.rows; ++y) {
     for (int x = 0; x < disparity.cols; ++x) {
@@ -43,6 +43,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
           disp_field.push_back(nan);
           sigma_field.push_back(nan);
           pixel_field.push_back(nan);
+          u_field.push_back(float(x)), v_field.push_back(float(y));
           if (labelled) hedge_field.push_back(0);
         }
         continue;
@@ -62,6 +63,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
       const double sigma_d = std::isfinite(own) ? std::max(0.02, double(own)) : o.sigma_disparity_px;
       sigma_field.push_back(float(p_rect[2] * p_rect[2] * sigma_d / (f * b)));
       pixel_field.push_back(float(p_rect[2] / f));  // one pixel's lateral footprint at the point
+      u_field.push_back(float(x)), v_field.push_back(float(y));  // where it was measured
     }
   }
   if (o.organized) {
@@ -75,6 +77,8 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
     out.fields["disparity"] = std::move(disp_field);
     out.fields["sigma_z"] = std::move(sigma_field);
     out.fields[cloud::kPixelSizeField] = std::move(pixel_field);
+    out.fields[cloud::kPixelUField] = std::move(u_field);
+    out.fields[cloud::kPixelVField] = std::move(v_field);
   }
   return out;
 }

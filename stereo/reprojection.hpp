@@ -12,7 +12,7 @@ namespace hedgefit::stereo {
 
 struct ReprojectOptions {
   bool organized = false;          ///< keep the image grid (NaN where no point)
-  bool extra_fields = true;        ///< add "disparity", "sigma_z" and "pixel_mm" (Z / f) fields per point
+  bool extra_fields = true;        ///< add "disparity", "sigma_z", "pixel_mm" (Z / f), "pixel_u" and "pixel_v" fields per point
   double sigma_disparity_px = 0.2; ///< disparity noise for sigma_z = Z^2 sigma_d / (f b) where the
                                    ///< refinement gave no per-pixel estimate
   bool keep_filled = false;        ///< also reproject hole-filled (unmeasured) disparities

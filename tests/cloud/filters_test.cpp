@@ -17,6 +17,7 @@
 #include "cloud/pcl_adapter.hpp"
 #include "pipeline/pipeline.hpp"
 #include "cloud/voxel_neighbours.hpp"
+#include "cloud/pixel_grid.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::cloud {
@@ -330,8 +331,9 @@ TEST(LocalOutlier, UniformGridHasFactorOne) {
 // a pinhole (focal f px) where its ray meets the sphere, so the spacing grows from z / f at the
 // middle to many times that at the outline (as 1 / cos of the view angle). `cos_view` gets each
 // point's cosine between the ray and the sphere's normal.
-PointCloud StereoSphere(double f, double z, double radius, std::vector<double>* cos_view) {
+PointCloud StereoSphere(double f, double z, double radius, std::vector<double>* cos_view, bool pixels = false) {
   PointCloud c;
+  std::vector<float> us, vs;
   const Eigen::Vector3d centre(0, 0, z);
   const int half = int(std::ceil(f * radius / std::sqrt(z * z - radius * radius))) + 1;
   for (int v = -half; v <= half; ++v) {
@@ -342,8 +344,11 @@ PointCloud StereoSphere(double f, double z, double radius, std::vector<double>* 
       const Eigen::Vector3d p = ray * (b - std::sqrt(disc));
       c.points_mm.push_back(p.cast<float>());
       cos_view->push_back(-ray.dot((p - centre).normalized()));
+      us.push_back(float(u + half)), vs.push_back(float(v + half));
     }
   }
+  if (pixels) c.fields[kPixelUField] = us, c.fields[kPixelVField] = vs;
+  c.Flatten();
   return c;
 }
 
@@ -414,6 +419,112 @@ TEST(OutlierFilters, StereoSphereKeepsItsOutlineAndLosesItsFloaters) {
   // The statistical filter's one threshold on the distance takes the sparse outline instead.
   EXPECT_EQ(count(sor, floaters), 0u);
   EXPECT_LT(count(sor, band), band.size() / 2);
+}
+
+// A stereo capture's cloud knows each point's pixel (pixel_u, pixel_v): the local outlier factor
+// takes neighbours from the 7 x 7 pixels about each point (twice as wide if need be) where those surely
+// hold the nearest, else search in 3-D. On the lab sphere as a 1000 px camera samples it, where the
+// surface faces the camera (cos > 0.7) the window holds them (a facing grid's 30th nearest is 3 px
+// away at most); towards the outline the surface slants and a wider window or the 3-D search takes
+// over. Either way it gives the same numbers as the 3-D search (to float rounding: sums in another
+// order). Mismatches replace their pixel's point (one
+// in 500 moved 40-300 mm along its ray): the cleaning on the grid removes every one more than
+// 20 mm off the sphere and keeps every other point, as the 3-D search does (the test above).
+TEST(OutlierFilters, OnThePixelGridTheyDecideAsIn3D) {
+  std::vector<double> cos_view;
+  PointCloud c = StereoSphere(1000, 2300, 300, &cos_view, true);
+  std::vector<float> px(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) px[i] = c.points_mm[i].z() / 1000.f;
+  c.fields[kPixelSizeField] = px;
+  ASSERT_TRUE(internal::PixelGrid::Of(c).has_value());
+  const std::vector<float> lof_grid = LocalOutlierFactors(c, 20, 2, true), lof_3d = LocalOutlierFactors(c, 20, 2, false);
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    ASSERT_NEAR(lof_grid[i], lof_3d[i], 1e-5f * lof_3d[i]) << i << " cos " << cos_view[i];
+  }
+  // The window served where the surface faces the camera: the sphere's middle.
+  const auto grid = internal::PixelGrid::Of(c);
+  std::vector<std::uint32_t> idx(20);
+  std::vector<float> sq(20);
+  std::vector<std::uint64_t> scratch;
+  std::size_t facing = 0, served = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    if (cos_view[i] < 0.9) continue;
+    bool exact = false;
+    ++facing;
+    served += grid->Nearest(i, 20, idx.data(), sq.data(), &scratch, &exact) == 20 && exact;
+  }
+  ASSERT_GT(facing, 10000u);
+  EXPECT_GT(served, facing * 9 / 10);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> off(40, 300);
+  std::vector<std::size_t> floaters, surface;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    if (i % 500 != 0) {
+      surface.push_back(i);
+      continue;
+    }
+    const Eigen::Vector3f p = c.points_mm[i];
+    c.points_mm[i] = p - p.normalized() * float(off(rng));
+    c.fields[kPixelSizeField][i] = c.points_mm[i].z() / 1000.f;
+    if (std::abs((c.points_mm[i] - Eigen::Vector3f(0, 0, 2300)).norm() - 300.f) > 20.f) floaters.push_back(i);
+  }
+  ASSERT_GT(floaters.size(), 80u);
+  for (const char* neighbours : {"pixels", "space"}) {
+    SCOPED_TRACE(neighbours);
+    const std::vector<bool> keep =
+        Survivors(c, std::string(R"([{"type": "filters.hedge_outlier", "neighbours": ")") + neighbours + "\"}]");
+    EXPECT_EQ(std::count_if(surface.begin(), surface.end(), [&](std::size_t i) { return bool(keep[i]); }),
+              std::ptrdiff_t(surface.size()));
+    EXPECT_EQ(std::count_if(floaters.begin(), floaters.end(), [&](std::size_t i) { return bool(keep[i]); }), 0);
+  }
+}
+
+// The grid is one capture's: none for a cloud of several captures (their pixels overlap), for two
+// points at one pixel, or without the fields. A point's neighbours are the window's, itself
+// excluded, the k-th nearest last; a thinned capture's step (every 3rd pixel) is the grid's.
+TEST(PixelGrid, IsOneCapturesAndSearchesItsWindow) {
+  PointCloud c;
+  std::vector<float> us, vs;
+  for (int v = 0; v < 30; v += 3) {
+    for (int u = 0; u < 30; u += 3) {
+      c.points_mm.emplace_back(float(u), float(v), 1000.f);
+      us.push_back(float(u + 100)), vs.push_back(float(v + 50));
+    }
+  }
+  c.Flatten();
+  c.fields[kPixelSizeField] = std::vector<float>(c.size(), 1.f);  // 1 mm per pixel at 1 m
+  EXPECT_FALSE(internal::PixelGrid::Of(c).has_value());
+  c.fields[kPixelUField] = us, c.fields[kPixelVField] = vs;
+  const auto grid = internal::PixelGrid::Of(c);
+  ASSERT_TRUE(grid.has_value());
+  // Point (15, 15) (index 55): its 4 nearest are the 4 grid neighbours 3 mm away; a point outside
+  // the 3 x 3 window searched for 4 is at least 2 steps (6 mm) away, so they are the cloud's nearest.
+  std::vector<std::uint32_t> idx(32);
+  std::vector<float> sq(32);
+  std::vector<std::uint64_t> scratch;
+  bool exact = false;
+  ASSERT_EQ(grid->Nearest(55, 4, idx.data(), sq.data(), &scratch, &exact), 4u);
+  std::vector<std::uint32_t> four(idx.begin(), idx.begin() + 4);
+  std::sort(four.begin(), four.end());
+  EXPECT_EQ(four, (std::vector<std::uint32_t>{45, 54, 56, 65}));
+  for (int t = 0; t < 4; ++t) EXPECT_FLOAT_EQ(sq[std::size_t(t)], 9.f);
+  EXPECT_TRUE(exact);
+  // A corner point's 7 x 7 window holds only (3 + 1)^2 - 1 = 15 others; the window twice as wide
+  // holds 48, among them the cloud's 20 nearest (by brute force).
+  ASSERT_EQ(grid->Nearest(0, 20, idx.data(), sq.data(), &scratch, &exact), 20u);
+  EXPECT_TRUE(exact);
+  std::vector<float> brute;
+  for (std::size_t j = 1; j < c.size(); ++j) brute.push_back((c.points_mm[j] - c.points_mm[0]).squaredNorm());
+  std::sort(brute.begin(), brute.end());
+  std::vector<float> found(sq.begin(), sq.begin() + 20);
+  std::sort(found.begin(), found.end());
+  EXPECT_EQ(found, std::vector<float>(brute.begin(), brute.begin() + 20));
+  PointCloud fused = c;
+  fused.fields["capture"] = std::vector<float>(c.size(), 0.f);
+  EXPECT_FALSE(internal::PixelGrid::Of(fused).has_value());
+  PointCloud twice = c;
+  twice.fields[kPixelUField][1] = twice.fields[kPixelUField][0];
+  EXPECT_FALSE(internal::PixelGrid::Of(twice).has_value());
 }
 
 TEST(SpacingOutlier, RatioIsOneOnAFacingSurfaceAtAnyDistance) {
