@@ -85,7 +85,11 @@ SphereFitResult RansacThenRefine(
     std::vector<Eigen::Vector3d> in_pts;
     in_pts.reserve(inliers.size());
     for (std::size_t i : inliers) in_pts.push_back((*in.points_mm)[i]);
-    r = FitSphereGeometric(in_pts, {}, &coarse.sphere);
+    // Refined further, the geometric fit only seeds the refinement: its standard errors (a
+    // Ceres covariance, ~10 ms on a lab capture) would be thrown away.
+    GeometricFitOptions geometric;
+    geometric.compute_covariance = !refine;
+    r = FitSphereGeometric(in_pts, geometric, &coarse.sphere);
     if (refine && r.converged) {
       const double geometric_ms = r.wall_ms;
       r = refine(in_pts, r.sphere);

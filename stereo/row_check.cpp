@@ -34,11 +34,14 @@ double Median(std::vector<double> v) {
 
 // Corners spread over the frame: the strongest few of each cell, so the edges (where distortion
 // shows) are sampled as well as the textured middle.
-std::vector<cv::Point2f> SpreadCorners(const cv::Mat& grey, const cv::Mat& valid, int max_corners) {
+// Only the cells whose index (row-major) is `phase` modulo `period`.
+std::vector<cv::Point2f> SpreadCorners(const cv::Mat& grey, const cv::Mat& valid, int max_corners, int period,
+                                       int phase) {
   std::vector<cv::Point2f> all;
   const int per_cell = std::max(2, max_corners / (kCellsX * kCellsY));
   for (int cy = 0; cy < kCellsY; ++cy) {
     for (int cx = 0; cx < kCellsX; ++cx) {
+      if ((cy * kCellsX + cx) % period != phase) continue;
       const cv::Rect cell(cx * grey.cols / kCellsX, cy * grey.rows / kCellsY, grey.cols / kCellsX, grey.rows / kCellsY);
       if (cell.width < 16 || cell.height < 16) continue;
       std::vector<cv::Point2f> found;
@@ -139,9 +142,17 @@ bool HasTwin(const cv::Mat& left, const cv::Mat& right, cv::Point2f at, cv::Poin
 
 }  // namespace
 
-RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
-                               double max_disparity_px, const cv::Mat& valid, int max_corners) {
-  RowAgreement out;
+namespace {
+
+// The cell (row-major index) a full-size pixel lies in.
+int CellOf(float x, float y, cv::Size size) {
+  return std::min(kCellsX - 1, int(x) * kCellsX / size.width) + kCellsX * std::min(kCellsY - 1, int(y) * kCellsY / size.height);
+}
+
+// MeasureRowsSparse's samples, from the cells whose index is `phase` modulo `period`.
+std::vector<RowSample> TrackRows(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
+                                 double max_disparity_px, const cv::Mat& valid, int max_corners, int period, int phase) {
+  std::vector<RowSample> out;
   if (left_rect.empty() || left_rect.size() != right_rect.size()) return out;
   const cv::Mat gl = Grey(left_rect), gr = Grey(right_rect);
   // Found and tracked at half resolution (a quarter of the pixels; the 16x pyramid's reach is the
@@ -150,7 +161,7 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
   cv::pyrDown(gl, hl);
   cv::pyrDown(gr, hr);
   if (!valid.empty()) cv::resize(valid, hvalid, hl.size(), 0, 0, cv::INTER_NEAREST);
-  const std::vector<cv::Point2f> corners = SpreadCorners(hl, hvalid, max_corners);
+  const std::vector<cv::Point2f> corners = SpreadCorners(hl, hvalid, max_corners, period, phase);
   if (corners.empty()) return out;
   const cv::Size win(15, 15);
   const int levels = 3;  // 8x at half size: reaches about 100 px (full size) from the expected disparity
@@ -197,17 +208,22 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
     }
   });
   for (std::size_t i = 0; i < corners.size(); ++i) {
-    if (kept[i]) out.samples.push_back(found[i]);
+    if (kept[i]) out.push_back(found[i]);
   }
-  const cv::Size size = gl.size();
+  return out;
+}
+
+// The rows' plane and each cell's verdict from the samples of a frame of `size`.
+RowAgreement SummariseRows(std::vector<RowSample> samples, cv::Size size) {
+  RowAgreement out;
+  out.samples = std::move(samples);
   out.size = size;
   out.plane = FitPlane(out.samples, size);
   // Each cell's median: where the rows disagree most, and how far from the plane.
   std::vector<std::vector<double>> dy(kCellsX * kCellsY);
   std::vector<cv::Point2d> at(kCellsX * kCellsY);
   for (const RowSample& s : out.samples) {
-    const int c = std::min(kCellsX - 1, int(s.x) * kCellsX / size.width) +
-                  kCellsX * std::min(kCellsY - 1, int(s.y) * kCellsY / size.height);
+    const int c = CellOf(s.x, s.y, size);
     dy[std::size_t(c)].push_back(s.dy);
     at[std::size_t(c)] += cv::Point2d(s.x, s.y);
   }
@@ -238,6 +254,39 @@ RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_re
   }
   out.plane_max_px = out.PlaneMaxOver(out.spoken);
   return out;
+}
+
+}  // namespace
+
+RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
+                               double max_disparity_px, const cv::Mat& valid, int max_corners) {
+  if (left_rect.empty() || left_rect.size() != right_rect.size()) return RowAgreement();
+  return SummariseRows(TrackRows(left_rect, right_rect, expected_disparity_px, max_disparity_px, valid, max_corners, 1, 0),
+                       left_rect.size());
+}
+
+RowAgreement MeasureRowsRolling(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
+                                double max_disparity_px, int max_corners, int period, RowPool* pool) {
+  if (left_rect.empty() || left_rect.size() != right_rect.size()) return RowAgreement();
+  period = std::max(1, period);
+  const cv::Size size = left_rect.size();
+  if (pool->size != size || int(pool->by_phase.size()) != period) {
+    // The first frame (or another size): every cell, filed by the phase that will refresh it.
+    pool->size = size;
+    pool->by_phase.assign(std::size_t(period), {});
+    pool->next = 0;
+    for (const RowSample& r :
+         TrackRows(left_rect, right_rect, expected_disparity_px, max_disparity_px, cv::Mat(), max_corners, 1, 0)) {
+      pool->by_phase[std::size_t(CellOf(r.x, r.y, size) % period)].push_back(r);
+    }
+  } else {
+    pool->by_phase[std::size_t(pool->next)] = TrackRows(left_rect, right_rect, expected_disparity_px, max_disparity_px,
+                                                        cv::Mat(), max_corners, period, pool->next);
+    pool->next = (pool->next + 1) % period;
+  }
+  std::vector<RowSample> all;
+  for (const auto& phase : pool->by_phase) all.insert(all.end(), phase.begin(), phase.end());
+  return SummariseRows(std::move(all), size);
 }
 
 double RowAgreement::Around(const cv::Rect& box) const {
@@ -318,7 +367,12 @@ const pipeline::OptionTable<RigCheckOptions>& RigCheckOptions::Table() {
                "a hedge whose matcher measured less than this share of its pixels is unusable")
           .Range(0, 1)
           .Add("corners", &O::corners, "corners tracked over the frame to measure the rows")
-          .Range(48, 5000);
+          .Range(48, 5000)
+          .Add("rolling", &O::rolling,
+               "in a warm pipeline (stream, Python), each frame after the first tracks the corners of 1/n of the "
+               "frame's cells in turn, and the rows are judged on the last n frames' together (n = 1: every cell "
+               "every frame, as a one-shot measure does)", "frames")
+          .Range(1, 48);
   return table;
 }
 
@@ -346,10 +400,12 @@ std::string Format(const char* fmt, double a, double b = 0, double c = 0) {
 
 CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_rect, const StereoRig& rig,
                                 const std::vector<HedgeMatch>& hedges, const cv::Mat& labels, const cv::Mat& mask,
-                                double expected_disparity_px, const RigCheckOptions& o) {
+                                double expected_disparity_px, const RigCheckOptions& o, RowPool* pool) {
   CaptureRigCheck c;
   const cv::Size size = left_rect.size();
-  c.rows = MeasureRowsSparse(left_rect, right_rect, expected_disparity_px, size.width / 3.0, cv::Mat(), o.corners);
+  c.rows = pool != nullptr && o.rolling > 1
+               ? MeasureRowsRolling(left_rect, right_rect, expected_disparity_px, size.width / 3.0, o.corners, o.rolling, pool)
+               : MeasureRowsSparse(left_rect, right_rect, expected_disparity_px, size.width / 3.0, cv::Mat(), o.corners);
   const RowAgreement& rows = c.rows;
   c.field = DisparityErrorFromRows(rows, rig.P1.at<double>(0, 0));
   // A check needs samples spread over a few parts of the frame. A garden of smooth lawn and sky

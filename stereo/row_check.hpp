@@ -72,6 +72,21 @@ constexpr double kRoundTripPx = 0.5;
 RowAgreement MeasureRowsSparse(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
                                double max_disparity_px, const cv::Mat& valid = cv::Mat(), int max_corners = 600);
 
+/// The rows measured over a warm pipeline's last frames (RigCheckOptions::rolling): each phase
+/// holds the samples of the cells whose index is the phase modulo the period.
+struct RowPool {
+  std::vector<std::vector<RowSample>> by_phase;
+  cv::Size size;
+  int next = 0;  ///< the phase the next frame measures
+};
+
+/// MeasureRowsSparse over a stream: the first frame (or one of another size) measures every cell;
+/// each later frame measures the cells of the pool's next phase (1/period of them) and replaces
+/// that phase's samples. The rows are judged on every phase's samples together: a rig knocked
+/// out of line shows in the cells measured since, all of them within `period` frames.
+RowAgreement MeasureRowsRolling(const cv::Mat& left_rect, const cv::Mat& right_rect, double expected_disparity_px,
+                                double max_disparity_px, int max_corners, int period, RowPool* pool);
+
 /// The horizontal disparity error the measured rows imply, px, when the rig's error is read as
 /// what would make them: a roll about the optical axis moves rows by roll (u - cx) and columns by
 /// roll (v - cy); one camera's focal length (a scale s) moves rows by s (v - cy) and columns by
@@ -122,6 +137,9 @@ struct RigCheckOptions {
   /// garden captures); rows a few pixels apart, or a pair that is not one, leave a tenth or less.
   double min_matched_share = 0.4;
   int corners = 1200;  ///< corners tracked over the frame (48 cells, about 25 each)
+  /// A warm pipeline's frames after the first track the corners of 1/rolling of the cells in
+  /// turn (MeasureRowsRolling); 1 = every cell every frame. One-shot runs measure every cell.
+  int rolling = 4;
   void Check() const;
   static const pipeline::OptionTable<RigCheckOptions>& Table();
 };
@@ -140,9 +158,11 @@ struct CaptureRigCheck {
 /// hedge (`hedges` from the matcher; empty for a plugin matcher) judged on the frame's rows, its
 /// own rows (its refinement's estimate) and its matched share; `labels` (CV_32S hedge ids) or
 /// `mask` give each hedge's box for the cost of a widened interval.
-/// `expected_disparity_px`: where to start the search (the hedges' median disparity).
+/// `expected_disparity_px`: where to start the search (the hedges' median disparity). `pool`:
+/// a warm pipeline's rows so far (MeasureRowsRolling, when options.rolling > 1); none for one
+/// capture alone.
 CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_rect, const StereoRig& rig,
                                 const std::vector<HedgeMatch>& hedges, const cv::Mat& labels, const cv::Mat& mask,
-                                double expected_disparity_px, const RigCheckOptions& options);
+                                double expected_disparity_px, const RigCheckOptions& options, RowPool* pool = nullptr);
 
 }  // namespace hedgefit::stereo

@@ -31,7 +31,10 @@ const pipeline::OptionTable<SegmentOptions>& SegmentOptions::Table() {
           .Add("fill_holes", &O::fill_holes, "fill holes inside the region")
           .Add("erode", &O::erode_px, "drop this many silhouette pixels", "px").Range(0, 200)
           .Add("green_floor", &O::green_floor, "pixels with 2G-R-B below this are never hedge (0-255 per channel)")
-          .Range(-510, 510);
+          .Range(-510, 510)
+          .Add("coarse", &O::coarse,
+               "find the hedge at half size first, then decide the full-size pixels only in a box about it (the "
+               "half-size split and range; false: the whole frame at full size)");
   return table;
 }
 
@@ -90,17 +93,13 @@ bool IsGrey(const cv::Mat& bgr) {
 
 }  // namespace
 
-cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
-  o.Check();
-  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("stereo.segment: needs a colour (BGR) image");
-  if (IsGrey(bgr)) {
-    throw Error("no hedge found: the image has no colour, so excess green cannot segment it; segment by depth "
-                "inside a box around the hedge (convert --box X,Y,W,H) or give a mask");
-  }
-  // Excess green 2G - R - B in [-510, 510], mapped to 8 bits ([0, 255] ~ ExG / 4 + 127.5):
-  // 8-bit images make the bilateral filter ~3x faster (table-driven range weights), and
-  // Otsu bins 256 levels anyway.
-  // `green`: the pixels at or above the green floor, from the raw (unsmoothed) excess green.
+namespace {
+
+// Excess green 2G - R - B in [-510, 510], mapped to 8 bits ([0, 255] ~ ExG / 4 + 127.5):
+// 8-bit images make the bilateral filter ~3x faster (table-driven range weights), and
+// Otsu bins 256 levels anyway.
+// `green`: the pixels at or above the green floor, from the raw (unsmoothed) excess green.
+void ExcessGreen(const cv::Mat& bgr, double green_floor, cv::Mat* exg_out, cv::Mat* green_out) {
   cv::Mat exg(bgr.size(), CV_8U), green(bgr.size(), CV_8U);
   cv::parallel_for_(cv::Range(0, bgr.rows), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
@@ -110,56 +109,133 @@ cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
       for (int x = 0; x < bgr.cols; ++x) {
         const int e = 2 * p[x][1] - p[x][2] - p[x][0];
         out[x] = std::uint8_t((e + 510) >> 2);
-        g[x] = e >= o.green_floor ? 255 : 0;
+        g[x] = e >= green_floor ? 255 : 0;
       }
     }
   });
-  if (o.bilateral_diameter > 0) {
-    cv::Mat smooth;
-    cv::bilateralFilter(exg, smooth, o.bilateral_diameter, o.bilateral_sigma_color * 255.0, o.bilateral_sigma_space);
-    exg = smooth;
-  }
-  // y = (x + esp)^gamma on x in [0, 1], stretched to the image's own range, as one table.
-  double lo = 0, hi = 0;
-  cv::minMaxLoc(exg, &lo, &hi);
+  *exg_out = exg, *green_out = green;
+}
+
+cv::Mat Bilateral(const cv::Mat& exg, int diameter, double sigma_color, double sigma_space) {
+  if (diameter <= 0) return exg;
+  cv::Mat smooth;
+  cv::bilateralFilter(exg, smooth, diameter, sigma_color * 255.0, sigma_space);
+  return smooth;
+}
+
+// y = (x + esp)^gamma on x in [0, 1], stretched to [lo, hi] (the smoothed image's own range), as one table.
+cv::Mat GammaTable(double lo, double hi, const SegmentOptions& o) {
   auto curve = [&](double level) { return std::pow(std::max(0.0, level / 255.0 + o.esp), o.gamma); };
   const double c_lo = curve(lo), c_hi = curve(hi);
   cv::Mat lut(1, 256, CV_8U);
   for (int i = 0; i < 256; ++i) {
     lut.at<std::uint8_t>(i) = cv::saturate_cast<std::uint8_t>(c_hi > c_lo ? 255.0 * (curve(i) - c_lo) / (c_hi - c_lo) : 0.0);
   }
-  cv::Mat g8;
-  cv::LUT(exg, lut, g8);
-  cv::Mat mask;
-  cv::threshold(g8, mask, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  return lut;
+}
+
+// The hedge's candidate pixels (before the largest region is kept): Otsu's split of the gamma
+// curve of the smoothed excess green, among the green pixels. `green_pixels` gets the number of
+// green pixels; `threshold`, `lo` and `hi` the split (in the table's levels) and the range.
+cv::Mat OtsuMask(const cv::Mat& bgr, const SegmentOptions& o, int* green_pixels, double* threshold, double* lo,
+                 double* hi) {
+  cv::Mat exg, green;
+  ExcessGreen(bgr, o.green_floor, &exg, &green);
+  const cv::Mat smooth = Bilateral(exg, o.bilateral_diameter, o.bilateral_sigma_color, o.bilateral_sigma_space);
+  cv::minMaxLoc(smooth, lo, hi);
+  cv::Mat g8, mask;
+  cv::LUT(smooth, GammaTable(*lo, *hi, o), g8);
+  *threshold = cv::threshold(g8, mask, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
   mask &= green;  // Otsu's split counts only among green pixels
-  if (cv::countNonZero(green) == 0) {
+  *green_pixels = cv::countNonZero(green);
+  return mask;
+}
+
+// SegmentOptions::coarse: the split and the range from the frame at half size (the bilateral
+// filter's diameter and reach halved), then the full-size pixels decided only in a box about the
+// half-size hedge's largest region, 16 px wider each way. The filter reads the frame a radius
+// beyond the box, so within it the smoothed values are the full frame's; outside it nothing is
+// hedge. Empty when the half-size frame has no green or no region: the full-size pass then says why.
+cv::Mat CoarseToFine(const cv::Mat& bgr, const SegmentOptions& o, int* green_pixels, cv::Rect* box) {
+  cv::Mat half;
+  cv::resize(bgr, half, cv::Size(bgr.cols / 2, bgr.rows / 2), 0, 0, cv::INTER_AREA);
+  SegmentOptions h = o;
+  h.bilateral_diameter = o.bilateral_diameter > 0 ? std::max(3, (o.bilateral_diameter / 2) | 1) : 0;
+  h.bilateral_sigma_space = o.bilateral_sigma_space / 2;
+  double threshold = 0, lo = 0, hi = 0;
+  const cv::Mat candidates = OtsuMask(half, h, green_pixels, &threshold, &lo, &hi);
+  if (*green_pixels == 0) return cv::Mat();
+  const cv::Rect region = cv::boundingRect(LargestComponent(candidates));
+  if (region.empty()) return cv::Mat();
+  constexpr int kMarginPx = 16;
+  const cv::Rect frame(0, 0, bgr.cols, bgr.rows);
+  *box = cv::Rect(2 * region.x - kMarginPx, 2 * region.y - kMarginPx, 2 * region.width + 2 * kMarginPx,
+                  2 * region.height + 2 * kMarginPx) &
+         frame;
+  const int reach = o.bilateral_diameter / 2 + 1;
+  const cv::Rect read = cv::Rect(box->x - reach, box->y - reach, box->width + 2 * reach, box->height + 2 * reach) & frame;
+  cv::Mat exg, green;
+  ExcessGreen(bgr(read), o.green_floor, &exg, &green);
+  const cv::Rect in_read(box->x - read.x, box->y - read.y, box->width, box->height);
+  const cv::Mat smooth = Bilateral(exg, o.bilateral_diameter, o.bilateral_sigma_color, o.bilateral_sigma_space)(in_read);
+  cv::Mat g8;
+  cv::LUT(smooth, GammaTable(lo, hi, o), g8);
+  cv::Mat mask = cv::Mat::zeros(bgr.size(), CV_8U);
+  mask(*box).setTo(255, (g8 > threshold) & green(in_read));
+  return mask;
+}
+
+}  // namespace
+
+cv::Mat SegmentHedge(const cv::Mat& bgr, const SegmentOptions& o) {
+  o.Check();
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("stereo.segment: needs a colour (BGR) image");
+  if (IsGrey(bgr)) {
+    throw Error("no hedge found: the image has no colour, so excess green cannot segment it; segment by depth "
+                "inside a box around the hedge (convert --box X,Y,W,H) or give a mask");
+  }
+  cv::Mat mask;
+  int green_pixels = 0;
+  cv::Rect box(0, 0, bgr.cols, bgr.rows);
+  if (o.coarse && bgr.cols >= 256 && bgr.rows >= 256) mask = CoarseToFine(bgr, o, &green_pixels, &box);
+  if (mask.empty()) {
+    SegmentOptions full = o;
+    full.coarse = false;
+    double threshold = 0, lo = 0, hi = 0;
+    mask = OtsuMask(bgr, full, &green_pixels, &threshold, &lo, &hi);
+  }
+  if (green_pixels == 0) {
     throw Error("no hedge found: nothing in the image is green (2G-R-B below green_floor = " +
                 std::to_string(int(std::lround(o.green_floor))) +
                 " everywhere); give a mask (--mask) or a box around the hedge (--box)");
   }
-  if (o.largest_component) mask = LargestComponent(mask);
-  if (o.fill_holes) mask = FillHoles(mask);
+  // Within `box` (the frame, or the coarse pass's box about the hedge: nothing outside it is hedge,
+  // so its largest region, its holes and its erosion are the frame's).
+  cv::Mat inside = mask(box);
+  if (o.largest_component) inside = LargestComponent(inside);
+  if (o.fill_holes) inside = FillHoles(inside);
   // Otsu always splits the image in two, green or not: what it selects must be green, and must
   // not be the whole frame (a green background, or one colour everywhere), or there is no hedge.
-  const int selected = cv::countNonZero(mask);
+  const int selected = cv::countNonZero(inside);
   if (selected == 0) {
     throw Error("no hedge found: excess green selects nothing (one colour everywhere?); give a mask (--mask) or a "
                 "box around the hedge (--box)");
   }
   {
-    cv::Scalar mean_bgr = cv::mean(bgr, mask);
+    cv::Scalar mean_bgr = cv::mean(bgr(box), inside);
     const double mean_exg = 2 * mean_bgr[1] - mean_bgr[2] - mean_bgr[0];
     if (mean_exg < 5.0) {
       throw Error("no hedge found: the region excess green selects is not green (mean 2G-R-B = " +
                   std::to_string(int(std::lround(mean_exg))) + "); give a mask (--mask) or a box around the hedge (--box)");
     }
-    if (selected > 0.95 * double(mask.total())) {
+    if (selected > 0.95 * double(bgr.total())) {
       throw Error("no hedge found: excess green selects the whole frame (a green background?); give a mask "
                   "(--mask) or a box around the hedge (--box)");
     }
   }
-  return ErodeMask(mask, o.erode_px);
+  cv::Mat out = cv::Mat::zeros(bgr.size(), CV_8U);
+  ErodeMask(inside, o.erode_px).copyTo(out(box));
+  return out;
 }
 
 cv::Mat LargestComponent(const cv::Mat& mask) {

@@ -36,6 +36,11 @@ struct SegmentOptions {
   /// splits the image in two, and with a small hedge before a grey wall and brown soil it can
   /// split soil from wall instead of hedge from the rest.
   double green_floor = 20.0;
+  /// The hedge found at half size first (the bilateral filter on a quarter of the pixels, the
+  /// split and the range from there), then the full-size pixels decided only in a box about it:
+  /// the filter's values there are the full frame's, and only the split, from the half-size
+  /// histogram, may differ by a level. On a 1920 x 1200 lab capture 55 against 12 ms.
+  bool coarse = true;
   void Check() const;
   static const pipeline::OptionTable<SegmentOptions>& Table();  ///< the options, declared once
 };

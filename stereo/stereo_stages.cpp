@@ -254,6 +254,7 @@ void AddAutoSegmenter(pipeline::Registry& r) {
             quarter.bilateral_diameter = quarter.bilateral_diameter > 0 ? std::max(1, quarter.bilateral_diameter / 4) : 0;
             quarter.bilateral_sigma_space /= 4;
             quarter.erode_px = 0;
+            quarter.coarse = false;  // a share, from a small frame already
             try {
               const double share = share_of(SegmentHedge(small, quarter));
               if (share > p.garden_above) why = too_much(share);
@@ -386,7 +387,12 @@ void AddRigCheck(pipeline::Registry& r) {
                   "hedge's interval by what a small drift can cost, marks every result unusable when the rig does "
                   "not fit the cameras",
                   TableOptions<RigCheckOptions>(), {"left_image", "right_image", "rig"}, {"input_checks"}, {}},
-        TableFactory<RigCheckOptions>("stereo.rig_check", [](const RigCheckOptions& p, const Options&, Context& ctx) {
+        // Each stage built keeps its own rows over the frames it runs on (a warm pipeline's).
+        [](const Options& o) -> std::unique_ptr<pipeline::Stage> {
+          const RigCheckOptions params = pipeline::CheckedParams(RigCheckOptions::Table().FromOptions(o), "stereo.rig_check");
+          auto pool = std::make_shared<RowPool>();
+          return std::make_unique<pipeline::LambdaStage>(o, [params, pool](const Options&, Context& ctx) {
+          const RigCheckOptions& p = params;
           const bool* rectified = ctx.Find<bool>("rectified");
           if (rectified && !*rectified) {
             throw Error("stage 'stereo.rig_check': the images are not rectified; add stereo.rectify before it");
@@ -398,7 +404,7 @@ void AddRigCheck(pipeline::Registry& r) {
           const CaptureRigCheck c =
               CheckCaptureRig(ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), rig,
                               hedges ? *hedges : std::vector<HedgeMatch>(), labels ? *labels : cv::Mat(),
-                              mask ? *mask : cv::Mat(), ExpectedDisparity(ctx), p);
+                              mask ? *mask : cv::Mat(), ExpectedDisparity(ctx), p, pool.get());
           ctx.Note("rig_check", c.verdict);
           ctx.Note("rig_rows_frame_px", c.rows.max_abs_px);
           ctx.Note("rig_rows_plane_px", c.rows.plane_max_px);
@@ -406,7 +412,8 @@ void AddRigCheck(pipeline::Registry& r) {
           ctx.Note("rig_corners", static_cast<std::int64_t>(c.rows.samples.size()));
           if (c.verdict == "widened") ctx.Put("disparity_perturbation", DisparityErrorPerturbation(rig, c.field));
           ctx.Put("input_checks", c.checks);
-        }));
+          });
+        });
 }
 
 // stereo.reproject: disparity to points
