@@ -1,8 +1,9 @@
 // hedgefit stream: a warm process that measures every hedge of every frame of a stereo source
 // (two cameras or videos, one side-by-side camera or video, or a directory that captures keep
 // arriving in) and prints one JSON line per hedge and frame. The pipeline, its stages (and so
-// the rectification maps) are built once; a grabber thread reads the next frame while the
-// current one is measured; a live source drops frames rather than falling behind, and says so.
+// the rectification maps) are built once; a grabber thread reads the next frame, and the next
+// frame is rectified on the second core while the current one is measured
+// (stereo::OverlappedRunner); a live source drops frames rather than falling behind, and says so.
 
 #include <nlohmann/json.hpp>
 
@@ -23,6 +24,7 @@
 #include "stereo/capture.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
+#include "stereo/overlap.hpp"
 
 namespace hedgefit::apps {
 
@@ -51,6 +53,109 @@ static void PrintStreamSummary(long frames, long dropped_total, double total_ms,
   }
   std::fprintf(stderr, "stream: %ld frames, %ld dropped, %.0f ms per frame (%s ms)\n", frames, dropped_total,
                total_ms / double(std::max(1L, frames)), per_stage.c_str());
+}
+
+// The stream's run: built once, then frame after frame until the source ends.
+static int RunStream(const StreamArgs& a) {
+  PrepareRegistry(true);
+  const pipeline::Registry& registry = pipeline::Registry::Global();
+  const stereo::ConvertOptions o = a.capture.Resolve(registry);
+  std::vector<std::string> fit_stages;
+  for (const auto& name : fitting::ParseMethodList(a.methods, "--method")) {
+    fit_stages.push_back(fitting::FindFitMethod(name, "--method").stage);
+  }
+  const int given = int(!a.left.empty() || !a.right.empty()) + int(!a.side_by_side.empty()) + int(!a.watch.empty());
+  if (given != 1) throw Error("give one source: --left and --right, --side-by-side, or --watch");
+  if (a.watch.empty() && a.side_by_side.empty() && (a.left.empty() || a.right.empty())) {
+    throw Error("--left and --right: give both (video files or camera numbers)");
+  }
+  // Built once: the rig, the pipeline and its stages.
+  const stereo::StereoRig rig = stereo::ReadRig(a.rig);
+  stereo::OverlappedRunner runner(stereo::MeasurePipelineJson(o, fit_stages, !a.no_clean), "stream", registry);
+  std::unique_ptr<io::Source> src;
+  if (!a.watch.empty()) {
+    src = io::WatchDirectory(a.watch, a.idle_s);
+  } else if (!a.side_by_side.empty()) {
+    src = io::OpenSideBySide(a.side_by_side);
+  } else {
+    src = io::OpenVideoPair(a.left, a.right);
+  }
+  io::Grabber grabber(std::move(src), !a.no_drop);
+  long frames = 0, taken = 0, dropped_total = 0, unusable_frames = 0;
+  double total_ms = 0;
+  std::map<std::string, double> stage_ms;
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point last_out = Clock::now();
+  // On the runner's second thread: the next frame, and what its lines will say about it.
+  auto next = [&](cv::Mat* left, cv::Mat* right, pipeline::Context* ctx, std::string* error) {
+    if (a.max_frames != 0 && taken >= a.max_frames) return false;
+    Frame f;
+    long dropped = 0;
+    if (!grabber.Take(&f, &dropped)) return false;
+    json head;
+    head["frame"] = taken++;
+    head["time"] = Rounded(f.time_s);
+    if (!f.name.empty()) head["name"] = f.name;
+    if (dropped) head["dropped"] = dropped;
+    ctx->Put("stream_head", head);
+    ctx->Put("stream_dropped", dropped);
+    ctx->Put("stream_arrived", Clock::now());
+    *error = f.error;
+    *left = f.left, *right = f.right;
+    return true;
+  };
+  // On this thread, in order: the frame's lines.
+  auto done = [&](pipeline::Context& ctx, const pipeline::RunReport& report, const std::string& error) {
+    const json head = ctx.Get<json>("stream_head");
+    dropped_total += ctx.Get<long>("stream_dropped");
+    std::string why = error;
+    if (why.empty()) {
+      try {
+        const MeasureLines m = CollectMeasureLines(ctx, report);
+        const std::string hint = stereo::CaptureHint(ctx);
+        for (const auto& st : report.stages) stage_ms[st.type] += st.wall_ms;
+        unusable_frames += stereo::CaptureUnusable(ctx);
+        for (const auto& line : m.lines) {
+          json j = head;
+          for (const auto& [k, v] : line.items()) j[k] = v;
+          if (!hint.empty()) j["warning"] = hint;
+          std::printf("%s\n", j.dump().c_str());
+        }
+      } catch (const Error& e) {
+        why = e.what();
+      }
+    }
+    if (!why.empty()) {
+      json j = head;
+      j["hedges"] = 0;
+      j["message"] = why;
+      std::printf("%s\n", j.dump().c_str());
+    }
+    std::fflush(stdout);
+    // The time per frame at the output: since the previous frame's lines, or since this frame
+    // arrived when the stream was waiting for it.
+    const Clock::time_point now = Clock::now();
+    total_ms += std::chrono::duration<double, std::milli>(now - std::max(last_out, ctx.Get<Clock::time_point>("stream_arrived"))).count();
+    last_out = now;
+    ++frames;
+  };
+  runner.Run(rig, next, done);
+  if (frames == 0) {
+    char idle[32];
+    std::snprintf(idle, sizeof(idle), "%g", a.idle_s);
+    const std::string source = !a.watch.empty() ? "--watch " + a.watch + ": no capture arrived within " + idle +
+                                                       " s (--idle-timeout)"
+                             : !a.side_by_side.empty() ? "--side-by-side " + a.side_by_side + ": no frame could be read"
+                                                        : "--left " + a.left + ": no frame pair could be read";
+    throw ProcessingError(source);
+  }
+  PrintStreamSummary(frames, dropped_total, total_ms, stage_ms);
+  if (unusable_frames > 0) {
+    std::fprintf(stderr, "hedgefit: warning: stream: %ld of %ld frames gave unusable results (their lines say why)\n",
+                 unusable_frames, frames);
+    return kExitUnusable;
+  }
+  return frames > 0 ? kExitOk : kExitProcessing;
 }
 
 void AddStreamCommand(CLI::App& app, CommandFn* run) {
@@ -82,90 +187,7 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
   cmd->add_flag("--no-drop", a->no_drop, "measure every frame of a camera or directory, however far behind");
   a->capture.Add(cmd);
   GroupFlags(cmd, {{"Inputs", {"--rig", "--left", "--right", "--side-by-side", "--watch", "--idle-timeout", "--max-frames", "--no-drop"}}, {"Fitting", {"--method", "--no-clean"}}});
-  cmd->callback([=]() {
-    *run = [=]() {
-      PrepareRegistry(true);
-      const pipeline::Registry& registry = pipeline::Registry::Global();
-      const stereo::ConvertOptions o = a->capture.Resolve(registry);
-      std::vector<std::string> fit_stages;
-      for (const auto& name : fitting::ParseMethodList(a->methods, "--method")) {
-        fit_stages.push_back(fitting::FindFitMethod(name, "--method").stage);
-      }
-      const int given = int(!a->left.empty() || !a->right.empty()) + int(!a->side_by_side.empty()) + int(!a->watch.empty());
-      if (given != 1) throw Error("give one source: --left and --right, --side-by-side, or --watch");
-      if (a->watch.empty() && a->side_by_side.empty() && (a->left.empty() || a->right.empty())) {
-        throw Error("--left and --right: give both (video files or camera numbers)");
-      }
-      // Built once: the rig, the pipeline and its stages.
-      const stereo::StereoRig rig = stereo::ReadRig(a->rig);
-      pipeline::Pipeline p = pipeline::Pipeline::FromJson(stereo::MeasurePipelineJson(o, fit_stages, !a->no_clean), "stream",
-                                                    registry, {}, {"left_image", "right_image", "rig"});
-      std::unique_ptr<io::Source> src;
-      if (!a->watch.empty()) {
-        src = io::WatchDirectory(a->watch, a->idle_s);
-      } else if (!a->side_by_side.empty()) {
-        src = io::OpenSideBySide(a->side_by_side);
-      } else {
-        src = io::OpenVideoPair(a->left, a->right);
-      }
-      io::Grabber grabber(std::move(src), !a->no_drop);
-      long frames = 0, dropped_total = 0, unusable_frames = 0;
-      double total_ms = 0;
-      std::map<std::string, double> stage_ms;
-      Frame f;
-      long dropped = 0;
-      while ((a->max_frames == 0 || frames < a->max_frames) && grabber.Take(&f, &dropped)) {
-        dropped_total += dropped;
-        json head;
-        head["frame"] = frames;
-        head["time"] = Rounded(f.time_s);
-        if (!f.name.empty()) head["name"] = f.name;
-        if (dropped) head["dropped"] = dropped;
-        pipeline::Context ctx;
-        ctx.quiet = true;
-        const auto t0 = std::chrono::steady_clock::now();
-        try {
-          if (!f.error.empty()) throw Error(f.error);
-          stereo::PutCapture(f.left, f.right, rig, &ctx);
-          const pipeline::RunReport report = p.Run(ctx);
-          for (const auto& s : report.stages) stage_ms[s.type] += s.wall_ms;
-          const MeasureLines m = CollectMeasureLines(ctx, report);
-          const std::string hint = stereo::CaptureHint(ctx);
-          unusable_frames += stereo::CaptureUnusable(ctx);
-          for (const auto& line : m.lines) {
-            json j = head;
-            for (const auto& [k, v] : line.items()) j[k] = v;
-            if (!hint.empty()) j["warning"] = hint;
-            std::printf("%s\n", j.dump().c_str());
-          }
-        } catch (const Error& e) {
-          json j = head;
-          j["hedges"] = 0;
-          j["message"] = e.what();
-          std::printf("%s\n", j.dump().c_str());
-        }
-        std::fflush(stdout);
-        total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        ++frames;
-      }
-      if (frames == 0) {
-        char idle[32];
-        std::snprintf(idle, sizeof(idle), "%g", a->idle_s);
-        const std::string source = !a->watch.empty() ? "--watch " + a->watch + ": no capture arrived within " + idle +
-                                                           " s (--idle-timeout)"
-                                 : !a->side_by_side.empty() ? "--side-by-side " + a->side_by_side + ": no frame could be read"
-                                                            : "--left " + a->left + ": no frame pair could be read";
-        throw ProcessingError(source);
-      }
-      PrintStreamSummary(frames, dropped_total, total_ms, stage_ms);
-      if (unusable_frames > 0) {
-        std::fprintf(stderr, "hedgefit: warning: stream: %ld of %ld frames gave unusable results (their lines say why)\n",
-                     unusable_frames, frames);
-        return kExitUnusable;
-      }
-      return frames > 0 ? kExitOk : kExitProcessing;
-    };
-  });
+  cmd->callback([=]() { *run = [=]() { return RunStream(*a); }; });
 }
 
 }  // namespace hedgefit::apps

@@ -1,99 +1,235 @@
-// Capture to sphere, per 1920x1200 pair: hedgefit's path (rectify, segment, improved SGBM
-// on the hedge's region over the working-range disparities, reproject, RANSAC + geometric
-// fit) beside the paper's method on stock OpenCV (SGBM MODE_HH over the full frame with 128
-// disparities, plus a right matcher for the left-right check), in one run.
-// Usage: bench_capture [--repeats N]
+// Capture to spheres, per 1920 x 1200 pair, in one run and on the same images:
+//  - the paper's method on stock OpenCV (rectify, SGBM MODE_HH over the full frame with 128
+//    disparities, plus a right matcher for the left-right check);
+//  - hedgefit's warm `stream` / `measure` pipeline as it was in 0.7.0 (stereo::ReferenceOptions:
+//    the options that restore 0.7.0's work), taking turns frame by frame with today's;
+//  - today's warm pipeline, frame after frame (latency per frame);
+//  - today's `stream`: the next frame's rectification overlapped with this frame's measurement
+//    on the second core (time per frame at the output).
+// Per path and stage: median and 95th percentile over --frames frames. Two scenes: the lab
+// capture (one ball, r 300 mm at 2.3 m, hedgefit's renderer) and a garden row of three (preset
+// "row": r 450-600 mm at 2.1-2.7 m, a pot in front).
+// Usage: bench_capture [--frames N] [--stock-frames N] [--scenes lab,row] [--method M]
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/ximgproc/disparity_filter.hpp>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
-#include "bench/bench_util.hpp"
 #include "cloud/cloud_stages.hpp"
-#include "pipeline/pipeline.hpp"
-#include "pipeline/registry.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
-#include "stereo/capture.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/registry.hpp"
 #include "sim/simulator.hpp"
+#include "stereo/capture.hpp"
+#include "stereo/overlap.hpp"
 #include "stereo/stereo_stages.hpp"
 
-int main(int argc, char** argv) {
-  using namespace hedgefit;
-  int repeats = 3;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (std::string(argv[i]) == "--repeats") repeats = std::atoi(argv[i + 1]);
-  }
+namespace {
+
+using namespace hedgefit;
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// The q-quantile (nearest rank) of `v`.
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t i = std::min(v.size() - 1, std::size_t(std::ceil(q * double(v.size())) - 1));
+  return v[std::max<std::size_t>(0, i)];
+}
+
+struct Timings {
+  std::vector<double> total;
+  std::map<std::string, std::vector<double>> stages;
+  std::string radii;  // the last frame's fitted radii, mm
+};
+
+struct Scene {
+  std::string name, what;
+  cv::Mat left, right;
+  stereo::StereoRig rig;
+};
+
+std::vector<Scene> MakeScenes(const std::vector<std::string>& names) {
   const sim::SimRig sim = sim::PaperRig(1.0);
-  sim::SphereScene scene;
-  scene.center = cv::Vec3d(70, 50, 2300);
   sim::RenderOptions ro;
   ro.supersample = 2;
-  const cv::Mat left = sim::RenderSphere(sim, false, scene, ro), right = sim::RenderSphere(sim, true, scene, ro);
-  const stereo::StereoRig rig = sim::RigFromSimulation(sim);
+  std::vector<Scene> out;
+  for (const std::string& name : names) {
+    Scene s;
+    s.name = name;
+    s.rig = sim::RigFromSimulation(sim);
+    if (name == "lab") {
+      sim::SphereScene scene;
+      scene.center = cv::Vec3d(70, 50, 2300);
+      s.what = "lab capture: one ball, r 300 mm at 2.3 m";
+      s.left = sim::RenderSphere(sim, false, scene, ro), s.right = sim::RenderSphere(sim, true, scene, ro);
+    } else if (name == "row") {
+      const sim::GardenScene scene = sim::GardenPreset("row");
+      s.what = "garden row of three: r 450, 520, 600 mm at 2.3-2.7 m";
+      s.left = sim::RenderGarden(sim, false, scene, ro), s.right = sim::RenderGarden(sim, true, scene, ro);
+    } else {
+      std::fprintf(stderr, "bench_capture: --scenes: unknown scene '%s' (lab, row)\n", name.c_str());
+      std::exit(2);
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
 
-  double radius = 0;
-  std::size_t points = 0;
-  double fraction = 0;
-  decltype(stereo::ConvertResult::stage_ms) stages{};
-  const double ours = bench::MedianMs(repeats, [&] {
-    const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, stereo::ConvertOptions{});
-    std::vector<Eigen::Vector3d> pts;
-    for (const auto& p : res.cloud.points_mm) pts.push_back(p.cast<double>());
-    radius = fitting::RunFitMethod("ransac_ray", pts,
-                                   {{"distance_threshold", 15.0}, {"min_radius", 100.0}, {"max_radius", 1000.0}})
-                 .sphere.radius_mm;
-    points = pts.size();
-    fraction = res.matched_fraction;
-    stages = res.stage_ms;
+std::string Radii(pipeline::Context& ctx) {
+  std::ostringstream os;
+  os.precision(5);
+  if (const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
+    for (const auto& f : *fits) os << (os.tellp() > 0 ? " " : "") << f.sphere.radius_mm;
+  }
+  return os.str();
+}
+
+// Warm pipelines, one per set of options, each run frame after frame: each frame's latency. The
+// pipelines take turns frame by frame (A B A B ...), so a busy moment of the machine costs each alike.
+std::vector<Timings> WarmFrames(const Scene& s, const std::vector<stereo::ConvertOptions>& options,
+                                const std::vector<std::string>& fits, int frames, const pipeline::Registry& registry) {
+  std::vector<pipeline::Pipeline> pipelines;
+  for (const auto& o : options) {
+    pipelines.push_back(pipeline::Pipeline::FromJson(stereo::MeasurePipelineJson(o, fits, true), "measure", registry, {},
+                                                     {"left_image", "right_image", "rig"}));
+  }
+  std::vector<Timings> out(pipelines.size());
+  for (int i = 0; i < frames + 1; ++i) {  // the first frame builds the rectification maps: not counted
+    for (std::size_t k = 0; k < pipelines.size(); ++k) {
+      Timings& t = out[k];
+      pipeline::Context ctx;
+      ctx.quiet = true;
+      const auto t0 = Clock::now();
+      stereo::PutCapture(s.left, s.right, s.rig, &ctx);
+      const pipeline::RunReport report = pipelines[k].Run(ctx);
+      const double ms = Ms(t0);
+      if (i == 0) continue;
+      t.total.push_back(ms);
+      std::map<std::string, double> per;
+      for (const auto& st : report.stages) per[st.type] += st.wall_ms;
+      for (const auto& [name, v] : per) t.stages[name].push_back(v);
+      t.radii = Radii(ctx);
+    }
+  }
+  return out;
+}
+
+// `stream`'s loop: stereo::OverlappedRunner rectifies frame N + 1 on the second core while frame N
+// is measured; the time per frame is between consecutive results.
+Timings StreamFrames(const Scene& s, const stereo::ConvertOptions& o, const std::vector<std::string>& fits, int frames,
+                     const pipeline::Registry& registry) {
+  stereo::OverlappedRunner runner(stereo::MeasurePipelineJson(o, fits, true), "stream", registry);
+  Timings t;
+  int fed = 0;
+  auto next = [&](cv::Mat* l, cv::Mat* r, pipeline::Context*, std::string*) {
+    if (fed >= frames + 1) return false;
+    *l = s.left, *r = s.right;
+    ++fed;
+    return true;
+  };
+  auto last = Clock::now();
+  int done = 0;
+  runner.Run(s.rig, next, [&](pipeline::Context& ctx, const pipeline::RunReport& report, const std::string& error) {
+    if (!error.empty()) std::fprintf(stderr, "bench_capture: %s\n", error.c_str());
+    const double ms = Ms(last);
+    last = Clock::now();
+    if (done++ == 0) return;  // the first frame builds the rectification maps
+    t.total.push_back(ms);
+    std::map<std::string, double> per;
+    for (const auto& st : report.stages) per[st.type] += st.wall_ms;
+    for (const auto& [k, v] : per) t.stages[k].push_back(v);
+    t.radii = Radii(ctx);
   });
-  // `hedgefit stream` / `measure`'s path in a warm process: the measure pipeline (capture
-  // stages, default cleaning, ransac_ray) built once, run per frame.
-  pipeline::Registry registry;
-  cloud::RegisterCloudStages(registry);
-  stereo::RegisterStereoStages(registry);
-  fitting::RegisterFittingStages(registry);
-  pipeline::Pipeline measure =
-      pipeline::Pipeline::FromJson(stereo::MeasurePipelineJson(stereo::ConvertOptions{}, {"fitters.ransac_ray"}, true),
-                                "measure", registry, {}, {"left_image", "right_image", "rig"});
-  std::map<std::string, double> measure_stages;
-  double measured_radius = 0;
-  const double warm = bench::MedianMs(repeats, [&] {
-    pipeline::Context ctx;
-    ctx.quiet = true;
-    stereo::PutCapture(left, right, rig, &ctx);
-    const pipeline::RunReport report = measure.Run(ctx);
-    for (const auto& s : report.stages) measure_stages[s.type] = s.wall_ms;
-    measured_radius = ctx.Get<std::vector<fitting::SphereFitResult>>("fits").back().sphere.radius_mm;
-  });
-  const double stock = bench::MedianMs(repeats, [&] {
+  return t;
+}
+
+Timings StockFrames(const Scene& s, int frames) {
+  Timings t;
+  for (int i = 0; i < frames; ++i) {
+    const auto t0 = Clock::now();
     cv::Mat lr, rr;
-    stereo::RectifyPair(rig, left, right, &lr, &rr);
+    stereo::RectifyPair(s.rig, s.left, s.right, &lr, &rr);
+    t.stages["rectify (cv::remap)"].push_back(Ms(t0));
+    const auto t1 = Clock::now();
     auto sgbm = cv::StereoSGBM::create(0, 128, 5, 8 * 3 * 25, 32 * 3 * 25, -1, 0, 10, 0, 0, cv::StereoSGBM::MODE_HH);
     auto right_matcher = cv::ximgproc::createRightMatcher(sgbm);
     cv::Mat dl, dr;
     sgbm->compute(lr, rr, dl);
     right_matcher->compute(rr, lr, dr);
-  });
-  std::printf("capture to sphere, 1920x1200 pair, median of %d runs, %u hardware threads\n", repeats,
-              std::thread::hardware_concurrency());
-  std::printf("%-62s %10s %8s\n", "path", "ms/pair", "speed-up");
-  std::printf("%-62s %10.0f %8s\n", "stock OpenCV: rectify + SGBM HH full frame, 128 disp + right matcher", stock, "1.0x");
-  std::printf("%-62s %10.0f %7.1fx\n", "hedgefit: rectify, segment, region SGBM + LRC + refine, fit", ours, stock / ours);
-  std::printf("%-62s %10.0f %7.1fx\n", "hedgefit stream/measure: warm pipeline incl. cleaning, one frame", warm,
-              stock / warm);
-  std::printf("hedgefit matched %.1f %% of the frame, %zu points, fitted r = %.2f mm (true 300)\n", 100 * fraction,
-              points, radius);
-  std::printf("hedgefit stages (last run): rectify %.0f ms, segment %.0f ms, match + refine %.0f ms, reproject %.0f ms, "
-              "fit the rest\n",
-              stages.rectify, stages.segment, stages.match, stages.reproject);
-  std::printf("stream/measure stages (last run), r = %.2f mm:", measured_radius);
-  for (const auto& [type, ms] : measure_stages) std::printf(" %s %.0f ms,", type.c_str(), ms);
-  std::printf("\n");
+    t.stages["SGBM HH, 128 disp + right matcher"].push_back(Ms(t1));
+    t.total.push_back(Ms(t0));
+  }
+  return t;
+}
+
+void Print(const char* path, const Timings& t, double stock_median) {
+  const double med = Quantile(t.total, 0.5);
+  std::printf("%-44s %8.0f %8.0f %6zu %7.1fx\n", path, med, Quantile(t.total, 0.95), t.total.size(),
+              stock_median / med);
+  for (const auto& [stage, v] : t.stages) {
+    std::printf("  %-42s %8.1f %8.1f\n", stage.c_str(), Quantile(v, 0.5), Quantile(v, 0.95));
+  }
+  if (!t.radii.empty()) std::printf("  fitted radii, mm: %s\n", t.radii.c_str());
+}
+
+std::vector<std::string> Split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames = 20, stock_frames = 3;
+  std::string scenes = "lab,row", method = "ransac_ray";
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--frames" || a == "--repeats") frames = std::max(1, std::atoi(argv[i + 1]));
+    else if (a == "--stock-frames") stock_frames = std::max(0, std::atoi(argv[i + 1]));
+    else if (a == "--scenes") scenes = argv[i + 1];
+    else if (a == "--method") method = argv[i + 1];
+    else {
+      std::fprintf(stderr, "bench_capture: unknown option %s (--frames, --stock-frames, --scenes, --method)\n", a.c_str());
+      return 2;
+    }
+  }
+  pipeline::Registry registry;
+  cloud::RegisterCloudStages(registry);
+  stereo::RegisterStereoStages(registry);
+  fitting::RegisterFittingStages(registry);
+  const std::vector<std::string> fits = {fitting::FindFitMethod(method, "--method").stage};
+  std::printf("capture to spheres, 1920 x 1200 pairs (hedgefit's renderer), %u hardware threads; fit: %s; ms per frame\n",
+              std::thread::hardware_concurrency(), method.c_str());
+  for (const Scene& s : MakeScenes(Split(scenes))) {
+    std::printf("\n%s\n%-44s %8s %8s %6s %8s\n", s.what.c_str(), "path / stage", "median", "p95", "frames", "speed-up");
+    const Timings stock = StockFrames(s, stock_frames);
+    const double stock_med = stock.total.empty() ? 0 : Quantile(stock.total, 0.5);
+    if (stock_frames > 0) Print("stock OpenCV (the paper's method)", stock, stock_med);
+    const std::vector<Timings> warm =
+        WarmFrames(s, {stereo::ReferenceOptions(), stereo::ConvertOptions{}}, fits, frames, registry);
+    Print("hedgefit 0.7.0's path (ReferenceOptions), warm", warm[0], stock_med);
+    Print("hedgefit, warm pipeline, one frame at a time", warm[1], stock_med);
+    std::printf("%-44s %8.2f\n", "  ratio of medians, 0.7.0's path / today's",
+                Quantile(warm[0].total, 0.5) / Quantile(warm[1].total, 0.5));
+    Print("hedgefit stream: next frame rectified alongside", StreamFrames(s, stereo::ConvertOptions{}, fits, frames, registry),
+          stock_med);
+  }
   return 0;
 }

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <pcl/pcl_config.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -245,8 +246,11 @@ Pipeline Pipeline::FromJson(const std::string& json_text, const std::string& sou
   return pipeline;
 }
 
-RunReport Pipeline::Run(Context& ctx) {
+RunReport Pipeline::Run(Context& ctx) { return Run(ctx, 0, stages_.size()); }
+
+RunReport Pipeline::Run(Context& ctx, std::size_t first, std::size_t end) {
   RunReport report;
+  end = std::min(end, stages_.size());
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   // Outputs are staged beside their targets and renamed into place only when every stage
@@ -262,7 +266,8 @@ RunReport Pipeline::Run(Context& ctx) {
       ctx.stage_outputs = false;
     }
   } discard{ctx};
-  for (auto& s : stages_) {
+  for (std::size_t i = first; i < end; ++i) {
+    PlannedStage& s = stages_[i];
     StageReport r;
     r.label = s.label;
     r.type = s.type;

@@ -47,6 +47,10 @@ class Pipeline {
 
   /// Runs every stage in order. Throws Error (with the stage's name) on failure.
   RunReport Run(Context& ctx);
+  /// Runs stages [first, end) only: a caller that overlaps frames runs a pipeline's head for the
+  /// next frame while this frame's tail runs (stereo::OverlappedRunner). Outputs staged by these
+  /// stages are renamed into place when they have all succeeded.
+  RunReport Run(Context& ctx, std::size_t first, std::size_t end);
 
   const std::vector<PlannedStage>& stages() const { return stages_; }
 

@@ -352,6 +352,14 @@ void ConvertOptions::Check() const {
   if (matcher.empty()) throw Error("option 'matcher': name the matching stage, e.g. stereo.sgbm");
 }
 
+ConvertOptions ReferenceOptions() {
+  ConvertOptions o;
+  o.reference_cleaning = true;
+  o.rig_check.rolling = 1;
+  o.segment.coarse = false;
+  return o;
+}
+
 std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left, const std::string& right,
                                 const std::string& rig, const std::string& output) {
   using nlohmann::json;
@@ -396,7 +404,10 @@ std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector
   using nlohmann::json;
   json p = json::parse(CapturePipelineJson(options, left, right, rig));
   if (clean) {
-    for (const auto& stage : json::parse(cloud::DefaultCleaningJson())) p.push_back(stage);
+    for (auto stage : json::parse(cloud::DefaultCleaningJson())) {
+      if (options.reference_cleaning && stage["type"] == "filters.hedge_outlier") stage["neighbours"] = "space";
+      p.push_back(stage);
+    }
   }
   // The envelope fit also fits each hedge's outline, measured about a first fit to the cleaned points.
   if (std::find(fit_stages.begin(), fit_stages.end(), "fitters.envelope") != fit_stages.end()) {

@@ -141,8 +141,15 @@ struct ConvertOptions {
   std::string matcher = "stereo.sgbm";
   RigCheckOptions rig_check;  ///< stereo.rig_check, after the matcher
   ReprojectOptions reproject;
+  /// MeasurePipelineJson's cleaning searches every point's neighbours in 3-D, as 0.7.0 did
+  /// (ReferenceOptions), not on the image grid.
+  bool reference_cleaning = false;
   void Check() const;
 };
+
+/// The options that restore hedgefit 0.7.0's capture path, before the speed work of 0.8.0
+/// (`bench_capture` times both): the same results within the accuracy tables' 0.05 mm, slower.
+ConvertOptions ReferenceOptions();
 
 /// The capture path as a pipeline (JSON array of stages): readers.stereo with these files
 /// when `left` is not empty, then stereo.rectify, the segmentation stage, stereo.sgbm,

@@ -21,6 +21,9 @@
 #include "stereo/image_io.hpp"
 #include "sim/simulator.hpp"
 #include "stereo/stereo_stages.hpp"
+#include "stereo/overlap.hpp"
+#include "fitting/fitting_stages.hpp"
+#include "fitting/methods.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
@@ -43,6 +46,9 @@ TEST(Capture, ReprojectedPointsAreInTheUnrectifiedLeftFrame) {
   ReprojectOptions o;
   const cloud::PointCloud pc = Reproject(disparity, cv::Mat(), left, rig, o);
   ASSERT_EQ(pc.size(), 1u);
+  // The pixel it was measured at, for neighbours on the image grid (the cleaning's).
+  EXPECT_EQ(pc.fields.at(cloud::kPixelUField).at(0), float(u));
+  EXPECT_EQ(pc.fields.at(cloud::kPixelVField).at(0), float(v));
   const cv::Point3d p(pc.points_mm[0].x(), pc.points_mm[0].y(), pc.points_mm[0].z());
   EXPECT_NEAR(p.z, 2200, 150);
   std::vector<cv::Point2d> pl, pr;
@@ -206,6 +212,67 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
 
 // Excess green's Otsu split selects something in any colour image: a blue checkerboard or a
 // frame that is green everywhere must be "no hedge", not a hedge filling the frame.
+// `stream`'s frames overlapped (stereo::OverlappedRunner): the rectification of frame N + 1 runs
+// while frame N is measured, and each frame comes out, in order, exactly as the same pipeline
+// gives it one frame at a time (the stages are deterministic: RANSAC is seeded), with what the
+// source put in its context. A frame that cannot be measured (an empty right image) or read says
+// why, and the frames after it are measured.
+TEST(Capture, OverlappedFramesGiveWhatOneAtATimeGives) {
+  const SimRig sim = PaperRig(0.5);
+  SphereScene scene;
+  scene.center = cv::Vec3d(70, 50, 2300);
+  const cv::Mat l = RenderSphere(sim, false, scene), r = RenderSphere(sim, true, scene);
+  const StereoRig rig = TrueRig(sim);
+  Registry registry;
+  cloud::RegisterCloudStages(registry);
+  RegisterStereoStages(registry);
+  fitting::RegisterFittingStages(registry);
+  const std::string json = MeasurePipelineJson(ConvertOptions{}, {"fitters.ransac_ray"}, true);
+  Pipeline alone = Pipeline::FromJson(json, "test", registry, {}, {"left_image", "right_image", "rig"});
+  Context ctx;
+  ctx.quiet = true;
+  PutCapture(l, r, rig, &ctx);
+  alone.Run(ctx);
+  const fitting::Sphere expected = ctx.Get<std::vector<fitting::SphereFitResult>>("fits").back().sphere;
+  ASSERT_NEAR(expected.radius_mm, 300, 3);  // a fit at all: 300 mm within the half-size rig's few mm
+
+  OverlappedRunner runner(json, "test", registry);
+  EXPECT_EQ(runner.head(), 1u);  // stereo.rectify
+  int given = 0;
+  std::vector<std::string> errors;
+  std::vector<double> radii;
+  const long frames = runner.Run(
+      rig,
+      [&](cv::Mat* left, cv::Mat* right, Context* c, std::string* error) {
+        if (given == 5) return false;
+        c->Put("frame", given);
+        if (given == 4) {
+          *error = "unreadable";  // a frame the source could not read
+        } else {
+          *left = l;
+          *right = given == 1 ? cv::Mat() : r;
+        }
+        ++given;
+        return true;
+      },
+      [&](Context& c, const RunReport& report, const std::string& error) {
+        EXPECT_EQ(c.Get<int>("frame"), int(errors.size()));  // in order, each with its own context
+        errors.push_back(error);
+        radii.push_back(error.empty() ? c.Get<std::vector<fitting::SphereFitResult>>("fits").back().sphere.radius_mm : 0);
+        if (error.empty()) {
+          EXPECT_EQ(report.stages.size(), runner.pipeline().stages().size());
+        }
+      });
+  EXPECT_EQ(frames, 5);
+  ASSERT_EQ(errors.size(), 5u);
+  for (int i : {0, 2, 3}) {
+    EXPECT_EQ(errors[std::size_t(i)], "") << i;
+    EXPECT_EQ(radii[std::size_t(i)], expected.radius_mm) << i;
+  }
+  EXPECT_NE(errors[1], "");
+  EXPECT_EQ(errors[4], "unreadable");
+}
+
 TEST(Capture, ColourSegmentationRefusesNonGreenAndWholeFrameRegions) {
   cv::Mat board(240, 320, CV_8UC3);
   for (int y = 0; y < board.rows; ++y) {
@@ -419,6 +486,9 @@ TEST(ReadCaptureImage, FilesCutShortAreRefused) {
 #include "pipeline/pipeline.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "stereo/stereo_stages.hpp"
+#include "stereo/overlap.hpp"
+#include "fitting/fitting_stages.hpp"
+#include "fitting/methods.hpp"
 
 namespace hedgefit::stereo {
 namespace {
