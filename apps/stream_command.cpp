@@ -2,7 +2,7 @@
 // (two cameras or videos, one side-by-side camera or video, or a directory that captures keep
 // arriving in) and prints one JSON line per hedge and frame. The pipeline, its stages (and so
 // the rectification maps) are built once; a grabber thread reads the next frame, and the next
-// frame is rectified on the second core while the current one is measured
+// frame is rectified and segmented on the second core while the current one is measured
 // (stereo::OverlappedRunner); a live source drops frames rather than falling behind, and says so.
 
 #include <nlohmann/json.hpp>

@@ -4,8 +4,8 @@
 //  - hedgefit's warm `stream` / `measure` pipeline as it was in 0.7.0 (stereo::ReferenceOptions:
 //    the options that restore 0.7.0's work), taking turns frame by frame with today's;
 //  - today's warm pipeline, frame after frame (latency per frame);
-//  - today's `stream`: the next frame's rectification overlapped with this frame's measurement
-//    on the second core (time per frame at the output).
+//  - today's `stream`: the next frame's rectification and segmentation overlapped with this
+//    frame's measurement on the second core (time per frame at the output).
 // Per path and stage: median and 95th percentile over --frames frames. Two scenes: the lab
 // capture (one ball, r 300 mm at 2.3 m, hedgefit's renderer) and a garden row of three (preset
 // "row": r 450-600 mm at 2.1-2.7 m, a pot in front).
@@ -127,8 +127,8 @@ std::vector<Timings> WarmFrames(const Scene& s, const std::vector<stereo::Conver
   return out;
 }
 
-// `stream`'s loop: stereo::OverlappedRunner rectifies frame N + 1 on the second core while frame N
-// is measured; the time per frame is between consecutive results.
+// `stream`'s loop: stereo::OverlappedRunner rectifies and segments frame N + 1 on the second core
+// while frame N is measured; the time per frame is between consecutive results.
 Timings StreamFrames(const Scene& s, const stereo::ConvertOptions& o, const std::vector<std::string>& fits, int frames,
                      const pipeline::Registry& registry) {
   stereo::OverlappedRunner runner(stereo::MeasurePipelineJson(o, fits, true), "stream", registry);
@@ -228,7 +228,7 @@ int main(int argc, char** argv) {
     Print("hedgefit, warm pipeline, one frame at a time", warm[1], stock_med);
     std::printf("%-44s %8.2f\n", "  ratio of medians, 0.7.0's path / today's",
                 Quantile(warm[0].total, 0.5) / Quantile(warm[1].total, 0.5));
-    Print("hedgefit stream: next frame rectified alongside", StreamFrames(s, stereo::ConvertOptions{}, fits, frames, registry),
+    Print("hedgefit stream: next frame prepared alongside", StreamFrames(s, stereo::ConvertOptions{}, fits, frames, registry),
           stock_med);
   }
   return 0;

@@ -11,12 +11,20 @@ namespace hedgefit::stereo {
 OverlappedRunner::OverlappedRunner(const std::string& pipeline_json, const std::string& source,
                                    const pipeline::Registry& registry)
     : pipeline_(pipeline::Pipeline::FromJson(pipeline_json, source, registry, {}, {"left_image", "right_image", "rig"})) {
-  // The head: every stage up to and including the rectification. What follows reads the
-  // rectified pair (segmentation, matching), so it waits for this frame's head, not the next's.
+  // The head: the leading stages that read only the frame's own images and rig (a reader, the
+  // rectification, the segmentation), up to the matcher. They touch nothing shared, so the next
+  // frame's can run beside this frame's rest.
   const auto& stages = pipeline_.stages();
-  for (std::size_t i = 0; i < stages.size(); ++i) {
-    if (stages[i].type == "stereo.rectify") head_ = i + 1;
+  auto ahead = [](const std::string& type) {
+    return type.rfind("readers.", 0) == 0 || type == "stereo.rectify" || type.rfind("stereo.segment", 0) == 0 ||
+           type == "stereo.mask";
+  };
+  bool rectified = false;
+  for (std::size_t i = 0; i < stages.size() && ahead(stages[i].type); ++i) {
+    rectified = rectified || stages[i].type == "stereo.rectify";
+    head_ = i + 1;
   }
+  if (!rectified) head_ = 0;  // a pipeline of its own making: nothing is overlapped
 }
 
 namespace {

@@ -1,6 +1,7 @@
 #pragma once
-/// Frames overlapped on two cores: the head of a capture pipeline (its stages up to and including
-/// stereo.rectify) runs for frame N + 1 on a second thread while the rest runs for frame N.
+/// Frames overlapped on two cores: the head of a capture pipeline (its leading reader,
+/// rectification and segmentation stages) runs for frame N + 1 on a second thread while the rest
+/// (matching, cleaning, fitting) runs for frame N.
 /// Results come out in order; each frame's report holds every stage's time.
 
 #include <opencv2/core.hpp>

@@ -212,8 +212,8 @@ TEST(Capture, SimulatedSphereConvertsAndFits) {
 
 // Excess green's Otsu split selects something in any colour image: a blue checkerboard or a
 // frame that is green everywhere must be "no hedge", not a hedge filling the frame.
-// `stream`'s frames overlapped (stereo::OverlappedRunner): the rectification of frame N + 1 runs
-// while frame N is measured, and each frame comes out, in order, exactly as the same pipeline
+// `stream`'s frames overlapped (stereo::OverlappedRunner): the rectification and segmentation of
+// frame N + 1 run while frame N is measured, and each frame comes out, in order, exactly as the same pipeline
 // gives it one frame at a time (the stages are deterministic: RANSAC is seeded), with what the
 // source put in its context. A frame that cannot be measured (an empty right image) or read says
 // why, and the frames after it are measured.
@@ -237,7 +237,7 @@ TEST(Capture, OverlappedFramesGiveWhatOneAtATimeGives) {
   ASSERT_NEAR(expected.radius_mm, 300, 3);  // a fit at all: 300 mm within the half-size rig's few mm
 
   OverlappedRunner runner(json, "test", registry);
-  EXPECT_EQ(runner.head(), 1u);  // stereo.rectify
+  EXPECT_EQ(runner.head(), 2u);  // stereo.rectify, stereo.segment_auto
   int given = 0;
   std::vector<std::string> errors;
   std::vector<double> radii;
