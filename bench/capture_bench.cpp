@@ -49,10 +49,28 @@ double Quantile(std::vector<double> v, double q) {
   return v[std::max<std::size_t>(0, i)];
 }
 
+std::string Radii(pipeline::Context& ctx) {
+  std::ostringstream os;
+  os.precision(5);
+  if (const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
+    for (const auto& f : *fits) os << (os.tellp() > 0 ? " " : "") << f.sphere.radius_mm;
+  }
+  return os.str();
+}
+
 struct Timings {
   std::vector<double> total;
   std::map<std::string, std::vector<double>> stages;
   std::string radii;  // the last frame's fitted radii, mm
+
+  // One frame: its total, each stage type's time (summed over its stages), its radii.
+  void Add(double ms, const pipeline::RunReport& report, pipeline::Context& ctx) {
+    total.push_back(ms);
+    std::map<std::string, double> per;
+    for (const auto& st : report.stages) per[st.type] += st.wall_ms;
+    for (const auto& [type, v] : per) stages[type].push_back(v);
+    radii = Radii(ctx);
+  }
 };
 
 struct Scene {
@@ -88,14 +106,6 @@ std::vector<Scene> MakeScenes(const std::vector<std::string>& names) {
   return out;
 }
 
-std::string Radii(pipeline::Context& ctx) {
-  std::ostringstream os;
-  os.precision(5);
-  if (const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
-    for (const auto& f : *fits) os << (os.tellp() > 0 ? " " : "") << f.sphere.radius_mm;
-  }
-  return os.str();
-}
 
 // Warm pipelines, one per set of options, each run frame after frame: each frame's latency. The
 // pipelines take turns frame by frame (A B A B ...), so a busy moment of the machine costs each alike.
@@ -116,12 +126,7 @@ std::vector<Timings> WarmFrames(const Scene& s, const std::vector<stereo::Conver
       stereo::PutCapture(s.left, s.right, s.rig, &ctx);
       const pipeline::RunReport report = pipelines[k].Run(ctx);
       const double ms = Ms(t0);
-      if (i == 0) continue;
-      t.total.push_back(ms);
-      std::map<std::string, double> per;
-      for (const auto& st : report.stages) per[st.type] += st.wall_ms;
-      for (const auto& [name, v] : per) t.stages[name].push_back(v);
-      t.radii = Radii(ctx);
+      if (i > 0) t.Add(ms, report, ctx);
     }
   }
   return out;
@@ -146,12 +151,7 @@ Timings StreamFrames(const Scene& s, const stereo::ConvertOptions& o, const std:
     if (!error.empty()) std::fprintf(stderr, "bench_capture: %s\n", error.c_str());
     const double ms = Ms(last);
     last = Clock::now();
-    if (done++ == 0) return;  // the first frame builds the rectification maps
-    t.total.push_back(ms);
-    std::map<std::string, double> per;
-    for (const auto& st : report.stages) per[st.type] += st.wall_ms;
-    for (const auto& [k, v] : per) t.stages[k].push_back(v);
-    t.radii = Radii(ctx);
+    if (done++ > 0) t.Add(ms, report, ctx);  // the first frame builds the rectification maps
   });
   return t;
 }
@@ -177,8 +177,12 @@ Timings StockFrames(const Scene& s, int frames) {
 
 void Print(const char* path, const Timings& t, double stock_median) {
   const double med = Quantile(t.total, 0.5);
-  std::printf("%-44s %8.0f %8.0f %6zu %7.1fx\n", path, med, Quantile(t.total, 0.95), t.total.size(),
-              stock_median / med);
+  std::printf("%-44s %8.0f %8.0f %6zu", path, med, Quantile(t.total, 0.95), t.total.size());
+  if (stock_median > 0) {
+    std::printf(" %7.1fx\n", stock_median / med);
+  } else {
+    std::printf(" %8s\n", "-");  // --stock-frames 0: nothing to compare with
+  }
   for (const auto& [stage, v] : t.stages) {
     std::printf("  %-42s %8.1f %8.1f\n", stage.c_str(), Quantile(v, 0.5), Quantile(v, 0.95));
   }
