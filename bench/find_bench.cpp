@@ -73,7 +73,7 @@ FindBenchRow Score(const sim::ScanScene& scene, const scene::FindResult& r) {
   }
   for (std::size_t k = 0; k < r.objects.size(); ++k) {
     const auto& o = r.objects[k];
-    if (!o.ball || used[k]) continue;
+    if (!o.topiary || used[k]) continue;  // every clipped shape counts: balls, and topiary found by height
     std::string what = "nothing";
     double best = 1e300;
     for (const auto& other : scene.others) {

@@ -41,7 +41,7 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
     return cv::Point(int(std::lround(margin + (p.x() - lo.x()) * px)), int(std::lround(h - margin - (p.y() - lo.y()) * px)));
   };
   std::vector<int> kind(cloud.size(), 0);  // 0 ground or nothing, 1 ball, 2 other
-  for (const auto& o : result.objects) for (std::size_t i : o.indices) kind[i] = o.ball ? 1 : 2;
+  for (const auto& o : result.objects) for (std::size_t i : o.indices) kind[i] = o.topiary ? 1 : 2;
   // Draw low points first so the tops of objects stay visible.
   std::vector<std::size_t> order;
   for (std::size_t i = 0; i < cloud.size(); ++i) if (pts[i].allFinite()) order.push_back(i);
@@ -63,7 +63,16 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
   }
   const cv::Scalar green(40, 150, 20), orange(0, 120, 240);
   for (const auto& o : result.objects) {
-    if (o.ball && o.fit.converged) {
+    if (o.shape) {
+      // A topiary found by height: its footprint (the widest section above the ground), turned by
+      // its heading, with its number and class.
+      const auto& s = *o.shape;
+      const cv::Point c = at(s.center_mm.head<2>());
+      const cv::Size axes(std::max(2, int(std::lround(s.footprint_mm.x() * px))), std::max(2, int(std::lround(s.footprint_mm.y() * px))));
+      cv::ellipse(img, c, axes, -s.heading_deg, 0, 360, green, 2, cv::LINE_AA);
+      cv::putText(img, std::to_string(o.id) + " " + s.shape, c + cv::Point(axes.width / 2 + 4, -axes.height / 2 - 4),
+                  cv::FONT_HERSHEY_SIMPLEX, 0.6, green, 2, cv::LINE_AA);
+    } else if (o.ball && o.fit.converged) {
       const Eigen::Vector3d c = result.scene_from_cloud * o.fit.sphere.center_mm;
       cv::circle(img, at(c.head<2>()), std::max(2, int(std::lround(o.fit.sphere.radius_mm * px))), green, 2, cv::LINE_AA);
       const int rad = std::max(2, int(std::lround(o.fit.sphere.radius_mm * px)));
@@ -81,9 +90,9 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
   const cv::Point bar(int(margin), h - int(margin / 2));
   cv::line(img, bar, bar + cv::Point(int(1000 * px), 0), cv::Scalar(0, 0, 0), 2);
   cv::putText(img, "1 m", bar + cv::Point(0, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  const std::size_t balls = result.Balls(), others = result.objects.size() - balls;
-  cv::putText(img, pipeline::Format("%zu ball%s (green circles), %zu other object%s (orange outlines)", balls,
-                                    balls == 1 ? "" : "s", others, others == 1 ? "" : "s"),
+  const std::size_t shapes = result.Topiary(), others = result.objects.size() - shapes;
+  cv::putText(img, pipeline::Format("%zu ball%s or topiary (green: circles, footprints), %zu other object%s (orange outlines)", shapes,
+                                    shapes == 1 ? "" : "s", others, others == 1 ? "" : "s"),
               cv::Point(int(margin), int(margin / 2)), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   stereo::WriteImageAtomic(path, img);
 }

@@ -51,7 +51,24 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
   h["lumpiness"] = o.lumpiness;
   h["crowding"] = o.crowding;
   h["axis_ratio"] = o.axis_ratio;
-  if (!o.ball) h["not_a_ball"] = o.reason.empty() ? o.verdict : o.reason;
+  h["topiary"] = o.topiary;
+  if (o.shape) {
+    const TopiaryShape& s = *o.shape;
+    h["shape"] = {{"shape", s.shape},
+                  {"form", s.form},
+                  {"center_mm", Vec(r.scene_from_cloud.transpose() * s.center_mm)},
+                  {"axes_mm", Vec(s.axes_mm)},
+                  {"heading_deg", s.heading_deg},
+                  {"center_ci95_mm", Vec(s.center_ci95_mm)},
+                  {"axes_ci95_mm", Vec(s.axes_ci95_mm)},
+                  {"footprint_mm", json::array({s.footprint_mm.x(), s.footprint_mm.y()})},
+                  {"top_mm", s.top_mm},
+                  {"roughness_mm", s.roughness_mm},
+                  {"bic", {{"ball", s.bic_ball}, {"spheroid", s.bic_spheroid}, {"ellipsoid", s.bic_ellipsoid}}},
+                  {"covered", o.covered},
+                  {"roughness_noise", o.roughness}};
+  }
+  if (!o.ball && !o.shape) h["not_a_ball"] = o.reason.empty() ? o.verdict : o.reason;
   if (sphere) h["fit"] = FitJson(o.fit);
   if (o.geometric && o.geometric->converged && o.fit.method != "geometric") h["geometric"] = FitJson(*o.geometric);
   return h;
@@ -75,6 +92,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
     c["ground"] = {{"points", r.ground_points}, {"noise_mm", r.ground.noise_mm}, {"cell_mm", r.ground.cell_mm}};
     c["object_points"] = r.object_points;
     c["balls"] = r.Balls();
+    c["topiary"] = r.Topiary();
     c["warnings"] = r.warnings;
     c["hedges"] = json::array();
     for (const auto& o : r.objects) c["hedges"].push_back(ObjectJson(r, o));
@@ -87,7 +105,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
 
 void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
   out << "cloud,id,verdict,ball,cx_mm,cy_mm,cz_mm,r_mm,surface_r_mm,ci95_cx_mm,ci95_cy_mm,ci95_cz_mm,ci95_r_mm,points,"
-         "seen_share,ground_mm,height_mm,lumpiness,axis_ratio,method,reason\n";
+         "seen_share,ground_mm,height_mm,lumpiness,axis_ratio,method,topiary,axis_a_mm,axis_b_mm,axis_c_mm,heading_deg,reason\n";
   for (const auto& rep : reports) {
     for (const auto& o : rep.result.objects) {
       Print(out, "%s,%d,%s,%d,", rep.result.file.c_str(), o.id, o.verdict.c_str(), o.ball ? 1 : 0);
@@ -112,8 +130,13 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
       for (double v : {o.ground_mm, o.height_mm}) {
         if (std::isfinite(v)) Print(out, "%.1f,", v); else out << ",";
       }
-      Print(out, "%.4f,%.3f,%s,\"%s\"\n", o.lumpiness, o.axis_ratio, o.fit.converged ? o.fit.method.c_str() : "",
-            reason.c_str());
+      Print(out, "%.4f,%.3f,%s,%d,", o.lumpiness, o.axis_ratio, o.fit.converged ? o.fit.method.c_str() : "", o.topiary ? 1 : 0);
+      if (o.shape) {
+        Print(out, "%.1f,%.1f,%.1f,%.1f,", o.shape->axes_mm.x(), o.shape->axes_mm.y(), o.shape->axes_mm.z(), o.shape->heading_deg);
+      } else {
+        out << ",,,,";
+      }
+      Print(out, "\"%s\"\n", reason.c_str());
     }
   }
 }
@@ -121,9 +144,10 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
 void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
   for (const auto& rep : reports) {
     const FindResult& r = rep.result;
-    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu ball%s of %zu object%s\n",
+    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu ball%s and %zu "
+          "topiary of %zu object%s\n",
           r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
-          r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.objects.size(), r.objects.size() == 1 ? "" : "s");
+          r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.Topiary(), r.objects.size(), r.objects.size() == 1 ? "" : "s");
     for (const auto& w : r.warnings) Print(out, "  warning: %s\n", w.c_str());
     if (r.objects.empty()) continue;
     out << "  id  verdict      centre x, y, z (mm)               radius   95 % (r)  leaf r    points  seen  ground   height  lumpy\n";
@@ -143,7 +167,15 @@ void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
       auto mm = [](double v) { return std::isfinite(v) ? pipeline::Format("%7.0f", v) : std::string("      -"); };
       Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(o.ground_mm).c_str(),
             mm(o.height_mm).c_str(), o.lumpiness);
-      if (!o.reason.empty()) Print(out, "      ^ %s\n", o.reason.c_str());
+      if (o.shape) {
+        const TopiaryShape& s = *o.shape;
+        Print(out, "      ^ %s%s%s: semi-axes %.0f x %.0f x %.0f mm (+-%.0f, %.0f, %.0f), heading %.0f deg, covered %.0f %%, "
+                   "roughness %.1f x noise\n",
+              s.form.c_str(), s.form.empty() ? "" : " ", s.shape.c_str(), s.axes_mm.x(), s.axes_mm.y(), s.axes_mm.z(),
+              s.axes_ci95_mm.x(), s.axes_ci95_mm.y(), s.axes_ci95_mm.z(), s.heading_deg, 100 * o.covered, o.roughness);
+      } else if (!o.reason.empty()) {
+        Print(out, "      ^ %s\n", o.reason.c_str());
+      }
     }
   }
 }

@@ -439,6 +439,7 @@ const pipeline::OptionTable<FindOptions>& FindOptions::Table() {
                  .Range(1, 100)
                  .Add("envelope", &O::envelope, "fit the leafy envelope (the outer surface) too");
     t.Nest(GroundOptions::Table(), &O::ground);
+    t.Nest(TopiaryOptions::Table(), &O::topiary);
     return t;
   }();
   return table;
@@ -447,6 +448,7 @@ const pipeline::OptionTable<FindOptions>& FindOptions::Table() {
 void FindOptions::Check() const {
   Table().Validate(*this);
   ground.Check();
+  topiary.Check();
   if (min_radius_mm >= max_radius_mm) {
     throw Error(pipeline::Format("option 'min_radius' (%g mm) must be smaller than option 'max_radius' (%g mm)", min_radius_mm, max_radius_mm));
   }
@@ -454,6 +456,10 @@ void FindOptions::Check() const {
 
 std::size_t FindResult::Balls() const {
   return std::size_t(std::count_if(objects.begin(), objects.end(), [](const FoundObject& o) { return o.ball; }));
+}
+
+std::size_t FindResult::Topiary() const {
+  return std::size_t(std::count_if(objects.begin(), objects.end(), [](const FoundObject& o) { return o.topiary; }));
 }
 
 double SeenShare(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& center) {
@@ -571,6 +577,7 @@ struct Candidate {
   std::vector<std::size_t> points;          // scene indices
   std::optional<GroundModel> local_ground;  // the lawn about a ball, without any ball
   bool ground_seen = true;
+  std::optional<TopiaryCandidate> topiary;  // a clipped shape found by height
 };
 
 // The cloud turned so its up is +z, and the ground.
@@ -646,7 +653,7 @@ void PeelBalls(const std::vector<std::size_t>& cluster, const ScenePoints& s, Ba
       continue;
     }
     // The ball takes every remaining point inside its shell's outer edge.
-    Candidate c{j, {}, std::nullopt};
+    Candidate c{j, {}, std::nullopt, true, std::nullopt};
     std::vector<std::size_t> rest;
     for (std::size_t i : remaining) {
       if ((s.pts[i] - j.sphere.center_mm).norm() < j.sphere.radius_mm + j.band) {
@@ -677,6 +684,53 @@ void PeelBalls(const std::vector<std::size_t>& cluster, const ScenePoints& s, Ba
     }
     c.points = std::move(part);
     others->push_back(std::move(c));
+  }
+}
+
+// Topiary among what no ball takes: the objects' points split by height, each part fitted with a
+// shape and judged (topiary.hpp). A part judged topiary becomes an object of its own; the rest
+// stays with the objects it was in, and an object that a clipped shape was tried on and refused
+// says why.
+void TopiaryAmongOthers(const ScenePoints& s, const GroundModel& ground, double spacing_mm, const FindOptions& o,
+                        std::vector<Candidate>* others, std::vector<Candidate>* topiary) {
+  std::vector<std::size_t> idx;
+  for (const auto& c : *others) idx.insert(idx.end(), c.points.begin(), c.points.end());
+  std::vector<int> part_of(s.pts.size(), -1);
+  TopiaryOptions to = o.topiary;
+  to.min_width_mm = o.min_radius_mm;
+  auto parts = FindTopiary(s.pts, idx, ground, spacing_mm, to);
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    if (parts[k].points.size() < std::size_t(o.min_points)) continue;
+    for (std::size_t i : parts[k].points) part_of[i] = int(k);
+  }
+  for (auto& c : *others) {
+    std::vector<std::size_t> keep;
+    std::map<int, std::size_t> refused;  // part -> points of this object in it
+    for (std::size_t i : c.points) {
+      const int k = part_of[i];
+      if (k >= 0 && parts[std::size_t(k)].topiary) continue;
+      if (k >= 0) ++refused[k];
+      keep.push_back(i);
+    }
+    int most = -1;
+    for (const auto& [k, n] : refused) {
+      if (2 * n >= keep.size() && (most < 0 || n > refused[most])) most = k;
+    }
+    if (most >= 0 && parts[std::size_t(most)].shape.converged) {
+      c.j.reason = "not clipped: " + parts[std::size_t(most)].reason;
+    }
+    c.points.swap(keep);
+  }
+  others->erase(std::remove_if(others->begin(), others->end(),
+                               [&](const Candidate& c) { return c.points.size() < std::size_t(o.min_points); }),
+                others->end());
+  for (auto& part : parts) {
+    if (!part.topiary || part.points.size() < std::size_t(o.min_points)) continue;
+    Candidate c;
+    c.j.verdict = part.shape.shape;
+    c.points = part.points;
+    c.topiary = std::move(part);
+    topiary->push_back(std::move(c));
   }
 }
 
@@ -774,7 +828,26 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
   obj.top_center_mm = mean / double(std::max<std::size_t>(1, c.points.size()));
   obj.height_mm = highest;
   obj.ground_mm = sc.ground.HeightAt(obj.top_center_mm.x(), obj.top_center_mm.y());
-  if (obj.ball || obj.verdict == "ellipsoid") {
+  obj.topiary = obj.ball || obj.verdict == "ellipsoid";
+  if (c.topiary) {
+    // A clipped shape found by height: its centre and the sphere of its volume in the cloud's
+    // frame for the readers that take spheres; its shape in the scene frame.
+    const TopiaryShape& s = c.topiary->shape;
+    obj.topiary = true;
+    obj.shape = s;
+    obj.covered = c.topiary->covered;
+    obj.roughness = c.topiary->roughness;
+    obj.top_center_mm = s.center_mm.head<2>();
+    obj.ground_mm = sc.ground.HeightAt(s.center_mm.x(), s.center_mm.y());
+    obj.height_mm = s.top_mm;
+    obj.base_height_mm = (s.center_mm.z() - obj.ground_mm) / s.axes_mm.z();
+    obj.fit.method = "shape";
+    obj.fit.converged = true;
+    obj.fit.sphere = fitting::Sphere{sc.turn.transpose() * s.center_mm, std::cbrt(s.axes_mm.prod())};
+    obj.fit.points_used = s.points;
+    obj.fit.rms_mm = s.roughness_mm;
+    obj.fit.message = "a " + (s.form.empty() ? "" : s.form + " ") + s.shape + " with a vertical axis";
+  } else if (obj.ball || obj.verdict == "ellipsoid") {
     MeasureFound(c, sc, cloud, o, &obj);
   } else {
     obj.fit.method = "geometric";
@@ -826,6 +899,11 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
     if (cluster.size() >= std::size_t(o.min_points)) PeelBalls(cluster, sc.s, finder, o, &balls, &others);
   }
   lap("balls");
+  std::vector<Candidate> topiary;
+  if (o.topiary.enabled && !others.empty() && !no_ground) {
+    TopiaryAmongOthers(sc.s, sc.ground, res.spacing_mm, o, &others, &topiary);
+    lap("topiary by height");
+  }
   if (!balls.empty()) {
     GroundUnderBalls(sc.s, sc.ground, o, &balls);
     lap("ground under each ball");
@@ -835,7 +913,11 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
   });
   std::sort(others.begin(), others.end(), [](const Candidate& a, const Candidate& b) { return a.points.size() > b.points.size(); });
   int id = 1;
+  std::sort(topiary.begin(), topiary.end(), [](const Candidate& a, const Candidate& b) {
+    return a.topiary->shape.center_mm.x() < b.topiary->shape.center_mm.x();
+  });
   for (const auto& c : balls) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
+  for (const auto& c : topiary) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
   for (const auto& c : others) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
   if (res.points > 0 && no_ground) {
     res.warnings.push_back(pipeline::Format(
@@ -859,7 +941,7 @@ cloud::PointCloud LabelCloud(const cloud::PointCloud& cloud, const FindResult& r
   for (const auto& o : result.objects) {
     for (std::size_t i : o.indices) {
       object[i] = float(o.id);
-      if (o.ball) hedge[i] = float(o.id);
+      if (o.topiary) hedge[i] = float(o.id);
     }
   }
   if (!result.ground.empty()) {

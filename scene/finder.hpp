@@ -22,6 +22,11 @@
 ///     A ball cut by the ground (its centre lower than 0.8 radii above it) is a dome.
 ///  5. Per ball: the geometric fit on its shell with standard errors, and the leafy envelope (the
 ///     outer surface where the leaves end) and mean-leaf radii.
+///  6. What no ball takes is searched for clipped topiary by height (topiary.hpp): a watershed of
+///     the height above the ground parts touching shapes in a bed, and each is fitted as a ball, a
+///     dome, a spheroid or an ellipsoid with a vertical axis and judged against the cloud's own
+///     noise and spacing (a squat dome seen from above is judged on its footprint, not as a
+///     sphere).
 ///     What is left of each object is an object of its own: "not a ball", with the reason.
 
 #include <Eigen/Core>
@@ -36,6 +41,7 @@
 #include "fitting/sphere_fit.hpp"
 #include "pipeline/option_table.hpp"
 #include "scene/ground.hpp"
+#include "scene/topiary.hpp"
 
 namespace hedgefit::scene {
 
@@ -52,6 +58,7 @@ struct FindOptions {
   double max_axis_ratio = 1.3;    ///< vertical over horizontal semi-axis (or its inverse) above this: an ellipsoid
   bool envelope = true;           ///< fit the leafy envelope too (the outer surface; off: the geometric fit only)
   GroundOptions ground;
+  TopiaryOptions topiary;         ///< clipped shapes among what no ball takes
   std::uint64_t seed = 42;
   void Check() const;
   static const pipeline::OptionTable<FindOptions>& Table();  ///< the options, declared once (with the ground's)
@@ -60,8 +67,16 @@ struct FindOptions {
 /// One object standing on the ground.
 struct FoundObject {
   int id = 0;                   ///< 1, 2, ...: balls first (along the scene's x), then the rest
-  std::string verdict;          ///< "ball", "dome", "ellipsoid" or "not_a_ball"
-  bool ball = false;            ///< ball or dome: a hedge to measure
+  /// "ball", "dome", "ellipsoid" or "not_a_ball" from the ball search; "ball", "dome", "spheroid"
+  /// or "ellipsoid" for topiary found by height (topiary = true, `shape` set)
+  std::string verdict;
+  bool ball = false;            ///< a ball or dome from the ball search: a hedge measured as a sphere
+  bool topiary = false;         ///< a clipped shape (every ball is one; so is a topiary found by height)
+  /// A topiary found by height: its shape in the scene frame (up +z; FindResult::scene_from_cloud
+  /// turns the cloud into it), what its verdict rests on, and its intervals.
+  std::optional<TopiaryShape> shape;
+  double covered = 0;           ///< topiary by height: share of its footprint's top-view cells holding points
+  double roughness = 0;         ///< topiary by height: robust spread about its shape over the ground's noise
   std::string reason;           ///< why not a ball (or what makes it an ellipsoid); empty for a ball
   /// The measurement, in the cloud's frame: the envelope fit when it converged (sphere = centre
   /// and outer envelope radius, extras surface_radius_mm and leaf_depth_mm), else the geometric fit;
@@ -95,6 +110,7 @@ struct FindResult {
   /// cloud of one hedge alone, or the wrong up), a rough or tilted ground.
   std::vector<std::string> warnings;
   std::size_t Balls() const;
+  std::size_t Topiary() const;  ///< balls, domes and every clipped shape found by height
 };
 
 /// Finds the ground, the objects on it and the balls among them in `cloud` (mm).

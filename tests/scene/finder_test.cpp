@@ -93,7 +93,7 @@ Scored ScoreScan(const sim::ScanScene& scene, const FindResult& r) {
     s.worst_ground = std::max(s.worst_ground, std::abs(o.ground_mm - scene.ground.Height(t.center_mm.x(), t.center_mm.y())));
   }
   for (std::size_t k = 0; k < r.objects.size(); ++k) {
-    if (r.objects[k].ball && !used[k]) ++s.false_balls;
+    if (r.objects[k].topiary && !used[k]) ++s.false_balls;  // a ball, or a clipped shape found by height
   }
   return s;
 }
@@ -182,6 +182,7 @@ TEST(RealData, PclTestCloudsHoldNoBall) {
     for (auto& p : c.points_mm) p *= float(scale);
     const FindResult r = FindHedges(c);
     EXPECT_EQ(r.Balls(), 0u) << name;
+    EXPECT_EQ(r.Topiary(), 0u) << name << ": a clipped shape found by height in a cloud that holds none";
   }
 }
 

@@ -1,0 +1,527 @@
+// FindTopiary: a canopy height model's watershed, four shapes with a vertical axis fitted to each
+// object and one chosen by BIC, and a verdict against the cloud's noise and spacing (topiary.hpp).
+
+#include "scene/topiary.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <queue>
+#include <unordered_set>
+
+#include "pipeline/error.hpp"
+#include "pipeline/print.hpp"
+
+namespace hedgefit::scene {
+
+const pipeline::OptionTable<TopiaryOptions>& TopiaryOptions::Table() {
+  using O = TopiaryOptions;
+  static const auto table =
+      pipeline::OptionTable<O>()
+          .Add("topiary", &O::enabled, "look for clipped shapes (ball, dome, spheroid, ellipsoid) among the objects no ball takes")
+          .Add("min_height", &O::min_height_mm, "a topiary's top stands at least this far above the ground", "mm").Min(0)
+          .Add("max_size", &O::max_size_mm, "a topiary's largest horizontal semi-axis", "mm").Min(1)
+          .Add("merge_saddle", &O::merge_saddle,
+               "two height peaks are one object when the ridge between them stands above this share of the lower one", "")
+          .Range(0, 1)
+          .Add("max_elongation", &O::max_elongation, "a topiary's footprint is at most this many times longer than wide", "")
+          .Min(1)
+          .Add("min_covered", &O::min_covered, "share of a topiary's footprint (top view) its points must cover", "")
+          .Range(0, 1)
+          .Add("max_roughness", &O::max_roughness, "a topiary's points lie about its shape within this many times the ground's noise",
+               "")
+          .Min(0)
+          .Add("min_density", &O::min_density, "points per spacing^2 of a topiary's footprint, at least", "").Min(0)
+          .Add("min_noise", &O::min_noise_mm, "the noise roughness is judged against is at least this", "mm")
+          .Min(0.1);
+  return table;
+}
+
+void TopiaryOptions::Check() const { Table().Validate(*this); }
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double MedianOf(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+double RobustSpread(const std::vector<double>& e) {
+  const double med = MedianOf(e);
+  std::vector<double> dev(e.size());
+  for (std::size_t i = 0; i < e.size(); ++i) dev[i] = std::abs(e[i] - med);
+  return 1.4826 * MedianOf(dev);
+}
+
+// A union-find over watershed basins, each root knowing its peak height.
+struct Basins {
+  std::vector<int> parent;
+  std::vector<float> peak;
+  int Add(float h) {
+    parent.push_back(int(parent.size()));
+    peak.push_back(h);
+    return parent.back();
+  }
+  int Find(int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  }
+};
+
+// The shape family: which of the seven parameters (cx, cy, cz, a, b, c, heading) are free.
+enum class Family { kBall = 0, kSpheroid = 1, kEllipsoid = 2 };
+int FreeCount(Family f) { return f == Family::kBall ? 4 : f == Family::kSpheroid ? 5 : 7; }
+
+using Full = Eigen::Matrix<double, 7, 1>;
+
+Full Expand(const Eigen::VectorXd& x, Family f, double heading) {
+  Full q;
+  q.head<3>() = x.head<3>();
+  if (f == Family::kBall) {
+    q(3) = q(4) = q(5) = x(3), q(6) = heading;
+  } else if (f == Family::kSpheroid) {
+    q(3) = q(4) = x(3), q(5) = x(4), q(6) = heading;
+  } else {
+    q.tail<4>() = x.tail<4>();
+  }
+  return q;
+}
+
+Eigen::VectorXd Reduce(const Full& q, Family f) {
+  Eigen::VectorXd x(FreeCount(f));
+  x.head<3>() = q.head<3>();
+  if (f == Family::kBall) {
+    x(3) = std::cbrt(q(3) * q(4) * q(5));
+  } else if (f == Family::kSpheroid) {
+    x(3) = std::sqrt(q(3) * q(4)), x(4) = q(5);
+  } else {
+    x.tail<4>() = q.tail<4>();
+  }
+  return x;
+}
+
+// The radial distance from the surface: along the ray from the centre through the point, the
+// point's distance less the surface's (exact for a ball, first order for flattened shapes).
+double Radial(const Full& q, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d d = p - q.head<3>();
+  const double cs = std::cos(q(6)), sn = std::sin(q(6));
+  const double u = d.x() * cs + d.y() * sn, v = -d.x() * sn + d.y() * cs, w = d.z();
+  const double s = std::sqrt(u * u / (q(3) * q(3)) + v * v / (q(4) * q(4)) + w * w / (q(5) * q(5)));
+  const double n = d.norm();
+  if (s < 1e-12) return -std::min({q(3), q(4), q(5)});
+  return n * (1 - 1 / s);
+}
+
+struct Bounds {
+  Full lo, hi;
+  double ground = 0;
+  // A shape sunk more than a quarter of its height into the ground is no clipped shape standing
+  // on it; without this, a shallow cap of a far larger shape fits a squat top as well (its
+  // footprint then lies beyond the points, which the horizontal bounds forbid too).
+  void Apply(Full* q) const {
+    for (int k = 0; k < 6; ++k) (*q)(k) = std::clamp((*q)(k), lo(k), hi(k));
+    (*q)(2) = std::max((*q)(2), ground - 0.25 * (*q)(5));
+  }
+};
+
+struct FamilyFit {
+  Full q;
+  Eigen::VectorXd x;
+  Eigen::MatrixXd cov;  // of the free parameters (sandwich)
+  std::vector<double> residuals;
+  bool ok = false;
+};
+
+// Robust (Huber, scale from the residuals' own spread) Levenberg-Marquardt on the radial
+// residuals, with a numerical Jacobian: a few thousand points and at most seven parameters.
+FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full& start, const Bounds& bounds) {
+  FamilyFit out;
+  const int m = FreeCount(f);
+  const double heading = start(6);
+  Eigen::VectorXd x = Reduce(start, f);
+  auto residuals = [&](const Eigen::VectorXd& xv, Eigen::VectorXd* e) {
+    Full q = Expand(xv, f, heading);
+    e->resize(Eigen::Index(p.size()));
+    for (std::size_t i = 0; i < p.size(); ++i) (*e)(Eigen::Index(i)) = Radial(q, p[i]);
+  };
+  auto clamp = [&](Eigen::VectorXd* xv) {
+    Full q = Expand(*xv, f, heading);
+    bounds.Apply(&q);
+    *xv = Reduce(q, f);
+    if (f == Family::kEllipsoid) (*xv)(6) = q(6);
+  };
+  clamp(&x);
+  Eigen::VectorXd e, e_try;
+  residuals(x, &e);
+  const Eigen::Index n = e.size();
+  Eigen::VectorXd w(n);
+  Eigen::MatrixXd J(n, m);
+  double lambda = 1e-3;
+  for (int it = 0; it < 60; ++it) {
+    std::vector<double> ev(e.data(), e.data() + n);
+    const double sigma = std::max(1.0, RobustSpread(ev));
+    const double k = 1.5 * sigma;
+    for (Eigen::Index i = 0; i < n; ++i) w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
+    for (int j = 0; j < m; ++j) {
+      const double h = (f == Family::kEllipsoid && j == 6) ? 1e-4 : 0.05;
+      Eigen::VectorXd xp = x, xm = x, ep, em;
+      xp(j) += h, xm(j) -= h;
+      residuals(xp, &ep), residuals(xm, &em);
+      J.col(j) = (ep - em) / (2 * h);
+    }
+    const Eigen::MatrixXd JtW = J.transpose() * w.asDiagonal();
+    const Eigen::MatrixXd A = JtW * J;
+    const Eigen::VectorXd g = JtW * e;
+    const double cost = (w.array() * e.array().square()).sum();
+    bool stepped = false;
+    for (int tries = 0; tries < 8 && !stepped; ++tries) {
+      Eigen::MatrixXd Ad = A;
+      Ad.diagonal() += lambda * A.diagonal().cwiseMax(1e-9);
+      Eigen::VectorXd x_try = x - Ad.ldlt().solve(g);
+      clamp(&x_try);
+      residuals(x_try, &e_try);
+      if ((w.array() * e_try.array().square()).sum() < cost) {
+        const double moved = (x_try - x).head(m < 7 ? m : 6).cwiseAbs().maxCoeff();
+        x = x_try, e = e_try, lambda = std::max(1e-7, lambda / 3), stepped = true;
+        if (moved < 1e-3) it = 1000;
+      } else {
+        lambda *= 4;
+      }
+    }
+    if (!stepped) break;
+  }
+  out.x = x;
+  out.q = Expand(x, f, heading);
+  out.residuals.assign(e.data(), e.data() + n);
+  // The sandwich covariance: robust to residuals that are not all alike (a leaf layer on top,
+  // clutter at the foot).
+  {
+    std::vector<double> ev = out.residuals;
+    const double sigma = std::max(1.0, RobustSpread(ev)), k = 1.5 * sigma;
+    Eigen::VectorXd psi(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
+      psi(i) = w(i) * e(i);
+    }
+    const Eigen::MatrixXd A = J.transpose() * w.asDiagonal() * J;
+    const Eigen::MatrixXd B = J.transpose() * psi.array().square().matrix().asDiagonal() * J;
+    const Eigen::MatrixXd Ainv = A.ldlt().solve(Eigen::MatrixXd::Identity(m, m));
+    out.cov = Ainv * B * Ainv;
+  }
+  out.ok = out.q.allFinite();
+  return out;
+}
+
+}  // namespace
+
+TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm) {
+  TopiaryShape s;
+  s.points = all.size();
+  if (all.size() < 20) return s;
+  // At most 2000 points, evenly through the list.
+  std::vector<Eigen::Vector3d> p;
+  const std::size_t step = all.size() / 2000 + 1;
+  for (std::size_t i = 0; i < all.size(); i += step) p.push_back(all[i]);
+  // A start from the points' spread: a disc's points spread a / 2 about its centre; the top at
+  // the 98th percentile; the centre half the height below it.
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& v : p) mean += v.head<2>();
+  mean /= double(p.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  std::vector<double> z;
+  for (const auto& v : p) {
+    cov += (v.head<2>() - mean) * (v.head<2>() - mean).transpose();
+    z.push_back(v.z());
+  }
+  cov /= double(p.size());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+  const double a0 = std::max(10.0, 2 * std::sqrt(std::max(0.0, eig.eigenvalues()(1))));
+  const double b0 = std::max(10.0, 2 * std::sqrt(std::max(0.0, eig.eigenvalues()(0))));
+  const Eigen::Vector2d major = eig.eigenvectors().col(1);
+  // How far the points reach from their centre in the top view (98th percentile): the footprint
+  // ends where the points end, give or take a leaf layer.
+  std::vector<double> reach_h;
+  for (const auto& v : p) reach_h.push_back((v.head<2>() - mean).norm());
+  std::nth_element(reach_h.begin(), reach_h.begin() + reach_h.size() * 98 / 100, reach_h.end());
+  const double widest = widest_mm > 0 ? widest_mm : std::max(10.0, 1.3 * reach_h[reach_h.size() * 98 / 100]);
+  std::nth_element(z.begin(), z.begin() + z.size() * 98 / 100, z.end());
+  const double top = z[z.size() * 98 / 100];
+  const double height = std::max(10.0, top - ground_mm);
+  const double c0 = std::clamp(0.5 * height, 0.25 * (a0 + b0), std::max(0.25 * (a0 + b0), height));
+  Full start;
+  start << mean.x(), mean.y(), top - c0, a0, b0, c0, std::atan2(major.y(), major.x());
+  Bounds bounds;
+  const double reach = std::max(a0, b0);
+  bounds.ground = ground_mm;
+  bounds.lo << mean.x() - reach, mean.y() - reach, ground_mm - height, 0.4 * b0, 0.4 * b0, 0.1 * height, -1e9;
+  bounds.hi << mean.x() + reach, mean.y() + reach, top, std::max(0.4 * b0, std::min(2 * a0, widest)),
+      std::max(0.4 * b0, std::min(2 * a0, widest)), 2 * height, 1e9;
+  Full ball_start = start;
+  ball_start(3) = ball_start(4) = ball_start(5) = std::cbrt(a0 * b0 * c0);
+  const FamilyFit ball = FitFamily(p, Family::kBall, ball_start, bounds);
+  Full sph_start = start;
+  sph_start(3) = sph_start(4) = std::sqrt(a0 * b0);
+  const FamilyFit spheroid = FitFamily(p, Family::kSpheroid, sph_start, bounds);
+  Full ell_start = spheroid.ok ? spheroid.q : start;
+  ell_start(3) = std::max(ell_start(3), 1.0) * std::sqrt(a0 / b0), ell_start(4) = std::max(ell_start(4), 1.0) * std::sqrt(b0 / a0);
+  ell_start(6) = start(6);
+  const FamilyFit ellipsoid = FitFamily(p, Family::kEllipsoid, ell_start, bounds);
+  if (!ball.ok || !spheroid.ok || !ellipsoid.ok) return s;
+  // One scale for all three: the most flexible family's robust spread; residuals beyond 2.5 of it
+  // (strays, a neighbour's leaves) count as 2.5.
+  const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
+  const double clip = 2.5 * sigma;
+  auto bic = [&](const FamilyFit& fit, int k) {
+    double sum = 0;
+    for (double r : fit.residuals) sum += std::min(r * r, clip * clip);
+    const double n = double(fit.residuals.size());
+    return n * std::log(sum / n) + k * std::log(n);
+  };
+  s.bic_ball = bic(ball, 4), s.bic_spheroid = bic(spheroid, 5), s.bic_ellipsoid = bic(ellipsoid, 7);
+  const FamilyFit* best = &ball;
+  Family family = Family::kBall;
+  if (s.bic_spheroid < s.bic_ball) best = &spheroid, family = Family::kSpheroid;
+  if (s.bic_ellipsoid < std::min(s.bic_ball, s.bic_spheroid)) best = &ellipsoid, family = Family::kEllipsoid;
+  Full q = best->q;
+  // The first horizontal semi-axis is the longer one; heading in [0, 180).
+  if (q(4) > q(3)) std::swap(q(3), q(4)), q(6) += M_PI / 2;
+  double heading = std::fmod(q(6), M_PI);
+  if (heading < 0) heading += M_PI;
+  s.converged = true;
+  s.center_mm = q.head<3>();
+  s.axes_mm = q.segment<3>(3);
+  s.heading_deg = family == Family::kEllipsoid ? heading * 180 / M_PI : 0;
+  s.roughness_mm = RobustSpread(best->residuals);
+  const Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96;
+  s.center_ci95_mm = sd.head<3>();
+  if (family == Family::kBall) {
+    s.axes_ci95_mm.setConstant(sd(3));
+  } else if (family == Family::kSpheroid) {
+    s.axes_ci95_mm << sd(3), sd(3), sd(4);
+  } else {
+    s.axes_ci95_mm = sd.segment<3>(3);
+    if (best->q(4) > best->q(3)) std::swap(s.axes_ci95_mm(0), s.axes_ci95_mm(1));
+  }
+  const double above = s.center_mm.z() - ground_mm, c = s.axes_mm.z();
+  const bool cut = above < 0.8 * c;
+  if (family == Family::kBall) {
+    s.shape = cut ? "dome" : "ball";
+  } else {
+    s.shape = family == Family::kSpheroid ? (cut ? "dome" : "spheroid") : "ellipsoid";
+    s.form = c < 0.5 * (s.axes_mm.x() + s.axes_mm.y()) ? "oblate" : "prolate";
+  }
+  // Seen from above, the widest section above the ground.
+  const double t = above >= 0 ? 0.0 : std::min(1.0, -above / c);
+  s.footprint_mm = s.axes_mm.head<2>() * std::sqrt(1 - t * t);
+  s.top_mm = above + c;
+  return s;
+}
+
+std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
+                                      const GroundModel& ground, double cell, const TopiaryOptions& o) {
+  std::vector<HeightPart> out;
+  if (idx.empty() || ground.empty()) return out;
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  for (std::size_t i : idx) lo = lo.cwiseMin(pts[i].head<2>()), hi = hi.cwiseMax(pts[i].head<2>());
+  // At most 16 million cells: a larger cloud's grid coarsens.
+  while ((hi - lo).prod() / (cell * cell) > 1.6e7) cell *= 1.5;
+  const int nx = int((hi.x() - lo.x()) / cell) + 3, ny = int((hi.y() - lo.y()) / cell) + 3;
+  const std::size_t cells = std::size_t(nx) * std::size_t(ny);
+  std::vector<float> height(cells, 0.f);
+  std::vector<int> cell_of(idx.size());
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const Eigen::Vector3d& p = pts[idx[k]];
+    const int cx = int((p.x() - lo.x()) / cell) + 1, cy = int((p.y() - lo.y()) / cell) + 1;
+    cell_of[k] = cy * nx + cx;
+    const float h = float(p.z() - ground.HeightAt(p.x(), p.y()));
+    height[std::size_t(cell_of[k])] = std::max(height[std::size_t(cell_of[k])], h);
+  }
+  // Closing over one-cell holes (a sparse top), then a binomial smoothing of one cell.
+  auto filter3 = [&](const std::vector<float>& in, int mode) {  // 0 max, 1 min, 2 smooth
+    std::vector<float> res(in.size(), 0.f);
+    for (int y = 1; y + 1 < ny; ++y) {
+      for (int x = 1; x + 1 < nx; ++x) {
+        float acc = mode == 0 ? -1e30f : mode == 1 ? 1e30f : 0.f;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const float v = in[std::size_t((y + dy) * nx + x + dx)];
+            if (mode == 0) acc = std::max(acc, v);
+            else if (mode == 1) acc = std::min(acc, v);
+            else acc += v * float((2 - std::abs(dx)) * (2 - std::abs(dy))) / 16.f;
+          }
+        }
+        res[std::size_t(y * nx + x)] = acc;
+      }
+    }
+    return res;
+  };
+  const std::vector<float> smooth = filter3(filter3(filter3(height, 0), 1), 2);
+  const float floor_h = float(GroundBand(ground));
+  const float peak_h = float(0.75 * o.min_height_mm);
+  // Peaks: the highest cell within two cells, standing at least 3/4 of min_height up.
+  std::vector<int> label(cells, -1);
+  Basins basins;
+  using Item = std::pair<float, int>;
+  std::priority_queue<Item> queue;
+  for (int y = 2; y + 2 < ny; ++y) {
+    for (int x = 2; x + 2 < nx; ++x) {
+      const std::size_t c = std::size_t(y * nx + x);
+      if (smooth[c] < peak_h) continue;
+      bool top = true;
+      for (int dy = -2; dy <= 2 && top; ++dy) {
+        for (int dx = -2; dx <= 2 && top; ++dx) {
+          if (dx * dx + dy * dy > 5 || (dx == 0 && dy == 0)) continue;
+          const float v = smooth[std::size_t((y + dy) * nx + x + dx)];
+          // Ties go to the first cell in scan order.
+          top = v < smooth[c] || (v == smooth[c] && (dy > 0 || (dy == 0 && dx > 0)));
+        }
+      }
+      if (!top) continue;
+      label[c] = basins.Add(smooth[c]);
+      queue.emplace(smooth[c], int(c));
+    }
+  }
+  // Flooding downwards; where two basins meet, the ridge's height decides whether they are one.
+  static const int kStep[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  while (!queue.empty()) {
+    const int c = queue.top().second;
+    queue.pop();
+    const int cx = c % nx, cy = c / nx;
+    for (const auto& s : kStep) {
+      const int x = cx + s[0], y = cy + s[1];
+      if (x < 1 || y < 1 || x + 1 >= nx || y + 1 >= ny) continue;
+      const std::size_t n = std::size_t(y * nx + x);
+      if (smooth[n] < floor_h) continue;
+      if (label[n] < 0) {
+        label[n] = label[std::size_t(c)];
+        queue.emplace(smooth[n], int(n));
+        continue;
+      }
+      int a = basins.Find(label[n]), b = basins.Find(label[std::size_t(c)]);
+      if (a == b) continue;
+      const float ridge = std::min(smooth[n], smooth[std::size_t(c)]);
+      if (ridge > float(o.merge_saddle) * std::min(basins.peak[std::size_t(a)], basins.peak[std::size_t(b)])) {
+        if (basins.peak[std::size_t(a)] < basins.peak[std::size_t(b)]) std::swap(a, b);
+        basins.parent[std::size_t(b)] = a;
+      }
+    }
+  }
+  std::vector<int> group(basins.parent.size(), -1);
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const int l = label[std::size_t(cell_of[k])];
+    if (l < 0) continue;
+    const int root = basins.Find(l);
+    if (group[std::size_t(root)] < 0) {
+      group[std::size_t(root)] = int(out.size());
+      out.emplace_back();
+      out.back().peak_mm = basins.peak[std::size_t(root)];
+    }
+    HeightPart& part = out[std::size_t(group[std::size_t(root)])];
+    part.points.push_back(idx[k]);
+    part.cell_height_mm.push_back(smooth[std::size_t(cell_of[k])]);
+  }
+  return out;
+}
+
+std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
+                                          const GroundModel& ground, double spacing_mm, const TopiaryOptions& o) {
+  std::vector<TopiaryCandidate> out;
+  const double cell = std::max(10.0, 2 * spacing_mm);
+  const double noise = std::max(o.min_noise_mm, ground.noise_mm);
+  for (auto& part : SplitByHeight(pts, idx, ground, cell, o)) {
+    if (part.points.size() < 30) continue;
+    TopiaryCandidate c;
+    // The shape is fitted to, and its cover read from, the points whose cells stand in the upper
+    // three quarters of the object's height in the smoothed height model: a reconstruction's
+    // strays about its foot (single points a few ground-noise deep above the band, smoothed
+    // away) would widen a squat dome's footprint to wherever they scatter, and a clipped shape's
+    // sides above a quarter of its height already hold its width.
+    const double from = std::max(GroundBand(ground), 0.25 * double(part.peak_mm));
+    std::vector<Eigen::Vector3d> p;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (std::size_t k = 0; k < part.points.size(); ++k) {
+      const Eigen::Vector3d& v = pts[part.points[k]];
+      if (part.cell_height_mm[k] >= from && v.z() - ground.HeightAt(v.x(), v.y()) >= GroundBand(ground)) {
+        p.push_back(v), mean += v.head<2>();
+      }
+    }
+    mean /= double(std::max<std::size_t>(1, p.size()));
+    // The widest the shape may be: its upper half (cells above half the peak) is the part of a
+    // clipped shape a reconstruction holds best; it reaches at least 0.87 of the semi-axes, so
+    // 1.5 times its reach (98th percentile from its centre) bounds them with a leaf layer to spare.
+    std::vector<Eigen::Vector2d> core;
+    Eigen::Vector2d core_mean = Eigen::Vector2d::Zero();
+    for (std::size_t k = 0; k < part.points.size(); ++k) {
+      if (part.cell_height_mm[k] >= 0.5 * part.peak_mm) core.push_back(pts[part.points[k]].head<2>()), core_mean += core.back();
+    }
+    double widest = 0;
+    if (core.size() >= 10) {
+      core_mean /= double(core.size());
+      std::vector<double> reach;
+      for (const auto& v : core) reach.push_back((v - core_mean).norm());
+      std::nth_element(reach.begin(), reach.begin() + reach.size() * 98 / 100, reach.end());
+      widest = std::max(cell, 1.5 * reach[reach.size() * 98 / 100]);
+    }
+    c.points = std::move(part.points);
+    c.shape = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest);
+    const TopiaryShape& s = c.shape;
+    if (!s.converged) {
+      c.reason = "no shape with a vertical axis fits its points";
+      out.push_back(std::move(c));
+      continue;
+    }
+    c.elongation = std::max(s.axes_mm.x() / std::max(1e-9, s.axes_mm.y()), s.axes_mm.z() / std::max(1e-9, s.axes_mm.y()));
+    c.density = double(p.size()) * spacing_mm * spacing_mm / (M_PI * s.footprint_mm.x() * s.footprint_mm.y());
+    c.roughness = s.roughness_mm / noise;
+    // The top view of the footprint: cells of the candidate's own points against the cells of the
+    // ellipse within 0.8 of its semi-axes.
+    std::unordered_set<std::int64_t> held;
+    auto key = [cell](double x, double y) {
+      return (std::int64_t(std::floor(x / cell)) << 32) ^ (std::int64_t(std::floor(y / cell)) & 0xffffffff);
+    };
+    for (const auto& v : p) held.insert(key(v.x(), v.y()));
+    const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
+    std::size_t inside = 0, hit = 0;
+    for (double u = -fa; u <= fa; u += cell) {
+      for (double v = -fb; v <= fb; v += cell) {
+        if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
+        ++inside;
+        const double x = s.center_mm.x() + u * std::cos(th) - v * std::sin(th);
+        const double y = s.center_mm.y() + u * std::sin(th) + v * std::cos(th);
+        hit += held.count(key(x, y));
+      }
+    }
+    c.covered = inside > 0 ? double(hit) / double(inside) : 0;
+    if (s.top_mm < o.min_height_mm) {
+      c.reason = pipeline::Format("its top stands %.0f mm above the ground; topiary stands at least %.0f mm", s.top_mm, o.min_height_mm);
+    } else if (s.axes_mm.x() > o.max_size_mm) {
+      c.reason = pipeline::Format("%.0f mm long: larger than a clipped shape (max_size %.0f mm)", 2 * s.axes_mm.x(), 2 * o.max_size_mm);
+    } else if (s.axes_mm.y() < o.min_width_mm) {
+      c.reason = pipeline::Format("%.0f mm wide: narrower than the smallest hedge (min_radius %.0f mm)", 2 * s.axes_mm.y(), o.min_width_mm);
+    } else if (c.elongation > o.max_elongation) {
+      c.reason = pipeline::Format("it is %.1f times longer or taller than wide: a row, a fence, a bed or a post, not one shape",
+                                  c.elongation);
+    } else if (c.density < o.min_density) {
+      c.reason = pipeline::Format("%.2f points per spacing^2 of its footprint; a clipped shape's solid top holds %.2f",
+                                  c.density, o.min_density);
+    } else if (c.covered < o.min_covered) {
+      c.reason = pipeline::Format("its points cover %.0f %% of its footprint seen from above; a clipped shape's cover %.0f %%",
+                                  100 * c.covered, 100 * o.min_covered);
+    } else if (c.roughness > o.max_roughness) {
+      c.reason = pipeline::Format("its points lie %.0f mm about its %s (%.1f times the ground's noise of %.0f mm): not clipped",
+                                  s.roughness_mm, s.shape.c_str(), c.roughness, noise);
+    } else {
+      c.topiary = true;
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace hedgefit::scene

