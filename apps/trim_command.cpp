@@ -26,7 +26,8 @@ namespace {
 using json = nlohmann::ordered_json;
 
 struct TrimArgs {
-  std::string cloud, center, method = "ransac_geometric", output, render, format = "table", up = "-y";
+  std::string cloud, center, method = "ransac_geometric", output, render, format = "table", up = "-y", axes;
+  double heading = 0;
   double radius = 0, tolerance = 5, scale = 1;
   bool no_clean = false, print_pipeline = false;
 };
@@ -40,6 +41,7 @@ json Stages(const TrimArgs& a, const std::vector<double>& center) {
   }
   if (center.empty()) p.push_back({{"type", fitting::FindFitMethod(a.method, "--method").stage}});
   json trim = {{"type", "filters.trim_depth"}, {"radius", a.radius}, {"tolerance", a.tolerance}, {"up", a.up}};
+  if (!a.axes.empty()) trim["axes"] = ParseNumbers(a.axes, 3, "--axes"), trim["heading"] = a.heading;
   if (!center.empty()) trim["center"] = center;
   p.push_back(trim);
   if (!a.output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", a.output}, {"encoding", "binary_compressed"}});
@@ -56,13 +58,20 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit trim build/demo/sphere_2300.pcd --radius 280 --render build/trim.png -o build/trim.pcd\n"
       "  hedgefit trim row_2.pcd --radius 480 --method envelope --format json\n"
       "  hedgefit trim row_2.pcd --radius 480 --center 80,252,2557   # a given target, no fit\n"
-      "The target is a sphere of --radius about each hedge's fitted centre (--method), or about --center.\n"
+      "  hedgefit trim bed.ply --scale 1000 --up z --axes 300,300,180 --center 4815,-2126,-372   # a clipped spheroid\n"
+      "The target is a sphere of --radius, or a shape of --axes with a vertical axis (--up), about each hedge's\n"
+      "fitted centre (--method), or about --center.\n"
       "Cut depth = distance to the target's centre minus its radius: + sticks out (cut), - lies inside.\n"
       "The volume counts what the camera saw (seen_share of the sphere); volume_all_round_l assumes the\n"
       "unseen side sticks out as the seen side does.\n");
   auto a = std::make_shared<TrimArgs>();
   cmd->add_option("cloud", a->cloud, "cloud file (.pcd, .ply, .xyz); a hedge_id field gives one plan per hedge")->required();
-  cmd->add_option("--radius", a->radius, "target radius, mm (up to 100 m)")->required()->check(CLI::Range(1e-3, 1e5));
+  cmd->add_option("--radius", a->radius, "target radius, mm (up to 100 m); or --axes")->check(CLI::Range(1e-3, 1e5));
+  cmd->add_option("--axes", a->axes,
+                  "a clipped shape as the target: semi-axes A,B,C in mm along the heading, across it and along --up "
+                  "(a spheroid: A,A,C), e.g. from find's shape");
+  cmd->add_option("--heading", a->heading, "the shape's first semi-axis, degrees counter-clockwise about --up from x")
+      ->capture_default_str();
   cmd->add_option("--center", a->center, "target centre X,Y,Z in mm (default: each hedge's fitted centre)");
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
   cmd->add_option("--method", a->method, "fit that centres the target (without --center)")->capture_default_str();
@@ -79,10 +88,11 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
   cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and outlier removal (filters.hedge_outlier) before the fit");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
-  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--center", "--method", "--tolerance", "--up"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
+  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--axes", "--heading", "--center", "--method", "--tolerance", "--up"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
+      if (!(a->radius > 0) && a->axes.empty()) throw Error("trim: give the target's --radius R (mm), or a clipped shape's --axes A,B,C");
       std::vector<double> center;
       if (!a->center.empty()) center = ParseNumbers(a->center, 3, "--center");
       const json stages = Stages(*a, center);

@@ -5,12 +5,16 @@
 // hedgefit's ground model and the whole of `find` (ground, objects, balls and their fits). Threads:
 // both cores where each can use them (PCL's approximate PMF through OpenMP, hedgefit's fits'
 // jackknife and likelihood); the ground models' other steps and both clusterings run on one.
-// Usage: bench_find [--sensor photogrammetry|terrestrial|lidar16|lidar32] [--garden N] [--repeats N]
+// For topiary, a PCL user would then fit a sphere to each cluster by sample consensus
+// (SACSegmentation, SACMODEL_SPHERE, with find's radius limits): timed too.
+// Usage: bench_find [--sensor photogrammetry|terrestrial|lidar16|lidar32|aerial] [--garden N] [--repeats N]
+//        bench_find --cloud FILE [--repeats N]   (a real cloud; units guessed as find guesses them)
 
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/segmentation/approximate_progressive_morphological_filter.h>
 #include <pcl/segmentation/extract_clusters.h>
 #include <pcl/segmentation/progressive_morphological_filter.h>
+#include <pcl/segmentation/sac_segmentation.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -18,32 +22,56 @@
 #include <thread>
 
 #include "bench/bench_util.hpp"
+#include "cloud/cloud_io.hpp"
+#include "cloud/describe.hpp"
 #include "cloud/pcl_adapter.hpp"
 #include "fitting/methods.hpp"
 #include "scene/finder.hpp"
 #include "scene/ground.hpp"
 #include "sim/scan.hpp"
 
+namespace {
+
+// The cloud the bench runs on: a file (units guessed), or a simulated scan.
+hedgefit::cloud::PointCloud BenchCloud(const std::string& file, const std::string& sensor, int garden) {
+  using namespace hedgefit;
+  if (!file.empty()) {
+    cloud::PointCloud c = cloud::ReadCloud(file);
+    const double scale = cloud::GuessScale(c);
+    for (auto& p : c.points_mm) p *= float(scale);
+    std::printf("cloud: %s, %zu points (scale %g, guessed); %u hardware threads, used where a step can\n", file.c_str(),
+                c.size(), scale, std::thread::hardware_concurrency());
+    return c;
+  }
+  sim::ScanOptions so;
+  so.sensor = sim::ParseSensor(sensor);
+  so.seed = std::uint64_t(garden);
+  so.noise_mm = so.sensor == sim::Sensor::kTerrestrial ? 3 : (so.sensor == sim::Sensor::kLidar16 || so.sensor == sim::Sensor::kLidar32 ? 10 : 5);
+  const sim::ScanScene scene = so.sensor == sim::Sensor::kAerial ? sim::RandomTopiaryBed(std::uint64_t(garden))
+                                                                 : sim::RandomScanGarden(std::uint64_t(garden));
+  cloud::PointCloud c = sim::ScanGarden(scene, so);
+  std::printf("cloud: simulated %s scan of %s %d, %zu points (mm); %u hardware threads, used where a step can\n",
+              sensor.c_str(), so.sensor == sim::Sensor::kAerial ? "topiary bed" : "garden", garden, c.size(),
+              std::thread::hardware_concurrency());
+  return c;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace hedgefit;
-  std::string sensor = "photogrammetry";
+  std::string sensor = "photogrammetry", file;
   int garden = 1, repeats = 3;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--sensor" && i + 1 < argc) sensor = argv[++i];
+    else if (a == "--cloud" && i + 1 < argc) file = argv[++i];
     else if (a == "--garden" && i + 1 < argc) garden = std::atoi(argv[++i]);
     else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
   }
   cloud::QuietPcl();
   fitting::QuietSolverWarnings();
-  sim::ScanOptions so;
-  so.sensor = sim::ParseSensor(sensor);
-  so.seed = std::uint64_t(garden);
-  so.noise_mm = so.sensor == sim::Sensor::kTerrestrial ? 3 : (so.sensor == sim::Sensor::kPhotogrammetry ? 5 : 10);
-  const sim::ScanScene scene = sim::RandomScanGarden(std::uint64_t(garden));
-  const cloud::PointCloud c = sim::ScanGarden(scene, so);
-  std::printf("cloud: simulated %s scan of garden %d, %zu points (mm); %u hardware threads, used where a step can\n",
-              sensor.c_str(), garden, c.size(), std::thread::hardware_concurrency());
+  const cloud::PointCloud c = BenchCloud(file, sensor, garden);
 
   // hedgefit: the ground alone, and the whole of find.
   const scene::GroundOptions go;
@@ -97,17 +125,39 @@ int main(int argc, char** argv) {
     clusters.clear();
     ec.extract(clusters);
   });
+  // PCL: a sphere by sample consensus in each cluster, within find's radius limits.
+  const scene::FindOptions fo;
+  std::size_t spheres = 0;
+  const double ms_sac = bench::MedianMs(repeats, [&] {
+    spheres = 0;
+    for (const auto& cluster : clusters) {
+      auto part = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>(*above, cluster.indices);
+      pcl::SACSegmentation<pcl::PointXYZ> sac;
+      sac.setModelType(pcl::SACMODEL_SPHERE);
+      sac.setMethodType(pcl::SAC_RANSAC);
+      sac.setDistanceThreshold(30.0);
+      sac.setRadiusLimits(fo.min_radius_mm, fo.max_radius_mm);
+      sac.setMaxIterations(1000);
+      sac.setInputCloud(part);
+      pcl::PointIndices inliers;
+      pcl::ModelCoefficients model;
+      sac.segment(inliers, model);
+      spheres += inliers.indices.empty() ? 0 : 1;
+    }
+  });
   std::printf("\n%-64s %10s %10s\n", "step", "ms", "points");
   std::printf("%-64s %10.0f %10zu\n", "hedgefit ground (scene::FitGround)", ms_ground, c.size());
   std::printf("%-64s %10.0f %10zu\n", "PCL ApproximateProgressiveMorphologicalFilter", ms_apmf, c.size());
   std::printf("%-64s %10.0f %10zu\n", "PCL ProgressiveMorphologicalFilter (every 10th point)", ms_pmf_tenth, tenth->size());
   std::printf("%-64s %10.0f %10zu\n", "PCL EuclideanClusterExtraction (above hedgefit's ground, 150 mm)", ms_euclid,
               above->size());
-  std::printf("%-64s %10.0f %10zu\n", "hedgefit find: ground, objects, balls and their fits", ms_find, c.size());
-  std::printf("\nground points: hedgefit %zu, PCL approximate PMF %zu; objects: PCL's clusters %zu, hedgefit's objects %zu "
-              "(%zu balls)\n",
-              found.ground_points, pcl_ground.size(), clusters.size(), found.objects.size(), found.Balls());
-  std::printf("ratios: PCL approximate PMF / hedgefit ground %.1f; PCL PMF + Euclidean clusters / hedgefit find %.2f\n",
-              ms_apmf / ms_ground, (ms_apmf + ms_euclid) / ms_find);
+  std::printf("%-64s %10.0f %10zu\n", "PCL SACSegmentation sphere in each of those clusters", ms_sac, above->size());
+  std::printf("%-64s %10.0f %10zu\n", "hedgefit find: ground, objects, balls, topiary and their fits", ms_find, c.size());
+  std::printf("\nground points: hedgefit %zu, PCL approximate PMF %zu; objects: PCL's clusters %zu (a sphere in %zu), "
+              "hedgefit's objects %zu (%zu balls, %zu clipped shapes in all)\n",
+              found.ground_points, pcl_ground.size(), clusters.size(), spheres, found.objects.size(), found.Balls(),
+              found.Topiary());
+  std::printf("ratios: PCL approximate PMF / hedgefit ground %.1f; PCL PMF + Euclidean clusters + spheres / hedgefit find %.2f\n",
+              ms_apmf / ms_ground, (ms_apmf + ms_euclid + ms_sac) / ms_find);
   return 0;
 }

@@ -173,6 +173,11 @@ void AddTrimDepth(pipeline::Registry& r) {
                    DoubleOption("bin_deg", 0, "angular size of a volume bin; 0 = about 20 points per bin", "deg")
                        .Range(0, 90),
                    IntOption("min_bin_points", 3, "a volume bin with fewer points is unseen").Min(1),
+                   ListOption("axes", {}, 0,
+                              "a clipped shape as the target: semi-axes [along the heading, across, vertical]; empty = "
+                              "the sphere of 'radius' (then only the shape's volume radius is reported in 'radius')",
+                              "mm"),
+                   DoubleOption("heading", 0, "the shape's first semi-axis, counter-clockwise about 'up' from the x axis", "deg"),
                    StringOption("up", "-y",
                                 "the vertical the bins' rings are taken about: -y for a camera's cloud (y is down), "
                                 "+z for most maps and scans; x, y, z, -x, -y or -z")
@@ -181,7 +186,13 @@ void AddTrimDepth(pipeline::Registry& r) {
                   {"cloud", "trim_plans"},
                   {}},
         [trim](const Options& o) -> std::unique_ptr<Stage> {
-          if (!(o.GetDouble("radius") > 0)) throw Error("stage '" + trim + "', option 'radius': give the target radius (mm)");
+          const std::vector<double>& axes = o.GetList("axes");
+          if (!axes.empty() && (axes.size() != 3 || !(std::min({axes[0], axes[1], axes[2]}) > 0))) {
+            throw Error("stage '" + trim + "', option 'axes': give [a, b, c] semi-axes > 0 in mm (along the heading, across, vertical)");
+          }
+          if (axes.empty() && !(o.GetDouble("radius") > 0)) {
+            throw Error("stage '" + trim + "', option 'radius': give the target radius (mm), or 'axes' for a clipped shape");
+          }
           const std::vector<double>& center = o.GetList("center");
           if (!center.empty() && center.size() != 3) {
             throw Error("stage '" + trim + "', option 'center': give [x, y, z] in mm, or leave it out to use the fit");
@@ -190,6 +201,8 @@ void AddTrimDepth(pipeline::Registry& r) {
           to.tolerance_mm = o.GetDouble("tolerance");
           to.bin_deg = o.GetDouble("bin_deg");
           to.min_bin_points = int(o.GetInt("min_bin_points"));
+          if (!axes.empty()) to.axes_mm = Eigen::Vector3d(axes[0], axes[1], axes[2]);
+          to.heading_deg = o.GetDouble("heading");
           const std::string up_name = o.GetString("up");
           Eigen::Vector3d up = Eigen::Vector3d::Zero();
           up[up_name.back() - 'x'] = up_name[0] == '-' ? -1 : 1;
@@ -204,7 +217,7 @@ void AddTrimDepth(pipeline::Registry& r) {
               const std::string hedge = g.id ? "hedge " + std::to_string(g.id) : "the cloud";
               Sphere target;
               TrimOptions hedge_to = to;
-              target.radius_mm = opts.GetDouble("radius");
+              target.radius_mm = to.axes_mm != Eigen::Vector3d::Zero() ? std::cbrt(to.axes_mm.prod()) : opts.GetDouble("radius");
               if (center.size() == 3) {
                 target.center_mm = Eigen::Vector3d(center[0], center[1], center[2]);
               } else {

@@ -48,8 +48,44 @@ nlohmann::json UnseenDirections(const TrimPlan& t) {
 
 }  // namespace
 
-TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& target, const TrimOptions& o,
-                  const Eigen::Vector3d& pole) {
+namespace {
+
+// The target's radius along a unit direction: the sphere's, or the shape's (its semi-axes along
+// the heading, across it and the pole).
+struct TargetRadius {
+  bool shaped;
+  double radius_mm;
+  Eigen::Vector3d axes_mm, along, across, pole;
+  double operator()(const Eigen::Vector3d& u) const {
+    if (!shaped) return radius_mm;
+    const double a = u.dot(along) / axes_mm.x(), b = u.dot(across) / axes_mm.y(), c = u.dot(pole) / axes_mm.z();
+    return 1 / std::sqrt(a * a + b * b + c * c);
+  }
+};
+
+// A point seen from the target centre: about the pole, and how far.
+struct Direction {
+  double cos_theta, phi, r;
+};
+
+// Equal-area grid of about bin x bin radians at the equator.
+struct Grid {
+  int rings, sectors;
+  double cell_sr;
+  explicit Grid(double bin) {
+    sectors = std::max(4, static_cast<int>(std::lround(2 * M_PI / bin)));
+    rings = std::max(2, static_cast<int>(std::lround(2.0 / bin)));  // cos(theta) steps of ~bin at the equator
+    cell_sr = 4 * M_PI / (double(rings) * double(sectors));
+  }
+  long Cell(const Direction& d) const {
+    const int ring = std::min(rings - 1, static_cast<int>((d.cos_theta + 1) / 2 * rings));
+    const int sector = std::min(sectors - 1, static_cast<int>(d.phi / (2 * M_PI) * sectors));
+    return long(ring) * sectors + sector;
+  }
+};
+
+// The options' checks, each naming the option and what would fix it.
+void CheckTrim(const Sphere& target, const TrimOptions& o, const Eigen::Vector3d& pole) {
   if (!(target.radius_mm > 0) || !std::isfinite(target.radius_mm) || !target.center_mm.allFinite()) {
     throw Error("trim: the target needs a finite centre and a radius > 0 mm");
   }
@@ -60,16 +96,36 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   if (o.min_bin_points < 1) throw Error("trim: option 'min_bin_points' must be >= 1");
   if (!pole.allFinite() || pole.norm() == 0) throw Error("trim: the grid's pole must be a non-zero vector");
   if (!(o.clipped_share > 0 && o.clipped_share <= 1)) throw Error("trim: option 'clipped_share' must be in (0, 1]");
+  if (o.axes_mm != Eigen::Vector3d::Zero() && !(o.axes_mm.minCoeff() > 0 && o.axes_mm.allFinite())) {
+    throw Error("trim: option 'axes' needs three semi-axes > 0 mm (along the heading, across it, vertical)");
+  }
+  if (!std::isfinite(o.heading_deg)) throw Error("trim: option 'heading' must be finite");
+}
+
+}  // namespace
+
+TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& target, const TrimOptions& o,
+                  const Eigen::Vector3d& pole) {
+  CheckTrim(target, o, pole);
+  const bool shaped = o.axes_mm != Eigen::Vector3d::Zero();
   TrimPlan plan;
   plan.pole = pole.normalized();
   plan.target = target;
-  const double R = target.radius_mm;
   // An orthonormal frame with z along the pole: rings of equal cos(theta) about it.
   const Eigen::Vector3d z = pole.normalized();
   const Eigen::Vector3d x = z.unitOrthogonal(), y = z.cross(x);
-  struct Direction {
-    double cos_theta, phi, r;
-  };
+  // The shape's axes: the first along the heading from the cloud's x laid flat.
+  Eigen::Vector3d flat = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;
+  if (flat.norm() < 1e-6) flat = Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z;
+  flat.normalize();
+  const double h = o.heading_deg * M_PI / 180;
+  const Eigen::Vector3d along = std::cos(h) * flat + std::sin(h) * z.cross(flat), across = z.cross(along);
+  if (shaped) {
+    plan.target_axes_mm = o.axes_mm;
+    plan.target_heading_deg = o.heading_deg;
+    plan.target.radius_mm = std::cbrt(o.axes_mm.prod());
+  }
+  const TargetRadius radius_along{shaped, target.radius_mm, o.axes_mm, along, across, z};
   std::vector<Direction> dirs;
   dirs.reserve(points_mm.size());
   std::vector<double> cut;
@@ -79,25 +135,11 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     if (!d.allFinite()) continue;
     const double r = d.norm();
     ++plan.points;
+    const double R = r > 0 ? radius_along(d / r) : radius_along(z);
     plan.depth_mm[i] = static_cast<float>(r - R);
     if (r - R > o.tolerance_mm) cut.push_back(r - R), ++plan.points_to_cut;
     if (r > 0) dirs.push_back({std::clamp(d.dot(z) / r, -1.0, 1.0), std::atan2(d.dot(y), d.dot(x)) + M_PI, r});
   }
-  // Equal-area grid of about bin x bin radians at the equator.
-  struct Grid {
-    int rings, sectors;
-    double cell_sr;
-    explicit Grid(double bin) {
-      sectors = std::max(4, static_cast<int>(std::lround(2 * M_PI / bin)));
-      rings = std::max(2, static_cast<int>(std::lround(2.0 / bin)));  // cos(theta) steps of ~bin at the equator
-      cell_sr = 4 * M_PI / (double(rings) * double(sectors));
-    }
-    long Cell(const Direction& d) const {
-      const int ring = std::min(rings - 1, static_cast<int>((d.cos_theta + 1) / 2 * rings));
-      const int sector = std::min(sectors - 1, static_cast<int>(d.phi / (2 * M_PI) * sectors));
-      return long(ring) * sectors + sector;
-    }
-  };
   double bin = o.bin_deg * M_PI / 180;
   if (o.bin_deg == 0 && !dirs.empty()) {
     // Automatic: about 20 points per bin over the part seen (estimated on a 10-degree grid),
@@ -143,6 +185,7 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     b.weight = edge ? 0.5 : 1.0;
     seen += sr;
     const double r = Percentile(radii, 1 - o.clipped_share / 2);
+    const double R = radius_along(b.direction);
     b.seen = true;
     b.radius_mm = r;
     r_max = std::max(r_max, r);
@@ -154,9 +197,14 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   plan.cut_share = seen > 0 ? cut_angle / seen : 0;
   plan.volume_seen_l = volume_mm3 * 1e-6;
   plan.volume_all_round_l = plan.seen_share > 0 ? plan.volume_seen_l / plan.seen_share : 0;
-  if (r_max - R > o.tolerance_mm) {
-    plan.volume_unseen_max_l = (4 * M_PI - seen) * (r_max * r_max * r_max - R * R * R) / 3 * 1e-6;
+  // Every unseen direction (and the uncounted half of the seen part's edge) as far out as the
+  // farthest seen bin.
+  double unseen_mm3 = 0;
+  for (const TrimBin& b : plan.bins) {
+    const double R = radius_along(b.direction);
+    if (r_max - R > o.tolerance_mm) unseen_mm3 += (1 - b.weight) * b.solid_angle_sr * (r_max * r_max * r_max - R * R * R) / 3;
   }
+  plan.volume_unseen_max_l = unseen_mm3 * 1e-6;
   plan.cut_p50_mm = Percentile(cut, 0.5);
   plan.cut_p90_mm = Percentile(cut, 0.9);
   plan.cut_p99_mm = Percentile(cut, 0.99);
@@ -185,6 +233,10 @@ std::string TrimPlansJson(const std::string& cloud, const std::vector<TrimPlan>&
                              {"volume_all_round_l", r3(t.volume_all_round_l)},
                              {"volume_unseen_max_l", r3(t.volume_unseen_max_l)},
                              {"unseen", UnseenDirections(t)}});
+    if (t.target_axes_mm != Eigen::Vector3d::Zero()) {
+      out["hedges"].back()["target_axes_mm"] = {r3(t.target_axes_mm.x()), r3(t.target_axes_mm.y()), r3(t.target_axes_mm.z())};
+      out["hedges"].back()["target_heading_deg"] = r3(t.target_heading_deg);
+    }
   }
   return out.dump(2);
 }

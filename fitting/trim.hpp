@@ -43,6 +43,14 @@ struct TrimOptions {
   double bin_deg = 0.0;
   int min_bin_points = 3;     ///< a bin with fewer points is unseen
   double clipped_share = 1.0; ///< share of a bin's points on the envelope (see above); 1 = the median
+  /// A clipped shape as the target instead of a sphere: semi-axes along the heading, across it
+  /// and along the pole (the vertical), mm; zero = the sphere of the target's radius. Cut depth
+  /// is then along the ray from the target's centre: the point's distance less the shape's
+  /// radius in its direction, as the volume's bins read it.
+  Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();
+  /// The first semi-axis' direction: degrees counter-clockwise about the pole from the cloud's x
+  /// axis laid flat (its y axis when x is the pole).
+  double heading_deg = 0;
 };
 
 /// One volume bin of a plan: a direction from the target centre and the cell about it.
@@ -57,7 +65,9 @@ struct TrimBin {
 
 struct TrimPlan {
   int hedge_id = 0;  ///< which hedge of a capture (0: the cloud is one hedge)
-  Sphere target;
+  Sphere target;     ///< its centre; its radius, or for a shape the radius of its volume
+  Eigen::Vector3d target_axes_mm = Eigen::Vector3d::Zero();  ///< a shape's semi-axes (zero for a sphere)
+  double target_heading_deg = 0;
   std::vector<float> depth_mm;   ///< per input point, signed (NaN for non-finite points)
   std::size_t points = 0;        ///< finite points
   std::size_t points_to_cut = 0; ///< depth > tolerance

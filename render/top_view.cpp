@@ -10,7 +10,8 @@
 
 namespace hedgefit::render {
 
-void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& result, const std::string& path, int size) {
+void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& result, const std::string& path, int size,
+                  const std::vector<Eigen::Vector2d>& marks) {
   // Scene frame: up is +z, so the top view is (x, y), y drawn upwards.
   std::vector<Eigen::Vector3d> pts(cloud.size(), Eigen::Vector3d::Constant(std::nan("")));
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
@@ -63,7 +64,7 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
   }
   const cv::Scalar green(40, 150, 20), orange(0, 120, 240);
   for (const auto& o : result.objects) {
-    if (o.shape) {
+    if (o.shape && o.topiary) {
       // A topiary found by height: its footprint (the widest section above the ground), turned by
       // its heading, with its number and class.
       const auto& s = *o.shape;
@@ -86,13 +87,18 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
                   orange, 2, cv::LINE_AA);
     }
   }
+  for (const auto& m : marks) {
+    const Eigen::Vector3d v = result.scene_from_cloud * Eigen::Vector3d(m.x(), m.y(), 0);
+    cv::drawMarker(img, at(v.head<2>()), cv::Scalar(0, 0, 0), cv::MARKER_CROSS, 18, 2, cv::LINE_AA);
+  }
   // A scale bar of 1 m, and the legend.
   const cv::Point bar(int(margin), h - int(margin / 2));
   cv::line(img, bar, bar + cv::Point(int(1000 * px), 0), cv::Scalar(0, 0, 0), 2);
   cv::putText(img, "1 m", bar + cv::Point(0, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   const std::size_t shapes = result.Topiary(), others = result.objects.size() - shapes;
-  cv::putText(img, pipeline::Format("%zu ball%s or topiary (green: circles, footprints), %zu other object%s (orange outlines)", shapes,
-                                    shapes == 1 ? "" : "s", others, others == 1 ? "" : "s"),
+  cv::putText(img, pipeline::Format("%zu ball%s or topiary (green: circles, footprints), %zu other object%s (orange outlines)%s", shapes,
+                                    shapes == 1 ? "" : "s", others, others == 1 ? "" : "s",
+                                    marks.empty() ? "" : pipeline::Format(", %zu marks (black crosses)", marks.size()).c_str()),
               cv::Point(int(margin), int(margin / 2)), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   stereo::WriteImageAtomic(path, img);
 }

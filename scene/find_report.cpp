@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include "fitting/fit_fields.hpp"
@@ -66,9 +67,12 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
                   {"roughness_mm", s.roughness_mm},
                   {"bic", {{"ball", s.bic_ball}, {"spheroid", s.bic_spheroid}, {"ellipsoid", s.bic_ellipsoid}}},
                   {"covered", o.covered},
-                  {"roughness_noise", o.roughness}};
+                  {"covered_lower", o.covered_lower},
+                  {"roughness_noise", o.roughness},
+                  {"density", o.density},
+                  {"elongation", o.elongation}};
   }
-  if (!o.ball && !o.shape) h["not_a_ball"] = o.reason.empty() ? o.verdict : o.reason;
+  if (!o.topiary) h["not_a_ball"] = o.reason.empty() ? o.verdict : o.reason;
   if (sphere) h["fit"] = FitJson(o.fit);
   if (o.geometric && o.geometric->converged && o.fit.method != "geometric") h["geometric"] = FitJson(*o.geometric);
   return h;
@@ -131,7 +135,7 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
         if (std::isfinite(v)) Print(out, "%.1f,", v); else out << ",";
       }
       Print(out, "%.4f,%.3f,%s,%d,", o.lumpiness, o.axis_ratio, o.fit.converged ? o.fit.method.c_str() : "", o.topiary ? 1 : 0);
-      if (o.shape) {
+      if (o.shape && o.topiary) {
         Print(out, "%.1f,%.1f,%.1f,%.1f,", o.shape->axes_mm.x(), o.shape->axes_mm.y(), o.shape->axes_mm.z(), o.shape->heading_deg);
       } else {
         out << ",,,,";
@@ -141,13 +145,20 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
   }
 }
 
+namespace {
+// The ball search's ellipsoids are clipped shapes too; they are not "by height".
+std::size_t TopiaryFromBallSearch(const FindResult& r) {
+  return std::size_t(std::count_if(r.objects.begin(), r.objects.end(), [](const FoundObject& o) { return o.topiary && !o.ball && !o.shape; }));
+}
+}  // namespace
+
 void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
   for (const auto& rep : reports) {
     const FindResult& r = rep.result;
-    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu ball%s and %zu "
-          "topiary of %zu object%s\n",
+    Print(out, "%s: %zu points (%s), up %s, spacing %.1f mm; ground %zu points (noise %.1f mm); %zu ball%s, %zu "
+          "topiary by height, of %zu object%s\n",
           r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
-          r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.Topiary(), r.objects.size(), r.objects.size() == 1 ? "" : "s");
+          r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.Topiary() - r.Balls() - TopiaryFromBallSearch(r), r.objects.size(), r.objects.size() == 1 ? "" : "s");
     for (const auto& w : r.warnings) Print(out, "  warning: %s\n", w.c_str());
     if (r.objects.empty()) continue;
     out << "  id  verdict      centre x, y, z (mm)               radius   95 % (r)  leaf r    points  seen  ground   height  lumpy\n";
@@ -167,7 +178,7 @@ void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
       auto mm = [](double v) { return std::isfinite(v) ? pipeline::Format("%7.0f", v) : std::string("      -"); };
       Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(o.ground_mm).c_str(),
             mm(o.height_mm).c_str(), o.lumpiness);
-      if (o.shape) {
+      if (o.shape && o.topiary) {
         const TopiaryShape& s = *o.shape;
         Print(out, "      ^ %s%s%s: semi-axes %.0f x %.0f x %.0f mm (+-%.0f, %.0f, %.0f), heading %.0f deg, covered %.0f %%, "
                    "roughness %.1f x noise\n",

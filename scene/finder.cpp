@@ -20,6 +20,7 @@
 #include "fitting/ransac_fit.hpp"
 #include "fitting/uncertainty.hpp"
 #include "pipeline/error.hpp"
+#include "pipeline/parallel.hpp"
 #include "pipeline/print.hpp"
 
 namespace hedgefit::scene {
@@ -718,6 +719,7 @@ void TopiaryAmongOthers(const ScenePoints& s, const GroundModel& ground, double 
     }
     if (most >= 0 && parts[std::size_t(most)].shape.converged) {
       c.j.reason = "not clipped: " + parts[std::size_t(most)].reason;
+      c.topiary = parts[std::size_t(most)];  // refused: its measures go with it
     }
     c.points.swap(keep);
   }
@@ -732,6 +734,45 @@ void TopiaryAmongOthers(const ScenePoints& s, const GroundModel& ground, double 
     c.topiary = std::move(part);
     topiary->push_back(std::move(c));
   }
+}
+
+// A dome from the ball search whose points a spheroid or an ellipsoid fits clearly better (by
+// BIC, axes 5 % apart, and apart by more than twice their 95 % intervals) is that shape: a squat
+// clipped dome seen from above passes for the cap of a larger ball, whose radius would be a third
+// off. The ball search judges a free ball's axes itself (max_axis_ratio); a dome's it cannot, its
+// foot being cut by the ground.
+void ShapesOfBalls(const ScenePoints& s, const GroundModel& ground, double spacing_mm, const FindOptions& o,
+                   std::vector<Candidate>* balls, std::vector<Candidate>* topiary) {
+  TopiaryOptions to = o.topiary;
+  to.min_width_mm = o.min_radius_mm;
+  const LawnDensity lawn(s.pts, ground, spacing_mm);
+  const double cell = std::max(10.0, 2 * spacing_mm);
+  std::vector<Candidate> kept;
+  for (auto& c : *balls) {
+    if (!c.ground_seen || c.j.verdict != "dome") {
+      kept.push_back(std::move(c));
+      continue;
+    }
+    const GroundModel& g = c.local_ground ? *c.local_ground : ground;
+    TopiaryCandidate t = JudgeTopiary(s.pts, c.points, g, lawn, cell, to, 1.3 * c.j.sphere.radius_mm);
+    const Eigen::Vector3d& ax = t.shape.axes_mm;
+    const Eigen::Vector3d& ci = t.shape.axes_ci95_mm;
+    const bool apart = std::abs(ax.x() - ax.z()) > 2 * std::hypot(ci.x(), ci.z()) ||
+                       std::abs(ax.x() - ax.y()) > 2 * std::hypot(ci.x(), ci.y());
+    if (!t.shape.converged || t.shape.family == "ball" || !apart) {
+      kept.push_back(std::move(c));
+      continue;
+    }
+    // The ball search has judged it clipped; the shape says which.
+    t.topiary = true;
+    t.reason.clear();
+    Candidate shaped;
+    shaped.j.verdict = t.shape.shape;
+    shaped.points = c.points;
+    shaped.topiary = std::move(t);
+    topiary->push_back(std::move(shaped));
+  }
+  balls->swap(kept);
 }
 
 // The ground under each ball again, from the lawn about it without any ball's points: a dome's
@@ -830,13 +871,19 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
   obj.ground_mm = sc.ground.HeightAt(obj.top_center_mm.x(), obj.top_center_mm.y());
   obj.topiary = obj.ball || obj.verdict == "ellipsoid";
   if (c.topiary) {
+    // What a clipped shape was judged on, found or refused.
+    obj.shape = c.topiary->shape;
+    obj.covered = c.topiary->covered;
+    obj.covered_lower = c.topiary->covered_lower;
+    obj.roughness = c.topiary->roughness;
+    obj.density = c.topiary->density;
+    obj.elongation = c.topiary->elongation;
+  }
+  if (c.topiary && c.topiary->topiary) {
     // A clipped shape found by height: its centre and the sphere of its volume in the cloud's
     // frame for the readers that take spheres; its shape in the scene frame.
     const TopiaryShape& s = c.topiary->shape;
     obj.topiary = true;
-    obj.shape = s;
-    obj.covered = c.topiary->covered;
-    obj.roughness = c.topiary->roughness;
     obj.top_center_mm = s.center_mm.head<2>();
     obj.ground_mm = sc.ground.HeightAt(s.center_mm.x(), s.center_mm.y());
     obj.height_mm = s.top_mm;
@@ -893,10 +940,20 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
   res.object_points = above.size();
   const auto clusters = no_ground ? std::vector<std::vector<std::size_t>>{above} : TopViewClusters(sc.s.pts, above, o.gap_mm);
   lap("objects");
-  BallFinder finder(sc.s.pts, sc.ground, o);
+  // Each object is searched on its own, in parallel: each with a generator of its own seeded
+  // alike, so the result does not depend on timing or on the other objects.
+  std::vector<std::vector<Candidate>> balls_of(clusters.size()), others_of(clusters.size());
+  pipeline::ParallelFor(clusters.size(), 0, 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k) {
+      if (clusters[k].size() < std::size_t(o.min_points)) continue;
+      BallFinder finder(sc.s.pts, sc.ground, o);
+      PeelBalls(clusters[k], sc.s, finder, o, &balls_of[k], &others_of[k]);
+    }
+  });
   std::vector<Candidate> balls, others;
-  for (const auto& cluster : clusters) {
-    if (cluster.size() >= std::size_t(o.min_points)) PeelBalls(cluster, sc.s, finder, o, &balls, &others);
+  for (std::size_t k = 0; k < clusters.size(); ++k) {
+    for (auto& c : balls_of[k]) balls.push_back(std::move(c));
+    for (auto& c : others_of[k]) others.push_back(std::move(c));
   }
   lap("balls");
   std::vector<Candidate> topiary;
@@ -908,6 +965,8 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
     GroundUnderBalls(sc.s, sc.ground, o, &balls);
     lap("ground under each ball");
   }
+  // A camera sees a quarter of a ball from the side, which pins no second axis: its balls stay balls.
+  if (o.topiary.enabled && !sc.camera) ShapesOfBalls(sc.s, sc.ground, res.spacing_mm, o, &balls, &topiary);
   std::sort(balls.begin(), balls.end(), [](const Candidate& a, const Candidate& b) {
     return a.j.sphere.center_mm.x() < b.j.sphere.center_mm.x();
   });

@@ -72,11 +72,15 @@ struct FoundObject {
   std::string verdict;
   bool ball = false;            ///< a ball or dome from the ball search: a hedge measured as a sphere
   bool topiary = false;         ///< a clipped shape (every ball is one; so is a topiary found by height)
-  /// A topiary found by height: its shape in the scene frame (up +z; FindResult::scene_from_cloud
-  /// turns the cloud into it), what its verdict rests on, and its intervals.
+  /// An object judged as a clipped shape by height (found or refused: `topiary` says which): its
+  /// shape in the scene frame (up +z; FindResult::scene_from_cloud turns the cloud into it) with
+  /// its intervals, and the measures its verdict rests on.
   std::optional<TopiaryShape> shape;
-  double covered = 0;           ///< topiary by height: share of its footprint's top-view cells holding points
-  double roughness = 0;         ///< topiary by height: robust spread about its shape over the ground's noise
+  double covered = 0;           ///< share of its footprint's top-view cells holding points
+  double covered_lower = 0;     ///< its lower 95 % bound
+  double roughness = 0;         ///< robust spread about its shape over the ground's noise
+  double density = 0;           ///< points on its footprint over the lawn's beside it (per mm^2)
+  double elongation = 0;        ///< long over short horizontal semi-axis, or vertical over short (the larger)
   std::string reason;           ///< why not a ball (or what makes it an ellipsoid); empty for a ball
   /// The measurement, in the cloud's frame: the envelope fit when it converged (sphere = centre
   /// and outer envelope radius, extras surface_radius_mm and leaf_depth_mm), else the geometric fit;

@@ -23,6 +23,7 @@ void RegisterSceneStages(pipeline::Registry& r) {
           const FindResult found = FindHedges(cloud, run);
           cloud = LabelCloud(cloud, found);
           ctx.Note("balls", static_cast<std::int64_t>(found.Balls()));
+          ctx.Note("topiary", static_cast<std::int64_t>(found.Topiary()));
           ctx.Note("objects", static_cast<std::int64_t>(found.objects.size()));
           ctx.Note("ground_points", static_cast<std::int64_t>(found.ground_points));
         }));

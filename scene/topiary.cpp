@@ -10,9 +10,11 @@
 #include <limits>
 #include <numeric>
 #include <queue>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "pipeline/error.hpp"
+#include "pipeline/parallel.hpp"
 #include "pipeline/print.hpp"
 
 namespace hedgefit::scene {
@@ -29,12 +31,14 @@ const pipeline::OptionTable<TopiaryOptions>& TopiaryOptions::Table() {
           .Range(0, 1)
           .Add("max_elongation", &O::max_elongation, "a topiary's footprint is at most this many times longer than wide", "")
           .Min(1)
-          .Add("min_covered", &O::min_covered, "share of a topiary's footprint (top view) its points must cover", "")
+          .Add("min_covered", &O::min_covered,
+               "share of a topiary's footprint (top view) its points cover, at least (the lower 95 % bound)", "")
           .Range(0, 1)
           .Add("max_roughness", &O::max_roughness, "a topiary's points lie about its shape within this many times the ground's noise",
                "")
           .Min(0)
-          .Add("min_density", &O::min_density, "points per spacing^2 of a topiary's footprint, at least", "").Min(0)
+          .Add("min_density", &O::min_density, "points on a topiary's footprint over the lawn's beside it (per mm^2), at least", "")
+          .Min(0)
           .Add("min_noise", &O::min_noise_mm, "the noise roughness is judged against is at least this", "mm")
           .Min(0.1);
   return table;
@@ -168,12 +172,13 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
     const double sigma = std::max(1.0, RobustSpread(ev));
     const double k = 1.5 * sigma;
     for (Eigen::Index i = 0; i < n; ++i) w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
+    // Forward differences: steps of 0.05 mm (1e-4 rad) on residuals of millimetres.
     for (int j = 0; j < m; ++j) {
       const double h = (f == Family::kEllipsoid && j == 6) ? 1e-4 : 0.05;
-      Eigen::VectorXd xp = x, xm = x, ep, em;
-      xp(j) += h, xm(j) -= h;
-      residuals(xp, &ep), residuals(xm, &em);
-      J.col(j) = (ep - em) / (2 * h);
+      Eigen::VectorXd xp = x, ep;
+      xp(j) += h;
+      residuals(xp, &ep);
+      J.col(j) = (ep - e) / h;
     }
     const Eigen::MatrixXd JtW = J.transpose() * w.asDiagonal();
     const Eigen::MatrixXd A = JtW * J;
@@ -220,13 +225,13 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
 
 }  // namespace
 
-TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm) {
+TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
+                             std::size_t max_points) {
   TopiaryShape s;
   s.points = all.size();
   if (all.size() < 20) return s;
-  // At most 2000 points, evenly through the list.
   std::vector<Eigen::Vector3d> p;
-  const std::size_t step = all.size() / 2000 + 1;
+  const std::size_t step = all.size() / std::max<std::size_t>(20, max_points) + 1;
   for (std::size_t i = 0; i < all.size(); i += step) p.push_back(all[i]);
   // A start from the points' spread: a disc's points spread a / 2 about its centre; the top at
   // the 98th percentile; the centre half the height below it.
@@ -284,21 +289,34 @@ TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& all, double gro
     return n * std::log(sum / n) + k * std::log(n);
   };
   s.bic_ball = bic(ball, 4), s.bic_spheroid = bic(spheroid, 5), s.bic_ellipsoid = bic(ellipsoid, 7);
+  // A family with more parameters wins when the criterion says so and its axes differ by more
+  // than 5 % (below that a gardener clips it as the simpler shape, and thousands of points make
+  // any difference "significant").
+  auto differ = [](double x, double y) { return std::abs(x - y) > 0.05 * std::max(x, y); };
   const FamilyFit* best = &ball;
   Family family = Family::kBall;
-  if (s.bic_spheroid < s.bic_ball) best = &spheroid, family = Family::kSpheroid;
-  if (s.bic_ellipsoid < std::min(s.bic_ball, s.bic_spheroid)) best = &ellipsoid, family = Family::kEllipsoid;
+  double best_bic = s.bic_ball;
+  if (s.bic_spheroid < best_bic && differ(spheroid.q(3), spheroid.q(5))) {
+    best = &spheroid, family = Family::kSpheroid, best_bic = s.bic_spheroid;
+  }
+  const Full& e = ellipsoid.q;
+  if (s.bic_ellipsoid < best_bic && (differ(e(3), e(4)) || (family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))) {
+    best = &ellipsoid, family = Family::kEllipsoid;
+  }
   Full q = best->q;
   // The first horizontal semi-axis is the longer one; heading in [0, 180).
   if (q(4) > q(3)) std::swap(q(3), q(4)), q(6) += M_PI / 2;
   double heading = std::fmod(q(6), M_PI);
   if (heading < 0) heading += M_PI;
   s.converged = true;
+  s.family = family == Family::kBall ? "ball" : family == Family::kSpheroid ? "spheroid" : "ellipsoid";
   s.center_mm = q.head<3>();
   s.axes_mm = q.segment<3>(3);
   s.heading_deg = family == Family::kEllipsoid ? heading * 180 / M_PI : 0;
   s.roughness_mm = RobustSpread(best->residuals);
-  const Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96;
+  // The sandwich covariance of the subsample, scaled to all the points (independent residuals).
+  const Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96 *
+                             std::sqrt(double(p.size()) / double(all.size()));
   s.center_ci95_mm = sd.head<3>();
   if (family == Family::kBall) {
     s.axes_ci95_mm.setConstant(sd(3));
@@ -413,114 +431,190 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts, c
     }
   }
   std::vector<int> group(basins.parent.size(), -1);
-  for (std::size_t k = 0; k < idx.size(); ++k) {
-    const int l = label[std::size_t(cell_of[k])];
-    if (l < 0) continue;
-    const int root = basins.Find(l);
+  auto part_of_root = [&](int root) -> HeightPart& {
     if (group[std::size_t(root)] < 0) {
       group[std::size_t(root)] = int(out.size());
       out.emplace_back();
       out.back().peak_mm = basins.peak[std::size_t(root)];
     }
-    HeightPart& part = out[std::size_t(group[std::size_t(root)])];
+    return out[std::size_t(group[std::size_t(root)])];
+  };
+  for (std::size_t k = 0; k < idx.size(); ++k) {
+    const int l = label[std::size_t(cell_of[k])];
+    if (l < 0) continue;
+    HeightPart& part = part_of_root(basins.Find(l));
     part.points.push_back(idx[k]);
     part.cell_height_mm.push_back(smooth[std::size_t(cell_of[k])]);
+  }
+  for (std::size_t c = 0; c < cells; ++c) {
+    if (label[c] < 0) continue;
+    const int root = basins.Find(label[c]);
+    if (group[std::size_t(root)] < 0 || smooth[c] < 0.5f * basins.peak[std::size_t(root)]) continue;
+    const double x = lo.x() + (double(int(c) % nx) - 0.5) * cell, y = lo.y() + (double(int(c) / nx) - 0.5) * cell;
+    out[std::size_t(group[std::size_t(root)])].upper_cells.emplace_back(x, y, smooth[c]);
   }
   return out;
 }
 
+LawnDensity::LawnDensity(const std::vector<Eigen::Vector3d>& pts, const GroundModel& ground, double spacing_mm)
+    : spacing_mm_(spacing_mm) {
+  if (ground.empty()) return;
+  const double band = GroundBand(ground);
+  for (const auto& p : pts) {
+    if (!p.allFinite() || std::abs(p.z() - ground.HeightAt(p.x(), p.y())) > band) continue;
+    ++counts_[Key(p.x(), p.y())];
+  }
+}
+
+std::int64_t LawnDensity::Key(double x, double y) {
+  return (std::int64_t(std::floor(x / kCell)) << 32) ^ (std::int64_t(std::floor(y / kCell)) & 0xffffffff);
+}
+
+double LawnDensity::PerMm2Around(const Eigen::Vector2d& center, double radius_mm) const {
+  // The cells whose centres lie 0.25-1.25 m beyond the radius and hold lawn: cells without any are
+  // under something else or outside the scan.
+  const double r0 = radius_mm + 250, r1 = radius_mm + 1250;
+  std::size_t n = 0, cells = 0;
+  for (double x = std::floor((center.x() - r1) / kCell) * kCell + kCell / 2; x <= center.x() + r1; x += kCell) {
+    for (double y = std::floor((center.y() - r1) / kCell) * kCell + kCell / 2; y <= center.y() + r1; y += kCell) {
+      const double d = std::hypot(x - center.x(), y - center.y());
+      if (d < r0 || d > r1) continue;
+      const auto it = counts_.find(Key(x, y));
+      if (it == counts_.end()) continue;
+      n += it->second, ++cells;
+    }
+  }
+  if (cells < 3) return 1 / (spacing_mm_ * spacing_mm_);
+  return double(n) / (double(cells) * kCell * kCell);
+}
+
+TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vector<std::size_t> points, const GroundModel& ground,
+                              const LawnDensity& lawn, double cell, const TopiaryOptions& o, double widest_mm,
+                              const std::vector<float>* cell_height_mm, double peak_mm) {
+  TopiaryCandidate c;
+  const double noise = std::max(o.min_noise_mm, ground.noise_mm);
+  const double band = GroundBand(ground);
+  // The shape is fitted to, and its cover read from, the points in the upper three quarters of
+  // the object's height (by the smoothed height model's cell when given): a reconstruction's
+  // strays about its foot (single points a few ground-noise deep above the band, smoothed away)
+  // would widen a squat dome's footprint to wherever they scatter, and a clipped shape's sides
+  // above a quarter of its height already hold its width.
+  if (peak_mm <= 0) {
+    for (std::size_t i : points) peak_mm = std::max(peak_mm, pts[i].z() - ground.HeightAt(pts[i].x(), pts[i].y()));
+  }
+  const double from = std::max(band, 0.25 * peak_mm);
+  std::vector<Eigen::Vector3d> p;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Eigen::Vector3d& v = pts[points[k]];
+    const double h = v.z() - ground.HeightAt(v.x(), v.y());
+    if (h >= band && (cell_height_mm ? double((*cell_height_mm)[k]) : h) >= from) p.push_back(v), mean += v.head<2>();
+  }
+  mean /= double(std::max<std::size_t>(1, p.size()));
+  c.points = std::move(points);
+  c.shape = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm);
+  const TopiaryShape& s = c.shape;
+  if (!s.converged) {
+    c.reason = "no shape with a vertical axis fits its points";
+    return c;
+  }
+  c.elongation = std::max(s.axes_mm.x() / std::max(1e-9, s.axes_mm.y()), s.axes_mm.z() / std::max(1e-9, s.axes_mm.y()));
+  c.roughness = s.roughness_mm / noise;
+  // Seen from above, a solid top intercepts as many of the sensor's rays as the lawn beside it.
+  const double footprint_mm2 = M_PI * s.footprint_mm.x() * s.footprint_mm.y();
+  c.density = double(p.size()) / (footprint_mm2 * lawn.PerMm2Around(s.center_mm.head<2>(), s.footprint_mm.x()));
+  // The top view of the footprint: cells of the candidate's own points against the cells of the
+  // ellipse within 0.8 of its semi-axes.
+  std::unordered_set<std::int64_t> held;
+  auto key = [cell](double x, double y) {
+    return (std::int64_t(std::floor(x / cell)) << 32) ^ (std::int64_t(std::floor(y / cell)) & 0xffffffff);
+  };
+  for (const auto& v : p) held.insert(key(v.x(), v.y()));
+  const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
+  std::size_t inside = 0, hit = 0;
+  for (double u = -fa; u <= fa; u += cell) {
+    for (double v = -fb; v <= fb; v += cell) {
+      if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
+      ++inside;
+      hit += held.count(key(s.center_mm.x() + u * std::cos(th) - v * std::sin(th), s.center_mm.y() + u * std::sin(th) + v * std::cos(th)));
+    }
+  }
+  c.covered = inside > 0 ? double(hit) / double(inside) : 0;
+  // The cover's lower 95 % bound (Wilson's score interval): a few cells cannot show a solid top.
+  if (inside > 0) {
+    const double n = double(inside), z = 1.96, p_hat = c.covered;
+    c.covered_lower = (p_hat + z * z / (2 * n) - z * std::sqrt(p_hat * (1 - p_hat) / n + z * z / (4 * n * n))) / (1 + z * z / n);
+  }
+  if (s.top_mm < o.min_height_mm) {
+    c.reason = pipeline::Format("its top stands %.0f mm above the ground; topiary stands at least %.0f mm", s.top_mm, o.min_height_mm);
+  } else if (s.axes_mm.x() > o.max_size_mm) {
+    c.reason = pipeline::Format("%.0f mm long: larger than a clipped shape (max_size %.0f mm)", 2 * s.axes_mm.x(), 2 * o.max_size_mm);
+  } else if (s.axes_mm.y() < o.min_width_mm) {
+    c.reason = pipeline::Format("%.0f mm wide: narrower than the smallest hedge (min_radius %.0f mm)", 2 * s.axes_mm.y(), o.min_width_mm);
+  } else if (c.elongation > o.max_elongation) {
+    c.reason = pipeline::Format("it is %.1f times longer or taller than wide: a row, a fence, a bed or a post, not one shape",
+                                c.elongation);
+  } else if (c.density < o.min_density) {
+    c.reason = pipeline::Format("%.0f %% as many points on its footprint as on the lawn beside it; a clipped shape's solid top holds "
+                                "at least %.0f %%", 100 * c.density, 100 * o.min_density);
+  } else if (c.covered_lower < o.min_covered) {
+    c.reason = pipeline::Format("its points cover %.0f %% of the %zu cells of its footprint seen from above (at least %.0f %%, 95 %%); "
+                                "a clipped shape's cover at least %.0f %%",
+                                100 * c.covered, inside, 100 * c.covered_lower, 100 * o.min_covered);
+  } else if (c.roughness > o.max_roughness) {
+    c.reason = pipeline::Format("its points lie %.0f mm about its %s (%.1f times the ground's noise of %.0f mm): not clipped",
+                                s.roughness_mm, s.shape.c_str(), c.roughness, noise);
+  } else {
+    c.topiary = true;
+    // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose
+    // lower half no sensor saw is pinned by the top's curvature alone, and wants them all).
+    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000);
+    if (fine.converged) c.shape = fine;
+  }
+  return c;
+}
+
+namespace {
+
+// One part of the watershed, fitted and judged.
+TopiaryCandidate JudgeHeightPart(const std::vector<Eigen::Vector3d>& pts, HeightPart part, const GroundModel& ground,
+                                 const LawnDensity& lawn, double cell, const TopiaryOptions& o) {
+  // The widest the shape may be, from the top view of its upper half in the smoothed height
+  // model (strays, single cells, are smoothed below it): a uniform ellipse's second moments are
+  // a^2 / 4, and a shape's half-height outline lies at 0.87-1 of its semi-axes (a dome cut at
+  // its equator, a ball above the ground), so 1.3 times twice the larger deviation bounds them
+  // with a leaf layer to spare.
+  double widest = 0;
+  if (part.upper_cells.size() >= 4) {
+    Eigen::Vector2d cm = Eigen::Vector2d::Zero();
+    for (const auto& v : part.upper_cells) cm += v.head<2>();
+    cm /= double(part.upper_cells.size());
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (const auto& v : part.upper_cells) cov += (v.head<2>() - cm) * (v.head<2>() - cm).transpose();
+    cov /= double(part.upper_cells.size());
+    // A cell is a square of side `cell`: its own second moment is cell^2 / 12 per axis.
+    const double sd = std::sqrt(std::max(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()(1), 0.0) + cell * cell / 12);
+    widest = std::max(cell, 1.3 * 2 * sd);
+  }
+  return JudgeTopiary(pts, std::move(part.points), ground, lawn, cell, o, widest, &part.cell_height_mm, part.peak_mm);
+}
+
+}  // namespace
+
 std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
                                           const GroundModel& ground, double spacing_mm, const TopiaryOptions& o) {
-  std::vector<TopiaryCandidate> out;
   const double cell = std::max(10.0, 2 * spacing_mm);
-  const double noise = std::max(o.min_noise_mm, ground.noise_mm);
+  const LawnDensity lawn(pts, ground, spacing_mm);
+  std::vector<HeightPart> parts;
   for (auto& part : SplitByHeight(pts, idx, ground, cell, o)) {
-    if (part.points.size() < 30) continue;
-    TopiaryCandidate c;
-    // The shape is fitted to, and its cover read from, the points whose cells stand in the upper
-    // three quarters of the object's height in the smoothed height model: a reconstruction's
-    // strays about its foot (single points a few ground-noise deep above the band, smoothed
-    // away) would widen a squat dome's footprint to wherever they scatter, and a clipped shape's
-    // sides above a quarter of its height already hold its width.
-    const double from = std::max(GroundBand(ground), 0.25 * double(part.peak_mm));
-    std::vector<Eigen::Vector3d> p;
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (std::size_t k = 0; k < part.points.size(); ++k) {
-      const Eigen::Vector3d& v = pts[part.points[k]];
-      if (part.cell_height_mm[k] >= from && v.z() - ground.HeightAt(v.x(), v.y()) >= GroundBand(ground)) {
-        p.push_back(v), mean += v.head<2>();
-      }
-    }
-    mean /= double(std::max<std::size_t>(1, p.size()));
-    // The widest the shape may be: its upper half (cells above half the peak) is the part of a
-    // clipped shape a reconstruction holds best; it reaches at least 0.87 of the semi-axes, so
-    // 1.5 times its reach (98th percentile from its centre) bounds them with a leaf layer to spare.
-    std::vector<Eigen::Vector2d> core;
-    Eigen::Vector2d core_mean = Eigen::Vector2d::Zero();
-    for (std::size_t k = 0; k < part.points.size(); ++k) {
-      if (part.cell_height_mm[k] >= 0.5 * part.peak_mm) core.push_back(pts[part.points[k]].head<2>()), core_mean += core.back();
-    }
-    double widest = 0;
-    if (core.size() >= 10) {
-      core_mean /= double(core.size());
-      std::vector<double> reach;
-      for (const auto& v : core) reach.push_back((v - core_mean).norm());
-      std::nth_element(reach.begin(), reach.begin() + reach.size() * 98 / 100, reach.end());
-      widest = std::max(cell, 1.5 * reach[reach.size() * 98 / 100]);
-    }
-    c.points = std::move(part.points);
-    c.shape = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest);
-    const TopiaryShape& s = c.shape;
-    if (!s.converged) {
-      c.reason = "no shape with a vertical axis fits its points";
-      out.push_back(std::move(c));
-      continue;
-    }
-    c.elongation = std::max(s.axes_mm.x() / std::max(1e-9, s.axes_mm.y()), s.axes_mm.z() / std::max(1e-9, s.axes_mm.y()));
-    c.density = double(p.size()) * spacing_mm * spacing_mm / (M_PI * s.footprint_mm.x() * s.footprint_mm.y());
-    c.roughness = s.roughness_mm / noise;
-    // The top view of the footprint: cells of the candidate's own points against the cells of the
-    // ellipse within 0.8 of its semi-axes.
-    std::unordered_set<std::int64_t> held;
-    auto key = [cell](double x, double y) {
-      return (std::int64_t(std::floor(x / cell)) << 32) ^ (std::int64_t(std::floor(y / cell)) & 0xffffffff);
-    };
-    for (const auto& v : p) held.insert(key(v.x(), v.y()));
-    const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
-    std::size_t inside = 0, hit = 0;
-    for (double u = -fa; u <= fa; u += cell) {
-      for (double v = -fb; v <= fb; v += cell) {
-        if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
-        ++inside;
-        const double x = s.center_mm.x() + u * std::cos(th) - v * std::sin(th);
-        const double y = s.center_mm.y() + u * std::sin(th) + v * std::cos(th);
-        hit += held.count(key(x, y));
-      }
-    }
-    c.covered = inside > 0 ? double(hit) / double(inside) : 0;
-    if (s.top_mm < o.min_height_mm) {
-      c.reason = pipeline::Format("its top stands %.0f mm above the ground; topiary stands at least %.0f mm", s.top_mm, o.min_height_mm);
-    } else if (s.axes_mm.x() > o.max_size_mm) {
-      c.reason = pipeline::Format("%.0f mm long: larger than a clipped shape (max_size %.0f mm)", 2 * s.axes_mm.x(), 2 * o.max_size_mm);
-    } else if (s.axes_mm.y() < o.min_width_mm) {
-      c.reason = pipeline::Format("%.0f mm wide: narrower than the smallest hedge (min_radius %.0f mm)", 2 * s.axes_mm.y(), o.min_width_mm);
-    } else if (c.elongation > o.max_elongation) {
-      c.reason = pipeline::Format("it is %.1f times longer or taller than wide: a row, a fence, a bed or a post, not one shape",
-                                  c.elongation);
-    } else if (c.density < o.min_density) {
-      c.reason = pipeline::Format("%.2f points per spacing^2 of its footprint; a clipped shape's solid top holds %.2f",
-                                  c.density, o.min_density);
-    } else if (c.covered < o.min_covered) {
-      c.reason = pipeline::Format("its points cover %.0f %% of its footprint seen from above; a clipped shape's cover %.0f %%",
-                                  100 * c.covered, 100 * o.min_covered);
-    } else if (c.roughness > o.max_roughness) {
-      c.reason = pipeline::Format("its points lie %.0f mm about its %s (%.1f times the ground's noise of %.0f mm): not clipped",
-                                  s.roughness_mm, s.shape.c_str(), c.roughness, noise);
-    } else {
-      c.topiary = true;
-    }
-    out.push_back(std::move(c));
+    if (part.points.size() >= 30) parts.push_back(std::move(part));
   }
+  // Each part is fitted and judged on its own, into its own slot: in parallel, and the same
+  // result whatever the timing.
+  std::vector<TopiaryCandidate> out(parts.size());
+  pipeline::ParallelFor(parts.size(), 0, 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k) out[k] = JudgeHeightPart(pts, std::move(parts[k]), ground, lawn, cell, o);
+  });
   return out;
 }
 

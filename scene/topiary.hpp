@@ -15,7 +15,7 @@
 ///  4. Verdict: topiary when the shape's top stands `min_height_mm` above the ground, its
 ///     horizontal semi-axes are at least the smallest hedge's radius, its footprint is no longer
 ///     than `max_elongation` times its width (a row is) nor the shape taller than that times its
-///     width (a post, a stem), its points are as dense as the cloud's spacing, the top view of
+///     width (a post, a stem), its top holds as many points per mm^2 as the lawn beside it, the top view of
 ///     its footprint is covered (what a sensor above sees: `min_covered` of the cells within 0.8 of
 ///     its semi-axes hold points), and its points lie on it within `max_roughness` times the
 ///     ground's own noise (a clipped surface is as smooth as the sensor sees the lawn; a rose's
@@ -25,6 +25,8 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
+#include <unordered_map>
 #include <string>
 #include <vector>
 
@@ -39,10 +41,12 @@ struct TopiaryOptions {
   double max_size_mm = 4000;     ///< largest horizontal semi-axis, mm (larger: a hedge, a bed, a wall)
   double merge_saddle = 0.7;     ///< peaks whose ridge stands above this share of the lower one's height are one object
   double max_elongation = 2.0;   ///< footprint's long over short semi-axis: beyond, a hedge row or a fence
-  double min_covered = 0.75;     ///< share of the footprint's top-view cells (within 0.8 of its semi-axes) holding points
-  /// Points on the shape per spacing^2 of its footprint, at least: a clipped top is a solid
-  /// surface and is sampled as densely as the cloud's median spacing (the lawn's); thin
-  /// vegetation, canes and a reconstruction's strays are not.
+  /// Share of the footprint's top-view cells (within 0.8 of its semi-axes) holding points, at
+  /// least: its lower 95 % bound (Wilson), so a small object's few cells must all be held.
+  double min_covered = 0.7;
+  /// Points on the shape's upper three quarters per mm^2 of its footprint, over the lawn's beside
+  /// it, at least: a solid top intercepts as many of a sensor's rays as the lawn would; thin
+  /// vegetation, canes and a reconstruction's strays do not.
   double min_density = 0.8;
   double max_roughness = 3.5;    ///< robust spread of the points about the shape, in the ground's noise
   double min_noise_mm = 5;
@@ -55,6 +59,7 @@ struct TopiaryOptions {
 struct TopiaryShape {
   bool converged = false;
   std::string shape;             ///< "ball", "dome", "spheroid" or "ellipsoid"
+  std::string family;            ///< the family fitted: "ball" (4 parameters), "spheroid" (5) or "ellipsoid" (7)
   std::string form;              ///< "oblate" or "prolate" for a spheroid or ellipsoid (vertical against horizontal), else ""
   Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();   ///< semi-axes: along the heading, across it, vertical
@@ -75,8 +80,9 @@ struct TopiaryCandidate {
   std::vector<std::size_t> points;  ///< indices into the points given
   TopiaryShape shape;
   double covered = 0;          ///< share of the footprint's top-view cells holding points
+  double covered_lower = 0;    ///< its lower 95 % bound (Wilson)
   double elongation = 1;       ///< footprint's long over short semi-axis, or vertical over horizontal (the larger)
-  double density = 0;          ///< points per spacing^2 of the footprint
+  double density = 0;          ///< points on its footprint over the lawn's beside it (per mm^2)
   double roughness = 0;        ///< roughness over the noise it is judged against
   bool topiary = false;
   std::string reason;          ///< why not, when not
@@ -87,6 +93,8 @@ struct HeightPart {
   std::vector<std::size_t> points;   ///< indices into the points given
   std::vector<float> cell_height_mm; ///< the canopy height model's smoothed height at each point's cell
   float peak_mm = 0;                 ///< the part's highest smoothed cell
+  /// The part's cells at or above half its peak: centre x, y and smoothed height, mm.
+  std::vector<Eigen::Vector3d> upper_cells;
 };
 
 /// Splits `idx` (indices into `pts`, scene frame) into objects by the watershed of their height
@@ -98,8 +106,34 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts,
 /// Fits the four shapes to `points` standing on ground of height `ground_mm` and chooses one.
 /// `widest_mm` bounds the horizontal semi-axes (0: 1.3 times the points' 98th-percentile reach
 /// from their centre in the top view).
+/// At most `max_points` of them, evenly through the list, are fitted (the intervals are scaled to
+/// all of them).
 TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
-                             double widest_mm = 0);
+                             double widest_mm = 0, std::size_t max_points = 800);
+
+/// The lawn's points per mm^2 about a place, from the points within the ground's band on a grid
+/// of 0.5 m cells: what a solid surface seen from above would hold per mm^2 of its footprint.
+class LawnDensity {
+ public:
+  LawnDensity(const std::vector<Eigen::Vector3d>& pts, const GroundModel& ground, double spacing_mm);
+  /// In cells 0.25-1.25 m beyond `radius_mm` from `center` that hold lawn; 1 / spacing^2 when
+  /// fewer than three do.
+  double PerMm2Around(const Eigen::Vector2d& center, double radius_mm) const;
+
+ private:
+  static constexpr double kCell = 500;
+  static std::int64_t Key(double x, double y);
+  std::unordered_map<std::int64_t, std::size_t> counts_;
+  double spacing_mm_;
+};
+
+/// Fits and judges one object (steps 3-4) standing on `ground`: `points` are indices into `pts`;
+/// `cell_mm` the top view's cell; `widest_mm` bounds the horizontal semi-axes (0: from the
+/// points); `cell_height_mm` (per point) and `peak_mm`, from SplitByHeight, choose the points in
+/// the upper three quarters of its height (otherwise the points' own heights do).
+TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vector<std::size_t> points, const GroundModel& ground,
+                              const LawnDensity& lawn, double cell_mm, const TopiaryOptions& options, double widest_mm = 0,
+                              const std::vector<float>* cell_height_mm = nullptr, double peak_mm = 0);
 
 /// Every object among `idx` by height, each fitted and judged (steps 1-4).
 std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,

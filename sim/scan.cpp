@@ -54,6 +54,22 @@ bool SphereSpan(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen:
   return *t1 > 0;
 }
 
+// The span of a vertical-axis ellipsoid along the ray: the ray in the frame where it is the unit
+// sphere (t keeps its meaning: distance along the unit direction `d`).
+bool SpheroidSpan(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const ScanSpheroid& e, double* t0, double* t1) {
+  const double cs = std::cos(e.heading_rad), sn = std::sin(e.heading_rad);
+  auto local = [&](const Eigen::Vector3d& v) {
+    return Eigen::Vector3d((v.x() * cs + v.y() * sn) / e.axes_mm.x(), (-v.x() * sn + v.y() * cs) / e.axes_mm.y(),
+                           v.z() / e.axes_mm.z());
+  };
+  const Eigen::Vector3d ol = local(o - e.center_mm), dl = local(d);
+  const double a = dl.squaredNorm(), b = ol.dot(dl), c = ol.squaredNorm() - 1, disc = b * b - a * c;
+  if (disc < 0) return false;
+  const double s = std::sqrt(disc);
+  *t0 = (-b - s) / a, *t1 = (-b + s) / a;
+  return *t1 > 0;
+}
+
 bool BoxSpan(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const ScanBox& b, double* t0, double* t1) {
   double lo = -kInf, hi = kInf;
   for (int k = 0; k < 3; ++k) {
@@ -116,6 +132,9 @@ double Cast(const ScanScene& s, const Eigen::Vector3d& o, const Eigen::Vector3d&
   for (const auto& b : s.balls) {
     if (SphereSpan(o, d, b.center_mm, b.radius_mm, &t0, &t1)) leafy(t0, t1, b.shell_mm, b.clipped_share, 0);
   }
+  for (const auto& e : s.topiary) {
+    if (SpheroidSpan(o, d, e, &t0, &t1)) leafy(t0, t1, e.shell_mm, e.clipped_share, 0);
+  }
   for (const auto& b : s.blobs) {
     if (SphereSpan(o, d, b.center_mm, b.radius_mm, &t0, &t1)) leafy(t0, t1, b.shell_mm, b.clipped_share, b.gap_share);
   }
@@ -141,8 +160,9 @@ cloud::PointCloud CastAll(const ScanScene& scene, const std::vector<Ray>& rays, 
       const Ray& r = rays[i];
       double t = Cast(scene, r.origin, r.dir, t_max, rng);
       if (!std::isfinite(t)) continue;
-      t += r.noise_mm * (o.sensor == Sensor::kPhotogrammetry ? t / 5000 : 1.0) * rng.Normal();
-      if (o.sensor == Sensor::kPhotogrammetry && rng.Uniform() < o.outlier_share) t += 300 * rng.Normal();
+      const bool photo = o.sensor == Sensor::kPhotogrammetry || o.sensor == Sensor::kAerial;
+      t += r.noise_mm * (photo ? t / 5000 : 1.0) * rng.Normal();
+      if (photo && rng.Uniform() < o.outlier_share) t += 300 * rng.Normal();
       hit[i] = (r.origin + t * r.dir).cast<float>();
     }
   };
@@ -285,21 +305,103 @@ ScanScene RandomScanGarden(std::uint64_t seed) {
   return s;
 }
 
+ScanScene RandomTopiaryBed(std::uint64_t seed) {
+  std::mt19937_64 rng(seed * 104729 + 31);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto in = [&](double lo, double hi) { return lo + (hi - lo) * u(rng); };
+  ScanScene s;
+  s.ground.slope_x = in(-0.04, 0.04), s.ground.slope_y = in(-0.04, 0.04);
+  s.ground.bump_mm = in(10, 30), s.ground.wavelength_mm = in(4000, 7000);
+  s.ground.phase_x = in(0, 6.28), s.ground.phase_y = in(0, 6.28);
+  auto ground = [&](double x, double y) { return s.ground.Height(x, y); };
+  // The bed: a row of squat shapes along x at y = 3 m; the next one's footprint starts `gap`
+  // after this one's (a pair touches: gap 0, their leaves pressed together).
+  double x = 1500;
+  const int n = 4 + int(u(rng) * 3);
+  const int touching = int(u(rng) * (n - 1));
+  for (int k = 0; k < n; ++k) {
+    ScanSpheroid e;
+    const double a = in(250, 450);
+    const bool elliptic = u(rng) < 0.4;
+    e.axes_mm = Eigen::Vector3d(a, elliptic ? a * in(0.7, 0.85) : a, a * in(0.5, 0.85));
+    e.heading_rad = elliptic ? in(0, M_PI) : 0;
+    // Their tops 0.35-0.6 m above the lawn (the real garden's are 0.35-0.5 m): the centre stands
+    // up to c above it (a squat spheroid on the lawn) or a little below (a dome cut by it).
+    const double top = std::clamp(in(0.9, 1.4) * a, 350.0, 600.0);
+    const double lift = std::max(top - e.axes_mm.z(), -0.2 * e.axes_mm.z());
+    const double half_width = e.axes_mm.x();  // a bound of the footprint along x, whatever the heading
+    const double y = 3000 + in(-300, 300);
+    e.center_mm = Eigen::Vector3d(x + half_width, y, ground(x + half_width, y) + lift);
+    e.shell_mm = in(15, 40);
+    e.clipped_share = in(0.4, 0.65);
+    s.topiary.push_back(e);
+    double gap = k == touching ? 0.0 : in(150, 600);
+    // Between some, a rose bush (foliage clumps on arching canes, as RandomScanGarden's).
+    if (gap > 450 && u(rng) < 0.6) {
+      const double rose = in(250, 350);
+      const Eigen::Vector3d base(x + 2 * half_width + gap / 2, y + in(500, 800), ground(x + 2 * half_width + gap / 2, y + 650));
+      for (int c = 0; c < 45; ++c) {
+        const double az = in(0, 2 * M_PI), el = in(0.35, 1.4), reach = in(0.3, 1.0) * rose;
+        ScanSphere b;
+        b.center_mm = base + Eigen::Vector3d(0, 0, 0.3 * rose) +
+                      reach * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+        b.radius_mm = rose * in(0.06, 0.15);
+        b.shell_mm = 60;
+        b.clipped_share = 0.05;
+        b.gap_share = 0.35;
+        s.blobs.push_back(b);
+      }
+      s.others.push_back({"rose", base + Eigen::Vector3d(0, 0, rose)});
+    }
+    x += 2 * half_width + gap;
+  }
+  // A low box hedge row behind the bed, a post and a small free ball in front.
+  {
+    ScanBox row;
+    const double len = in(3000, 4500), y0 = 5200;
+    row.min_mm = Eigen::Vector3d(1500, y0, ground(1500 + len / 2, y0) - 100);
+    row.max_mm = Eigen::Vector3d(1500 + len, y0 + in(400, 550), ground(1500 + len / 2, y0) + in(350, 500));
+    row.shell_mm = 40;
+    s.boxes.push_back(row);
+    s.others.push_back({"hedge row", 0.5 * (row.min_mm + row.max_mm)});
+  }
+  {
+    ScanCylinder post;
+    post.xy_mm = Eigen::Vector2d(x + 500, 1500);
+    post.radius_mm = 60;
+    post.z0_mm = ground(x + 500, 1500) - 50;
+    post.z1_mm = ground(x + 500, 1500) + in(800, 1200);
+    s.cylinders.push_back(post);
+    s.others.push_back({"post", Eigen::Vector3d(x + 500, 1500, post.z1_mm / 2)});
+  }
+  {
+    ScanSphere b;
+    b.radius_mm = in(300, 400);
+    b.center_mm = Eigen::Vector3d(2500, 1300, ground(2500, 1300) + b.radius_mm);
+    b.shell_mm = in(20, 40);
+    b.clipped_share = in(0.4, 0.6);
+    s.balls.push_back(b);
+  }
+  s.extent_mm = Eigen::Vector2d(x + 1500, 7000);
+  return s;
+}
+
 const char* SensorName(Sensor s) {
   switch (s) {
     case Sensor::kLidar16: return "lidar16";
     case Sensor::kLidar32: return "lidar32";
     case Sensor::kTerrestrial: return "terrestrial";
     case Sensor::kPhotogrammetry: return "photogrammetry";
+    case Sensor::kAerial: return "aerial";
   }
   return "?";
 }
 
 Sensor ParseSensor(const std::string& name) {
-  for (Sensor s : {Sensor::kLidar16, Sensor::kLidar32, Sensor::kTerrestrial, Sensor::kPhotogrammetry}) {
+  for (Sensor s : {Sensor::kLidar16, Sensor::kLidar32, Sensor::kTerrestrial, Sensor::kPhotogrammetry, Sensor::kAerial}) {
     if (name == SensorName(s)) return s;
   }
-  throw Error("unknown sensor '" + name + "'; choose lidar16, lidar32, terrestrial or photogrammetry");
+  throw Error("unknown sensor '" + name + "'; choose lidar16, lidar32, terrestrial, photogrammetry or aerial");
 }
 
 cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
@@ -333,6 +435,31 @@ cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
     }
     return CastAll(scene, rays, o, 60000);
   }
+  if (o.sensor == Sensor::kAerial) {
+    // A drone: 3 x 3 stations 6 m above the lawn over the garden, each looking down 25 degrees off
+    // nadir towards the garden's middle (the centre one straight down); 90-degree field of view.
+    const Eigen::Vector3d middle(ex / 2, ey / 2, scene.ground.Height(ex / 2, ey / 2));
+    const int width = 400, height = 400;
+    const double f = 200 * (o.step_deg > 0 ? 0.15 / o.step_deg : 1.0);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        const Eigen::Vector3d eye(ex * (0.1 + 0.4 * i), ey * (0.1 + 0.4 * j), middle.z() + 6000);
+        Eigen::Vector3d toward = Eigen::Vector3d(middle.x() - eye.x(), middle.y() - eye.y(), 0);
+        Eigen::Vector3d forward(0, 0, -1);
+        if (toward.norm() > 1) forward = (std::cos(25 * kDeg) * forward + std::sin(25 * kDeg) * toward.normalized()).normalized();
+        const Eigen::Vector3d right = (std::abs(forward.z()) > 0.999 ? Eigen::Vector3d::UnitX()
+                                                                    : forward.cross(Eigen::Vector3d::UnitZ()).normalized());
+        const Eigen::Vector3d down = forward.cross(right);
+        for (int v = 0; v < height; ++v) {
+          for (int w = 0; w < width; ++w) {
+            const Eigen::Vector3d d = (forward * f + right * (w - width / 2.0) + down * (v - height / 2.0)).normalized();
+            rays.push_back({eye, d, o.noise_mm});
+          }
+        }
+      }
+    }
+    return CastAll(scene, rays, o, 30000);
+  }
   // Photogrammetry: 10 cameras on an ellipse around the garden, 4 m up, looking at its middle.
   const Eigen::Vector3d middle(ex / 2, ey / 2, scene.ground.Height(ex / 2, ey / 2));
   const int width = 480, height = 300;
@@ -363,6 +490,14 @@ void WriteScanTruth(const std::string& path, const ScanScene& scene) {
                            {"radius_mm", b.radius_mm},
                            {"shell_mm", b.shell_mm},
                            {"ground_mm", scene.ground.Height(b.center_mm.x(), b.center_mm.y())}});
+  }
+  j["topiary"] = nlohmann::json::array();
+  for (const auto& e : scene.topiary) {
+    j["topiary"].push_back({{"center_mm", {e.center_mm.x(), e.center_mm.y(), e.center_mm.z()}},
+                            {"axes_mm", {e.axes_mm.x(), e.axes_mm.y(), e.axes_mm.z()}},
+                            {"heading_deg", e.heading_rad * 180 / M_PI},
+                            {"shell_mm", e.shell_mm},
+                            {"ground_mm", scene.ground.Height(e.center_mm.x(), e.center_mm.y())}});
   }
   j["others"] = nlohmann::json::array();
   for (const auto& o : scene.others) {

@@ -39,6 +39,16 @@ struct ScanSphere {
   double gap_share = 0;        ///< beams that pass through
 };
 
+/// A clipped topiary with a vertical axis: semi-axes a (along the heading), b (across) and c
+/// (vertical), leafy like a ball. A dome is one whose centre is below 0.8 c above the lawn.
+struct ScanSpheroid {
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axes_mm = Eigen::Vector3d(400, 400, 250);
+  double heading_rad = 0;
+  double shell_mm = 30;
+  double clipped_share = 0.5;
+};
+
 /// An axis-aligned leafy or solid box: a hedge row, a bench, a fence.
 struct ScanBox {
   Eigen::Vector3d min_mm = Eigen::Vector3d::Zero(), max_mm = Eigen::Vector3d::Zero();
@@ -61,6 +71,7 @@ struct ScanObject {
 struct ScanScene {
   ScanGround ground;
   std::vector<ScanSphere> balls;   ///< the hedge balls (truth)
+  std::vector<ScanSpheroid> topiary;  ///< squat, oblate and elliptic topiary (truth)
   std::vector<ScanSphere> blobs;   ///< shrubs' and crowns' blobs
   std::vector<ScanBox> boxes;
   std::vector<ScanCylinder> cylinders;
@@ -73,8 +84,16 @@ struct ScanScene {
 /// sloped, bumpy lawn; the same for the same seed.
 ScanScene RandomScanGarden(std::uint64_t seed);
 
-enum class Sensor { kLidar16, kLidar32, kTerrestrial, kPhotogrammetry };
-/// "lidar16", "lidar32", "terrestrial", "photogrammetry"; the parser throws hedgefit::Error.
+/// A bed of topiary as real gardens hold them (the TrimBot2020 garden at Wageningen): 4-6 squat
+/// shapes 0.5-0.9 m across and 0.35-0.6 m tall (domes, oblate spheroids, ellipsoids turned by a
+/// heading), some touching and the rest 0.1-0.6 m apart, with rose bushes between them, a low
+/// box hedge row, a post and a small ball; the same for the same seed.
+ScanScene RandomTopiaryBed(std::uint64_t seed);
+
+/// The sensors. kAerial: a drone's photogrammetry, 3 x 3 cameras 6 m above the lawn looking
+/// down (25 degrees off nadir, inwards): the model sees tops and upper sides only.
+enum class Sensor { kLidar16, kLidar32, kTerrestrial, kPhotogrammetry, kAerial };
+/// "lidar16", "lidar32", "terrestrial", "photogrammetry", "aerial"; the parser throws hedgefit::Error.
 const char* SensorName(Sensor s);
 Sensor ParseSensor(const std::string& name);
 
@@ -92,6 +111,7 @@ struct ScanOptions {
 cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& options);
 
 /// The scene's truth: {"hedges": [{"center_mm", "radius_mm", "shell_mm", "ground_mm"}, ...],
+/// "topiary": [{"center_mm", "axes_mm", "heading_deg", "shell_mm", "ground_mm"}, ...],
 /// "others": [{"kind", "center_mm"}], "frame": "world, z up, mm"}; written atomically.
 void WriteScanTruth(const std::string& path, const ScanScene& scene);
 

@@ -178,3 +178,51 @@ TEST(Trim, ALeafyHedgesVolumeIsToItsEnvelopeAndTheUnseenRestIsBounded) {
 
 }  // namespace
 }  // namespace hedgefit::fitting
+
+namespace hedgefit::fitting {
+namespace {
+
+// A clipped oblate spheroid as the target (semi-axes 400 x 300 x 250 mm, turned 30 degrees about
+// the vertical z), and a hedge grown 10 % past it all round: every point lies 1.1 times the
+// target's radius along its ray, so its cut depth is exactly 0.1 of that radius, and the
+// volume to cut is (1.1^3 - 1) of the shape's 4/3 pi abc, less the bins' discretisation.
+TEST(Trim, AClippedSpheroidTargetGivesDepthsAlongItsRays) {
+  const Eigen::Vector3d c(1000, -2000, 300), axes(400, 300, 250);
+  const double heading = 30 * M_PI / 180;
+  const Eigen::Vector3d along(std::cos(heading), std::sin(heading), 0), across(-std::sin(heading), std::cos(heading), 0);
+  auto radius = [&](const Eigen::Vector3d& u) {
+    const double a = u.dot(along) / axes.x(), b = u.dot(across) / axes.y(), z = u.z() / axes.z();
+    return 1 / std::sqrt(a * a + b * b + z * z);
+  };
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0, 1);
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<double> truth;
+  for (int i = 0; i < 40000; ++i) {
+    Eigen::Vector3d u(n(rng), n(rng), n(rng));
+    u.normalize();
+    pts.push_back(c + 1.1 * radius(u) * u);
+    truth.push_back(0.1 * radius(u));
+  }
+  TrimOptions o;
+  o.axes_mm = axes;
+  o.heading_deg = 30;
+  o.bin_deg = 5;
+  const TrimPlan plan = PlanTrim(pts, Sphere{c, 1}, o, Eigen::Vector3d::UnitZ());
+  double worst = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) worst = std::max(worst, std::abs(plan.depth_mm[i] - truth[i]));
+  EXPECT_LT(worst, 1e-3);  // exact along the ray, float storage aside
+  EXPECT_EQ(plan.points_to_cut, pts.size());
+  const double volume_l = (std::pow(1.1, 3) - 1) * 4.0 / 3.0 * M_PI * axes.prod() * 1e-6;
+  // The bins read the surface at their centre's direction; over 5-degree bins of a shape whose
+  // radius changes by up to 1.2 % per degree, the sum is within 2 %.
+  EXPECT_NEAR(plan.volume_seen_l, volume_l, 0.02 * volume_l);
+  EXPECT_NEAR(plan.seen_share, 1.0, 0.01);
+  EXPECT_NEAR(plan.target.radius_mm, std::cbrt(axes.prod()), 1e-9);
+  // A shape target with a non-positive semi-axis is refused, naming the option.
+  o.axes_mm = Eigen::Vector3d(400, 0, 250);
+  EXPECT_THROW(PlanTrim(pts, Sphere{c, 1}, o, Eigen::Vector3d::UnitZ()), Error);
+}
+
+}  // namespace
+}  // namespace hedgefit::fitting

@@ -15,6 +15,7 @@
 #include "fitting/methods.hpp"
 #include "scene/finder.hpp"
 #include "scene/topiary.hpp"
+#include "sim/scan.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::scene {
@@ -129,6 +130,49 @@ TEST(SplitByHeight, TouchingDomesPartAHedgeRowDoesNot) {
   }
   EXPECT_EQ(domes, 2);
   EXPECT_EQ(rows, 1);
+}
+
+// A simulated bed of squat topiary (sim::RandomTopiaryBed, seed 1: a tuning seed) seen from
+// above only by a drone's photogrammetry: every shape found, as the right family, nothing else
+// (the rose between them, the low box hedge row, the post) called topiary.
+TEST(FindHedges, EveryTopiaryOfABedSeenFromAbove) {
+  const sim::ScanScene scene = sim::RandomTopiaryBed(1);
+  sim::ScanOptions so;
+  so.sensor = sim::Sensor::kAerial;
+  so.noise_mm = 5;
+  const cloud::PointCloud c = sim::ScanGarden(scene, so);
+  fitting::QuietSolverWarnings();
+  const FindResult r = FindHedges(c);
+  std::vector<bool> used(r.objects.size(), false);
+  // The bed's free ball is the ball search's.
+  for (const auto& b : scene.balls) {
+    for (std::size_t k = 0; k < r.objects.size(); ++k) {
+      if (r.objects[k].ball && (r.objects[k].fit.sphere.center_mm - b.center_mm).norm() < 0.1 * b.radius_mm) used[k] = true;
+    }
+  }
+  for (const auto& t : scene.topiary) {
+    int pick = -1;
+    double best = 0.5 * t.axes_mm.y();
+    for (std::size_t k = 0; k < r.objects.size(); ++k) {
+      if (!r.objects[k].topiary || !r.objects[k].shape || used[k]) continue;
+      const double d = (r.objects[k].shape->center_mm.head<2>() - t.center_mm.head<2>()).norm();
+      if (d < best) best = d, pick = int(k);
+    }
+    ASSERT_GE(pick, 0) << "missed the topiary of semi-axes " << t.axes_mm.transpose();
+    used[std::size_t(pick)] = true;
+    const TopiaryShape& s = *r.objects[std::size_t(pick)].shape;
+    // An elliptic one (a != b) is an ellipsoid; a round one a spheroid or a dome.
+    EXPECT_EQ(s.family == "ellipsoid", t.axes_mm.x() != t.axes_mm.y()) << s.shape << " for " << t.axes_mm.transpose();
+    // The fit follows the mean leaf: beams stop on the envelope for 40-65 % of them, else on
+    // average a third of the 15-40 mm leaf layer deep, so the fitted surface lies up to about
+    // 0.6 * 40 / 3 = 8 mm inside the envelope, plus the 5 mm noise's share: 10 mm, with 1 % for
+    // the radial residual's first-order error on flattened shapes.
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.axes_mm[k], t.axes_mm[k], 10 + 0.01 * t.axes_mm[k]) << "axis " << k;
+  }
+  for (std::size_t k = 0; k < r.objects.size(); ++k) {
+    EXPECT_FALSE(r.objects[k].topiary && !used[k]) << "object " << r.objects[k].id << " (" << r.objects[k].verdict
+                                                   << ") is no topiary of the bed";
+  }
 }
 
 // The real garden: TrimBot2020's model of its Wageningen test garden (west half) and the
