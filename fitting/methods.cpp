@@ -1,5 +1,6 @@
 #include "fitting/methods.hpp"
 
+#include <Eigen/Geometry>
 #include <glog/logging.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include "fitting/geometric_fit.hpp"
 #include "fitting/ransac_fit.hpp"
 #include "fitting/ray_fit.hpp"
+#include "fitting/shape_fit.hpp"
 
 namespace hedgefit::fitting {
 
@@ -253,6 +255,56 @@ FitMethod SpheroidRow() {
                }};
 }
 
+// fitters.shape: a clipped shape with a vertical axis (shape_fit.hpp), the cloud turned so `up`
+// is +z; the ground is the cloud's lowest 1 % along it (a cloud of one topiary on its lawn, or
+// cut at it).
+FitMethod ShapeRow() {
+  return {"shape", "fitters.shape",
+          "Clipped topiary shape with a vertical axis: a ball, a dome, a spheroid or an ellipsoid with its heading, "
+          "chosen by BIC (as find's topiary); axes_mm along the heading, across it and vertical",
+          {pipeline::StringOption("up", "z", "the vertical: z for most maps and scans, -y for a camera's cloud")
+               .Choices({"x", "y", "z", "-x", "-y", "-z"})},
+          false,
+          [](const Options& o) -> BoundFit {
+            const std::string name = o.GetString("up");
+            Eigen::Vector3d up = Eigen::Vector3d::Zero();
+            up[name.back() - 'x'] = name[0] == '-' ? -1 : 1;
+            return [up](const FitInputs& in) {
+              const Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+              std::vector<Eigen::Vector3d> pts;
+              std::vector<double> z;
+              for (const auto& p : *in.points_mm) {
+                if (!p.allFinite()) continue;
+                pts.push_back(turn * p);
+                z.push_back(pts.back().z());
+              }
+              SphereFitResult r;
+              r.method = "shape";
+              r.points_used = pts.size();
+              if (pts.size() < 20) {
+                r.message = "a shape needs 20 points or more";
+                return r;
+              }
+              std::nth_element(z.begin(), z.begin() + z.size() / 100, z.end());
+              const ClippedShape s = FitClippedShape(pts, z[z.size() / 100], 0, 0, 4000);
+              r.converged = s.converged;
+              if (!s.converged) {
+                r.message = "no shape with a vertical axis fits";
+                return r;
+              }
+              r.sphere.center_mm = turn.transpose() * s.center_mm;
+              r.sphere.radius_mm = std::cbrt(s.axes_mm.prod());
+              r.rms_mm = s.roughness_mm;
+              r.message = (s.form.empty() ? "" : s.form + " ") + s.shape;
+              r.SetExtra("axes_mm", {s.axes_mm.x(), s.axes_mm.y(), s.axes_mm.z()});
+              r.SetExtra("axes_ci95_mm", {s.axes_ci95_mm.x(), s.axes_ci95_mm.y(), s.axes_ci95_mm.z()});
+              r.SetExtra("center_ci95_mm", {s.center_ci95_mm.x(), s.center_ci95_mm.y(), s.center_ci95_mm.z()});
+              r.SetExtra("heading_deg", {s.heading_deg});
+              return r;
+            };
+          }};
+}
+
 std::vector<FitMethod> MakeTable() {
   std::vector<FitMethod> t;
   t.push_back(Algebraic(AlgebraicMethod::kKasa, "fitters.algebraic",
@@ -278,6 +330,7 @@ std::vector<FitMethod> MakeTable() {
   t.push_back(EnvelopeRow());
   t.push_back(EllipsoidRow());
   t.push_back(SpheroidRow());
+  t.push_back(ShapeRow());
   // Robust and geometric before algebraic; among algebraic, the least biased first. The fit along
   // the rays ranks below ransac_geometric: it is the better fit of a capture's cloud, but only when
   // the cloud's origin is the camera, and the one fit that stands for any cloud (render's distance
@@ -287,7 +340,7 @@ std::vector<FitMethod> MakeTable() {
                                             {"taubin", 2},           {"pratt", 1}};
   for (auto& m : t) {
     m.trust = trust.count(m.name) ? trust.at(m.name) : 0;
-    m.sphere = m.name != "ellipsoid" && m.name != "spheroid";  // shape diagnostics, run when named
+    m.sphere = m.name != "ellipsoid" && m.name != "spheroid" && m.name != "shape";  // shapes, run when named
   }
   return t;
 }
@@ -296,6 +349,9 @@ std::vector<FitMethod> MakeTable() {
 // ball): whichever caller runs it (a stage, compare, the benches, Python).
 std::vector<FitMethod> WithShapeCheck(std::vector<FitMethod> table) {
   for (FitMethod& m : table) {
+    // A clipped shape is judged by its own residuals (its message and rms), not as the sphere of
+    // its volume.
+    if (m.name == "shape") continue;
     m.bind = [bind = m.bind](const Options& o) -> BoundFit {
       return [fit = bind(o)](const FitInputs& in) {
         SphereFitResult r = fit(in);

@@ -96,9 +96,9 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
   cv::line(img, bar, bar + cv::Point(int(1000 * px), 0), cv::Scalar(0, 0, 0), 2);
   cv::putText(img, "1 m", bar + cv::Point(0, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   const std::size_t shapes = result.Topiary(), others = result.objects.size() - shapes;
-  cv::putText(img, pipeline::Format("%zu ball%s or topiary (green: circles, footprints), %zu other object%s (orange outlines)%s", shapes,
-                                    shapes == 1 ? "" : "s", others, others == 1 ? "" : "s",
-                                    marks.empty() ? "" : pipeline::Format(", %zu marks (black crosses)", marks.size()).c_str()),
+  cv::putText(img, pipeline::Format("%zu ball%s or topiary (green), %zu other%s (orange)%s", shapes, shapes == 1 ? "" : "s",
+                                    others, others == 1 ? "" : "s",
+                                    marks.empty() ? "" : pipeline::Format(", %zu marks (black +)", marks.size()).c_str()),
               cv::Point(int(margin), int(margin / 2)), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   stereo::WriteImageAtomic(path, img);
 }

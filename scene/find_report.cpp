@@ -176,8 +176,13 @@ void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
         Print(out, "%9.1f %9.1f %9.1f  %8s  %7s  %7s", c.x(), c.y(), c.z(), "-", "", "");
       }
       auto mm = [](double v) { return std::isfinite(v) ? pipeline::Format("%7.0f", v) : std::string("      -"); };
-      Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(o.ground_mm).c_str(),
-            mm(o.height_mm).c_str(), o.lumpiness);
+      if (o.shape && o.topiary) {
+        // A shape found by height is judged on its footprint, not on a sphere's patches.
+        Print(out, "  %8zu     -  %s  %s      -\n", o.indices.size(), mm(o.ground_mm).c_str(), mm(o.height_mm).c_str());
+      } else {
+        Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(o.ground_mm).c_str(),
+              mm(o.height_mm).c_str(), o.lumpiness);
+      }
       if (o.shape && o.topiary) {
         const TopiaryShape& s = *o.shape;
         Print(out, "      ^ %s%s%s: semi-axes %.0f x %.0f x %.0f mm (+-%.0f, %.0f, %.0f), heading %.0f deg, covered %.0f %%, "

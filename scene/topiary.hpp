@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "fitting/shape_fit.hpp"
 #include "pipeline/option_table.hpp"
 #include "scene/ground.hpp"
 
@@ -55,25 +56,8 @@ struct TopiaryOptions {
   static const pipeline::OptionTable<TopiaryOptions>& Table();
 };
 
-/// A shape with a vertical axis, in the scene frame (up +z).
-struct TopiaryShape {
-  bool converged = false;
-  std::string shape;             ///< "ball", "dome", "spheroid" or "ellipsoid"
-  std::string family;            ///< the family fitted: "ball" (4 parameters), "spheroid" (5) or "ellipsoid" (7)
-  std::string form;              ///< "oblate" or "prolate" for a spheroid or ellipsoid (vertical against horizontal), else ""
-  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
-  Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();   ///< semi-axes: along the heading, across it, vertical
-  double heading_deg = 0;        ///< of the first horizontal semi-axis from the scene's x, counter-clockwise, [0, 180)
-  Eigen::Vector3d center_ci95_mm = Eigen::Vector3d::Zero();  ///< 95 % half-widths (sandwich covariance)
-  Eigen::Vector3d axes_ci95_mm = Eigen::Vector3d::Zero();
-  double roughness_mm = 0;       ///< robust spread (1.4826 MAD) of the radial residuals, mm
-  double bic_ball = 0, bic_spheroid = 0, bic_ellipsoid = 0;  ///< the criterion per family (lower is better)
-  std::size_t points = 0;
-  /// The footprint on the ground: the horizontal semi-axes where the shape meets the ground
-  /// (the full ones when its centre is above it).
-  Eigen::Vector2d footprint_mm = Eigen::Vector2d::Zero();
-  double top_mm = 0;             ///< the shape's top, height above the ground under its centre
-};
+/// A clipped shape with a vertical axis (fitting/shape_fit.hpp), in the scene frame (up +z).
+using TopiaryShape = fitting::ClippedShape;
 
 /// One object found by height, with what its verdict rests on.
 struct TopiaryCandidate {
@@ -103,13 +87,11 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts,
                                                      const std::vector<std::size_t>& idx, const GroundModel& ground,
                                                      double cell_mm, const TopiaryOptions& options);
 
-/// Fits the four shapes to `points` standing on ground of height `ground_mm` and chooses one.
-/// `widest_mm` bounds the horizontal semi-axes (0: 1.3 times the points' 98th-percentile reach
-/// from their centre in the top view).
-/// At most `max_points` of them, evenly through the list, are fitted (the intervals are scaled to
-/// all of them).
-TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
-                             double widest_mm = 0, std::size_t max_points = 800);
+/// fitting::FitClippedShape (step 3), as the finder calls it.
+inline TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
+                                    double widest_mm = 0, std::size_t max_points = 800) {
+  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points);
+}
 
 /// The lawn's points per mm^2 about a place, from the points within the ground's band on a grid
 /// of 0.5 m cells: what a solid surface seen from above would hold per mm^2 of its footprint.

@@ -3,7 +3,7 @@
 
 Usage: scripts/find_real_table.py [--per-topiary | --measures] [HEDGEFIT] [GARDEN_DIR]
 GARDEN_DIR holds garden_*.ply and objects.json (the TrimBot2020 map format: label, position_m,
-diameters_m); default $HEDGEFIT_DATA_DIR/gardens/wageningen_west, else data/gardens/wageningen_west.
+diameters_m); default gardens/wageningen_west in $HEDGEFIT_DATA_DIR, else data/, else ../shared/data.
 An object is found when a topiary (any clipped shape) lies within 200 mm of an annotated
 Topiary's centre in the top view; every other topiary is false, named after the nearest
 annotated object. Prints a markdown table: the score, or with --per-topiary each annotated
@@ -20,7 +20,8 @@ per_topiary = "--per-topiary" in sys.argv
 measures = "--measures" in sys.argv
 args = [a for a in sys.argv[1:] if a not in ("--per-topiary", "--measures")]
 exe = args[0] if len(args) > 0 else "build/apps/hedgefit"
-data = os.environ.get("HEDGEFIT_DATA_DIR", "data")
+# The data folder as the tests find it: HEDGEFIT_DATA_DIR, else data/, else the workspace's.
+data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = args[1] if len(args) > 1 else os.path.join(data, "gardens", "wageningen_west")
 clouds = sorted(glob.glob(os.path.join(garden, "*.ply")))
 if not clouds:

@@ -225,9 +225,9 @@ TEST(MethodTable, EveryMethodIsAStageAndUnknownNamesAreErrors) {
     EXPECT_EQ(d->info.description, m.description);
     for (const auto& spec : m.options) EXPECT_NE(d->info.FindOption(spec.name), nullptr) << m.name << " " << spec.name;
   }
-  EXPECT_EQ(FitMethodNames().size(), 11u);
+  EXPECT_EQ(FitMethodNames().size(), 12u);
   EXPECT_EQ(ParseMethodList("all", "--methods"), SphereMethodNames());
-  EXPECT_EQ(SphereMethodNames().size(), 9u);  // all but the shape diagnostics, ellipsoid and spheroid
+  EXPECT_EQ(SphereMethodNames().size(), 9u);  // all but the shapes: ellipsoid, spheroid and the clipped shape
   EXPECT_EQ(ParseMethodList("all,ellipsoid", "--methods").back(), "ellipsoid");
   EXPECT_EQ(ParseMethodList("hyper,ransac", "--methods"), (std::vector<std::string>{"hyper", "ransac"}));
   try {

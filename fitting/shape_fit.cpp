@@ -1,0 +1,296 @@
+// FitClippedShape: a ball, a spheroid and an ellipsoid with a vertical axis fitted by robust
+// Gauss-Newton on the radial distance, and one chosen by BIC (shape_fit.hpp).
+
+#include "fitting/shape_fit.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hedgefit::fitting {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double MedianOf(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+double RobustSpread(const std::vector<double>& e) {
+  const double med = MedianOf(e);
+  std::vector<double> dev(e.size());
+  for (std::size_t i = 0; i < e.size(); ++i) dev[i] = std::abs(e[i] - med);
+  return 1.4826 * MedianOf(dev);
+}
+
+
+// The shape family: which of the seven parameters (cx, cy, cz, a, b, c, heading) are free.
+enum class Family { kBall = 0, kSpheroid = 1, kEllipsoid = 2 };
+int FreeCount(Family f) { return f == Family::kBall ? 4 : f == Family::kSpheroid ? 5 : 7; }
+
+using Full = Eigen::Matrix<double, 7, 1>;
+
+Full Expand(const Eigen::VectorXd& x, Family f, double heading) {
+  Full q;
+  q.head<3>() = x.head<3>();
+  if (f == Family::kBall) {
+    q(3) = q(4) = q(5) = x(3), q(6) = heading;
+  } else if (f == Family::kSpheroid) {
+    q(3) = q(4) = x(3), q(5) = x(4), q(6) = heading;
+  } else {
+    q.tail<4>() = x.tail<4>();
+  }
+  return q;
+}
+
+Eigen::VectorXd Reduce(const Full& q, Family f) {
+  Eigen::VectorXd x(FreeCount(f));
+  x.head<3>() = q.head<3>();
+  if (f == Family::kBall) {
+    x(3) = std::cbrt(q(3) * q(4) * q(5));
+  } else if (f == Family::kSpheroid) {
+    x(3) = std::sqrt(q(3) * q(4)), x(4) = q(5);
+  } else {
+    x.tail<4>() = q.tail<4>();
+  }
+  return x;
+}
+
+// The radial distance from the surface: along the ray from the centre through the point, the
+// point's distance less the surface's (exact for a ball, first order for flattened shapes).
+double Radial(const Full& q, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d d = p - q.head<3>();
+  const double cs = std::cos(q(6)), sn = std::sin(q(6));
+  const double u = d.x() * cs + d.y() * sn, v = -d.x() * sn + d.y() * cs, w = d.z();
+  const double s = std::sqrt(u * u / (q(3) * q(3)) + v * v / (q(4) * q(4)) + w * w / (q(5) * q(5)));
+  const double n = d.norm();
+  if (s < 1e-12) return -std::min({q(3), q(4), q(5)});
+  return n * (1 - 1 / s);
+}
+
+struct Bounds {
+  Full lo, hi;
+  double ground = 0;
+  // A shape sunk more than a quarter of its height into the ground is no clipped shape standing
+  // on it; without this, a shallow cap of a far larger shape fits a squat top as well (its
+  // footprint then lies beyond the points, which the horizontal bounds forbid too).
+  void Apply(Full* q) const {
+    for (int k = 0; k < 6; ++k) (*q)(k) = std::clamp((*q)(k), lo(k), hi(k));
+    (*q)(2) = std::max((*q)(2), ground - 0.25 * (*q)(5));
+  }
+};
+
+struct FamilyFit {
+  Full q;
+  Eigen::VectorXd x;
+  Eigen::MatrixXd cov;  // of the free parameters (sandwich)
+  std::vector<double> residuals;
+  bool ok = false;
+};
+
+// Robust (Huber, scale from the residuals' own spread) Levenberg-Marquardt on the radial
+// residuals, with a numerical Jacobian: a few thousand points and at most seven parameters.
+FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full& start, const Bounds& bounds) {
+  FamilyFit out;
+  const int m = FreeCount(f);
+  const double heading = start(6);
+  Eigen::VectorXd x = Reduce(start, f);
+  auto residuals = [&](const Eigen::VectorXd& xv, Eigen::VectorXd* e) {
+    Full q = Expand(xv, f, heading);
+    e->resize(Eigen::Index(p.size()));
+    for (std::size_t i = 0; i < p.size(); ++i) (*e)(Eigen::Index(i)) = Radial(q, p[i]);
+  };
+  auto clamp = [&](Eigen::VectorXd* xv) {
+    Full q = Expand(*xv, f, heading);
+    bounds.Apply(&q);
+    *xv = Reduce(q, f);
+    if (f == Family::kEllipsoid) (*xv)(6) = q(6);
+  };
+  clamp(&x);
+  Eigen::VectorXd e, e_try;
+  residuals(x, &e);
+  const Eigen::Index n = e.size();
+  Eigen::VectorXd w(n);
+  Eigen::MatrixXd J(n, m);
+  double lambda = 1e-3;
+  for (int it = 0; it < 60; ++it) {
+    std::vector<double> ev(e.data(), e.data() + n);
+    const double sigma = std::max(1.0, RobustSpread(ev));
+    const double k = 1.5 * sigma;
+    for (Eigen::Index i = 0; i < n; ++i) w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
+    // Forward differences: steps of 0.05 mm (1e-4 rad) on residuals of millimetres.
+    for (int j = 0; j < m; ++j) {
+      const double h = (f == Family::kEllipsoid && j == 6) ? 1e-4 : 0.05;
+      Eigen::VectorXd xp = x, ep;
+      xp(j) += h;
+      residuals(xp, &ep);
+      J.col(j) = (ep - e) / h;
+    }
+    const Eigen::MatrixXd JtW = J.transpose() * w.asDiagonal();
+    const Eigen::MatrixXd A = JtW * J;
+    const Eigen::VectorXd g = JtW * e;
+    const double cost = (w.array() * e.array().square()).sum();
+    bool stepped = false;
+    for (int tries = 0; tries < 8 && !stepped; ++tries) {
+      Eigen::MatrixXd Ad = A;
+      Ad.diagonal() += lambda * A.diagonal().cwiseMax(1e-9);
+      Eigen::VectorXd x_try = x - Ad.ldlt().solve(g);
+      clamp(&x_try);
+      residuals(x_try, &e_try);
+      if ((w.array() * e_try.array().square()).sum() < cost) {
+        const double moved = (x_try - x).head(m < 7 ? m : 6).cwiseAbs().maxCoeff();
+        x = x_try, e = e_try, lambda = std::max(1e-7, lambda / 3), stepped = true;
+        if (moved < 1e-3) it = 1000;
+      } else {
+        lambda *= 4;
+      }
+    }
+    if (!stepped) break;
+  }
+  out.x = x;
+  out.q = Expand(x, f, heading);
+  out.residuals.assign(e.data(), e.data() + n);
+  // The sandwich covariance: robust to residuals that are not all alike (a leaf layer on top,
+  // clutter at the foot).
+  {
+    std::vector<double> ev = out.residuals;
+    const double sigma = std::max(1.0, RobustSpread(ev)), k = 1.5 * sigma;
+    Eigen::VectorXd psi(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
+      psi(i) = w(i) * e(i);
+    }
+    const Eigen::MatrixXd A = J.transpose() * w.asDiagonal() * J;
+    const Eigen::MatrixXd B = J.transpose() * psi.array().square().matrix().asDiagonal() * J;
+    const Eigen::MatrixXd Ainv = A.ldlt().solve(Eigen::MatrixXd::Identity(m, m));
+    out.cov = Ainv * B * Ainv;
+  }
+  out.ok = out.q.allFinite();
+  return out;
+}
+
+}  // namespace
+
+ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
+                             std::size_t max_points) {
+  ClippedShape s;
+  s.points = all.size();
+  if (all.size() < 20) return s;
+  std::vector<Eigen::Vector3d> p;
+  const std::size_t step = all.size() / std::max<std::size_t>(20, max_points) + 1;
+  for (std::size_t i = 0; i < all.size(); i += step) p.push_back(all[i]);
+  // A start from the points' spread: a disc's points spread a / 2 about its centre; the top at
+  // the 98th percentile; the centre half the height below it.
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& v : p) mean += v.head<2>();
+  mean /= double(p.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  std::vector<double> z;
+  for (const auto& v : p) {
+    cov += (v.head<2>() - mean) * (v.head<2>() - mean).transpose();
+    z.push_back(v.z());
+  }
+  cov /= double(p.size());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+  const double a0 = std::max(10.0, 2 * std::sqrt(std::max(0.0, eig.eigenvalues()(1))));
+  const double b0 = std::max(10.0, 2 * std::sqrt(std::max(0.0, eig.eigenvalues()(0))));
+  const Eigen::Vector2d major = eig.eigenvectors().col(1);
+  // How far the points reach from their centre in the top view (98th percentile): the footprint
+  // ends where the points end, give or take a leaf layer.
+  std::vector<double> reach_h;
+  for (const auto& v : p) reach_h.push_back((v.head<2>() - mean).norm());
+  std::nth_element(reach_h.begin(), reach_h.begin() + reach_h.size() * 98 / 100, reach_h.end());
+  const double widest = widest_mm > 0 ? widest_mm : std::max(10.0, 1.3 * reach_h[reach_h.size() * 98 / 100]);
+  std::nth_element(z.begin(), z.begin() + z.size() * 98 / 100, z.end());
+  const double top = z[z.size() * 98 / 100];
+  const double height = std::max(10.0, top - ground_mm);
+  const double c0 = std::clamp(0.5 * height, 0.25 * (a0 + b0), std::max(0.25 * (a0 + b0), height));
+  Full start;
+  start << mean.x(), mean.y(), top - c0, a0, b0, c0, std::atan2(major.y(), major.x());
+  Bounds bounds;
+  const double reach = std::max(a0, b0);
+  bounds.ground = ground_mm;
+  bounds.lo << mean.x() - reach, mean.y() - reach, ground_mm - height, 0.4 * b0, 0.4 * b0, 0.1 * height, -1e9;
+  bounds.hi << mean.x() + reach, mean.y() + reach, top, std::max(0.4 * b0, std::min(2 * a0, widest)),
+      std::max(0.4 * b0, std::min(2 * a0, widest)), 2 * height, 1e9;
+  Full ball_start = start;
+  ball_start(3) = ball_start(4) = ball_start(5) = std::cbrt(a0 * b0 * c0);
+  const FamilyFit ball = FitFamily(p, Family::kBall, ball_start, bounds);
+  Full sph_start = start;
+  sph_start(3) = sph_start(4) = std::sqrt(a0 * b0);
+  const FamilyFit spheroid = FitFamily(p, Family::kSpheroid, sph_start, bounds);
+  Full ell_start = spheroid.ok ? spheroid.q : start;
+  ell_start(3) = std::max(ell_start(3), 1.0) * std::sqrt(a0 / b0), ell_start(4) = std::max(ell_start(4), 1.0) * std::sqrt(b0 / a0);
+  ell_start(6) = start(6);
+  const FamilyFit ellipsoid = FitFamily(p, Family::kEllipsoid, ell_start, bounds);
+  if (!ball.ok || !spheroid.ok || !ellipsoid.ok) return s;
+  // One scale for all three: the most flexible family's robust spread; residuals beyond 2.5 of it
+  // (strays, a neighbour's leaves) count as 2.5.
+  const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
+  const double clip = 2.5 * sigma;
+  auto bic = [&](const FamilyFit& fit, int k) {
+    double sum = 0;
+    for (double r : fit.residuals) sum += std::min(r * r, clip * clip);
+    const double n = double(fit.residuals.size());
+    return n * std::log(sum / n) + k * std::log(n);
+  };
+  s.bic_ball = bic(ball, 4), s.bic_spheroid = bic(spheroid, 5), s.bic_ellipsoid = bic(ellipsoid, 7);
+  // A family with more parameters wins when the criterion says so and its axes differ by more
+  // than 5 % (below that a gardener clips it as the simpler shape, and thousands of points make
+  // any difference "significant").
+  auto differ = [](double x, double y) { return std::abs(x - y) > 0.05 * std::max(x, y); };
+  const FamilyFit* best = &ball;
+  Family family = Family::kBall;
+  double best_bic = s.bic_ball;
+  if (s.bic_spheroid < best_bic && differ(spheroid.q(3), spheroid.q(5))) {
+    best = &spheroid, family = Family::kSpheroid, best_bic = s.bic_spheroid;
+  }
+  const Full& e = ellipsoid.q;
+  if (s.bic_ellipsoid < best_bic && (differ(e(3), e(4)) || (family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))) {
+    best = &ellipsoid, family = Family::kEllipsoid;
+  }
+  Full q = best->q;
+  // The first horizontal semi-axis is the longer one; heading in [0, 180).
+  if (q(4) > q(3)) std::swap(q(3), q(4)), q(6) += M_PI / 2;
+  double heading = std::fmod(q(6), M_PI);
+  if (heading < 0) heading += M_PI;
+  s.converged = true;
+  s.family = family == Family::kBall ? "ball" : family == Family::kSpheroid ? "spheroid" : "ellipsoid";
+  s.center_mm = q.head<3>();
+  s.axes_mm = q.segment<3>(3);
+  s.heading_deg = family == Family::kEllipsoid ? heading * 180 / M_PI : 0;
+  s.roughness_mm = RobustSpread(best->residuals);
+  // The sandwich covariance of the subsample, scaled to all the points (independent residuals).
+  const Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96 *
+                             std::sqrt(double(p.size()) / double(all.size()));
+  s.center_ci95_mm = sd.head<3>();
+  if (family == Family::kBall) {
+    s.axes_ci95_mm.setConstant(sd(3));
+  } else if (family == Family::kSpheroid) {
+    s.axes_ci95_mm << sd(3), sd(3), sd(4);
+  } else {
+    s.axes_ci95_mm = sd.segment<3>(3);
+    if (best->q(4) > best->q(3)) std::swap(s.axes_ci95_mm(0), s.axes_ci95_mm(1));
+  }
+  const double above = s.center_mm.z() - ground_mm, c = s.axes_mm.z();
+  const bool cut = above < 0.8 * c;
+  if (family == Family::kBall) {
+    s.shape = cut ? "dome" : "ball";
+  } else {
+    s.shape = family == Family::kSpheroid ? (cut ? "dome" : "spheroid") : "ellipsoid";
+    s.form = c < 0.5 * (s.axes_mm.x() + s.axes_mm.y()) ? "oblate" : "prolate";
+  }
+  // Seen from above, the widest section above the ground.
+  const double t = above >= 0 ? 0.0 : std::min(1.0, -above / c);
+  s.footprint_mm = s.axes_mm.head<2>() * std::sqrt(1 - t * t);
+  s.top_mm = above + c;
+  return s;
+}
+
+
+}  // namespace hedgefit::fitting

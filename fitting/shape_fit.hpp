@@ -1,0 +1,49 @@
+#pragma once
+/// The shapes box and yew are clipped to, with a vertical axis: a ball (4 parameters), a spheroid
+/// (5: horizontal and vertical semi-axes) and an ellipsoid (7: three semi-axes and the heading),
+/// each fitted by robust Levenberg-Marquardt (Huber weights, scale from the residuals' own
+/// spread) on the radial distance to the surface, with a sandwich covariance. The class is the one
+/// with the lowest Bayesian information criterion on the residuals clipped at 2.5 robust
+/// deviations, when its axes also differ by more than 5 % (below that a gardener clips the simpler
+/// shape, and thousands of points make any difference "significant"). A ball or spheroid whose
+/// centre lies below 0.8 of its vertical semi-axis above the ground is cut by it: a dome.
+///
+/// Up is +z: the caller turns its points (scene::FindHedges does; fitters.shape by its `up`).
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace hedgefit::fitting {
+
+/// A clipped shape with a vertical axis, in the frame its points are given in (up +z).
+struct ClippedShape {
+  bool converged = false;
+  std::string shape;             ///< "ball", "dome", "spheroid" or "ellipsoid"
+  std::string family;            ///< the family fitted: "ball" (4 parameters), "spheroid" (5) or "ellipsoid" (7)
+  std::string form;              ///< "oblate" or "prolate" for a spheroid or ellipsoid (vertical against horizontal), else ""
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();   ///< semi-axes: along the heading, across it, vertical
+  double heading_deg = 0;        ///< of the first horizontal semi-axis from the scene's x, counter-clockwise, [0, 180)
+  Eigen::Vector3d center_ci95_mm = Eigen::Vector3d::Zero();  ///< 95 % half-widths (sandwich covariance)
+  Eigen::Vector3d axes_ci95_mm = Eigen::Vector3d::Zero();
+  double roughness_mm = 0;       ///< robust spread (1.4826 MAD) of the radial residuals, mm
+  double bic_ball = 0, bic_spheroid = 0, bic_ellipsoid = 0;  ///< the criterion per family (lower is better)
+  std::size_t points = 0;
+  /// The footprint on the ground: the horizontal semi-axes where the shape meets the ground
+  /// (the full ones when its centre is above it).
+  Eigen::Vector2d footprint_mm = Eigen::Vector2d::Zero();
+  double top_mm = 0;             ///< the shape's top, height above the ground under its centre
+};
+
+/// Fits the three families to `points` (up +z, mm) standing on ground of height `ground_mm` and
+/// chooses one. `noise_mm` is the sensor's (the robust scale never goes below half of it);
+/// `widest_mm` bounds the horizontal semi-axes (0: 1.3 times the points' 98th-percentile reach
+/// from their centre in the top view). At most `max_points`, evenly through the list, are fitted;
+/// the intervals are scaled to all of them. converged = false on fewer than 20 points.
+ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
+                             double widest_mm = 0, std::size_t max_points = 800);
+
+}  // namespace hedgefit::fitting
