@@ -115,7 +115,9 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
         ro.wireframe = true;
         std::vector<render::SphereOverlay> spheres;
         for (const auto& t : plans) {
-          spheres.push_back({"target" + (t.hedge_id ? " hedge " + std::to_string(t.hedge_id) : std::string()), t.target, false});
+          render::SphereOverlay target{"target" + (t.hedge_id ? " hedge " + std::to_string(t.hedge_id) : std::string()),
+                                       t.target, false, false, t.target_axes_mm, t.target_heading_deg, t.pole};
+          spheres.push_back(target);
         }
         render::RenderToPng(ctx.Get<cloud::PointCloud>("cloud"), spheres, ro, a->render);
       }

@@ -343,6 +343,11 @@ std::vector<FitRecord> ReadCompareFits(const std::string& path, const std::strin
       o.label = f.at("method").get<std::string>();
       o.sphere.center_mm = Eigen::Vector3d(f.at("center_mm")[0], f.at("center_mm")[1], f.at("center_mm")[2]);
       o.sphere.radius_mm = f.at("radius_mm").get<double>();
+      if (o.label == "shape" && f.contains("axes_mm") && f["axes_mm"].is_array() && f["axes_mm"].size() == 3) {
+        o.axes_mm = Eigen::Vector3d(f["axes_mm"][0], f["axes_mm"][1], f["axes_mm"][2]);
+        o.heading_deg = f.value("heading_deg", 0.0);
+        if (f.contains("up") && f["up"].is_array() && f["up"].size() == 3) o.up = Eigen::Vector3d(f["up"][0], f["up"][1], f["up"][2]);
+      }
       out.push_back(o);
     }
     if (entry->contains("truth") && !(*entry)["truth"].is_null()) {

@@ -86,6 +86,11 @@ struct FitRecord {
   std::string label;  ///< the method, or "truth"
   fitting::Sphere sphere;
   bool truth = false;
+  /// A clipped shape's (the `shape` method's): semi-axes along the heading, across it and along
+  /// `up`, mm (zero for a sphere), and the heading about `up` from the x axis laid flat.
+  Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();
+  double heading_deg = 0;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
 };
 
 /// The converged fits and the truth `compare --format json` wrote for `cloud_path` (matched by

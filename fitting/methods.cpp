@@ -300,6 +300,7 @@ FitMethod ShapeRow() {
               r.SetExtra("axes_ci95_mm", {s.axes_ci95_mm.x(), s.axes_ci95_mm.y(), s.axes_ci95_mm.z()});
               r.SetExtra("center_ci95_mm", {s.center_ci95_mm.x(), s.center_ci95_mm.y(), s.center_ci95_mm.z()});
               r.SetExtra("heading_deg", {s.heading_deg});
+              r.SetExtra("up", {up.x(), up.y(), up.z()});
               return r;
             };
           }};

@@ -23,6 +23,8 @@
 #include <vtkScalarBarActor.h>
 #include <vtkSphereSource.h>
 #include <vtkTextActor.h>
+#include <vtkTransform.h>
+#include <vtkTransformPolyDataFilter.h>
 #include <vtkTextProperty.h>
 #include <vtkUnsignedCharArray.h>
 #include <vtkWindowToImageFilter.h>
@@ -318,6 +320,23 @@ struct SphereLayer {
   vtkSmartPointer<vtkLegendBoxActor> legend;
 };
 
+// A shape overlay's transform: unit sphere -> its semi-axes along the heading (from x laid flat
+// about `up`), across it and along `up`, at its centre (as fitting::PlanTrim reads them).
+Eigen::Matrix4d ShapeFromUnit(const SphereOverlay& s) {
+  const Eigen::Vector3d z = s.up.normalized();
+  Eigen::Vector3d flat = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;
+  if (flat.norm() < 1e-6) flat = Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z;
+  flat.normalize();
+  const double h = s.heading_deg * M_PI / 180;
+  const Eigen::Vector3d along = std::cos(h) * flat + std::sin(h) * z.cross(flat), across = z.cross(along);
+  Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+  t.block<3, 1>(0, 0) = along * s.axes_mm.x();
+  t.block<3, 1>(0, 1) = across * s.axes_mm.y();
+  t.block<3, 1>(0, 2) = z * s.axes_mm.z();
+  t.block<3, 1>(0, 3) = s.sphere.center_mm;
+  return t;
+}
+
 SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const RenderOptions& options) {
   SphereLayer layer;
   layer.legend = vtkSmartPointer<vtkLegendBoxActor>::New();
@@ -326,15 +345,29 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
   std::size_t fitted = 0;
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     const auto& s = spheres[i];
+    const bool shaped = s.axes_mm != Eigen::Vector3d::Zero();
     vtkNew<vtkSphereSource> src;
-    src->SetCenter(s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
-    src->SetRadius(s.sphere.radius_mm);
+    src->SetCenter(shaped ? 0 : s.sphere.center_mm.x(), shaped ? 0 : s.sphere.center_mm.y(), shaped ? 0 : s.sphere.center_mm.z());
+    src->SetRadius(shaped ? 1 : s.sphere.radius_mm);
     const bool lines = s.truth || options.wireframe;
     src->SetThetaResolution(lines ? 24 : 64);  // wireframes: few enough lines to see through
     src->SetPhiResolution(lines ? 12 : 48);
     src->Update();
     vtkNew<vtkPolyDataMapper> m;
-    m->SetInputConnection(src->GetOutputPort());
+    // A clipped shape: the unit sphere scaled by its semi-axes, turned to its heading about its up.
+    vtkNew<vtkTransform> shape_from_unit;
+    vtkNew<vtkTransformPolyDataFilter> shaped_src;
+    if (shaped) {
+      // VTK's matrices are row-major.
+      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> t = ShapeFromUnit(s);
+      shape_from_unit->SetMatrix(t.data());
+      shaped_src->SetTransform(shape_from_unit);
+      shaped_src->SetInputConnection(src->GetOutputPort());
+      shaped_src->Update();
+      m->SetInputConnection(shaped_src->GetOutputPort());
+    } else {
+      m->SetInputConnection(src->GetOutputPort());
+    }
     m->ScalarVisibilityOff();
     auto actor = vtkSmartPointer<vtkActor>::New();
     actor->SetMapper(m);
@@ -349,8 +382,13 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
     }
     layer.actors.push_back(actor);
     char text[200];
-    std::snprintf(text, sizeof(text), "%s  r %.1f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.sphere.radius_mm,
-                  s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+    if (shaped) {
+      std::snprintf(text, sizeof(text), "%s  %.0f x %.0f x %.0f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.axes_mm.x(),
+                    s.axes_mm.y(), s.axes_mm.z(), s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+    } else {
+      std::snprintf(text, sizeof(text), "%s  r %.1f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.sphere.radius_mm,
+                    s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+    }
     vtkNew<vtkSphereSource> symbol;
     symbol->Update();
     double col[3] = {color[0], color[1], color[2]};
@@ -498,6 +536,21 @@ std::optional<fitting::Sphere> MostTrustedSphere(const std::vector<SphereOverlay
     if (!s.truth && (!best || s.label == best->name)) return s.sphere;
   }
   return std::nullopt;
+}
+
+SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& label) {
+  SphereOverlay o{label, fit.sphere, false, fit.not_a_ball.has_value()};
+  if (fit.method != "shape") return o;
+  auto extra = [&](const std::string& name) -> const std::vector<double>* {
+    for (const auto& [key, values] : fit.extras) {
+      if (key == name && values.size() == 3) return &values;
+    }
+    return nullptr;
+  };
+  if (const auto* axes = extra("axes_mm")) o.axes_mm = Eigen::Vector3d((*axes)[0], (*axes)[1], (*axes)[2]);
+  if (const auto* up = extra("up")) o.up = Eigen::Vector3d((*up)[0], (*up)[1], (*up)[2]);
+  o.heading_deg = fit.Extra("heading_deg").value_or(0);
+  return o;
 }
 
 }  // namespace hedgefit::render

@@ -26,7 +26,16 @@ struct SphereOverlay {
   fitting::Sphere sphere;     ///< mm
   bool truth = false;         ///< drawn as a black wireframe
   bool dashed = false;        ///< overlay: outline dashed (a fit whose points are not a ball)
+  /// A clipped shape instead of the sphere: semi-axes along the heading, across it and along
+  /// `up`, mm (zero: the sphere), the heading about `up` from the x axis laid flat, degrees.
+  Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();
+  double heading_deg = 0;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
 };
+
+/// The overlay of a fit: its sphere, or the `shape` method's clipped shape (from its extras
+/// axes_mm, heading_deg and up), labelled `label`, dashed when its points are not a ball.
+SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& label);
 
 struct RenderOptions {
   int width = 1024;                    ///< px (of each view when tiled)

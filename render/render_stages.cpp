@@ -40,7 +40,7 @@ void RegisterRenderStages(pipeline::Registry& r) {
       std::vector<SphereOverlay> spheres;
       if (const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
         for (const auto& f : *fits) {
-          if (f.converged) spheres.push_back(SphereOverlay{f.method, f.sphere, false, f.not_a_ball.has_value()});
+          if (f.converged) spheres.push_back(OverlayOf(f, f.method));
         }
       }
       RenderOptions run = ro;
@@ -77,7 +77,7 @@ void RegisterRenderStages(pipeline::Registry& r) {
               if (f.converged) {
                 std::string label = f.hedge_id ? "hedge " + std::to_string(f.hedge_id) + " " + f.method : f.method;
                 if (f.not_a_ball) label += " (not a ball)";
-                spheres.push_back(SphereOverlay{label, f.sphere, false, f.not_a_ball.has_value()});
+                spheres.push_back(OverlayOf(f, label));
               }
             }
             const cv::Mat* mask = ctx.Find<cv::Mat>("mask");

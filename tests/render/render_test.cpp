@@ -195,3 +195,28 @@ TEST(Render, TextReadsAtTheDefaultSize) {
 
 }  // namespace
 }  // namespace hedgefit::render
+
+namespace hedgefit::render {
+namespace {
+
+// A clipped shape's fit (fitters.shape) is drawn as its shape: the overlay takes its semi-axes,
+// heading and up from the fit's extras; any other fit stays a sphere.
+TEST(Overlay, AShapeFitIsDrawnAsItsShape) {
+  fitting::SphereFitResult f;
+  f.method = "shape";
+  f.converged = true;
+  f.sphere = fitting::Sphere{Eigen::Vector3d(1, 2, 3), 250};
+  f.SetExtra("axes_mm", {400, 260, 220});
+  f.SetExtra("heading_deg", {30});
+  f.SetExtra("up", {0, -1, 0});
+  const SphereOverlay o = OverlayOf(f, "shape");
+  EXPECT_EQ(o.axes_mm, Eigen::Vector3d(400, 260, 220));
+  EXPECT_DOUBLE_EQ(o.heading_deg, 30);
+  EXPECT_EQ(o.up, Eigen::Vector3d(0, -1, 0));
+  EXPECT_FALSE(o.dashed);
+  f.method = "geometric";
+  EXPECT_EQ(OverlayOf(f, "geometric").axes_mm, Eigen::Vector3d::Zero());
+}
+
+}  // namespace
+}  // namespace hedgefit::render
