@@ -1,5 +1,6 @@
-// FindTopiary: a canopy height model's watershed, four shapes with a vertical axis fitted to each
-// object and one chosen by BIC, and a verdict against the cloud's noise and spacing (topiary.hpp).
+// FindTopiary: a canopy height model's watershed, three shape families with a vertical axis fitted to
+// each object (fitting/shape_fit.hpp) and one chosen, and a verdict against the cloud's own noise,
+// lawn and spacing (topiary.hpp).
 
 #include "scene/topiary.hpp"
 

@@ -6,20 +6,18 @@
 ///  2. A watershed from its peaks, flooded downwards: two peaks are one object when the ridge
 ///     between them stands above `merge_saddle` of the lower peak's height (a hedge row's ridge, a
 ///     rose's lumps), and two objects when it falls below (topiary in a bed, touching or not).
-///  3. Each object is fitted with four shapes with a vertical axis: a ball (4 parameters), a
-///     spheroid (5: horizontal and vertical semi-axes), an ellipsoid (7: three semi-axes and the
-///     heading), by robust Gauss-Newton on the radial distance to the surface. The class is the
-///     one with the lowest Bayesian information criterion on the residuals clipped at 2.5 robust
-///     deviations; a ball or spheroid whose centre lies below 0.8 of its vertical semi-axis above
-///     the ground is cut by it: a dome.
+///  3. Each object's upper three quarters are fitted with three families with a vertical axis
+///     (fitting/shape_fit.hpp: a ball, a spheroid, an ellipsoid with its heading; the class by BIC;
+///     a shape cut by the ground is a dome), the horizontal semi-axes bounded by the footprint of
+///     the object's upper half in the height model.
 ///  4. Verdict: topiary when the shape's top stands `min_height_mm` above the ground, its
 ///     horizontal semi-axes are at least the smallest hedge's radius, its footprint is no longer
 ///     than `max_elongation` times its width (a row is) nor the shape taller than that times its
-///     width (a post, a stem), its top holds as many points per mm^2 as the lawn beside it, the top view of
-///     its footprint is covered (what a sensor above sees: `min_covered` of the cells within 0.8 of
-///     its semi-axes hold points), and its points lie on it within `max_roughness` times the
-///     ground's own noise (a clipped surface is as smooth as the sensor sees the lawn; a rose's
-///     canes and a tree's lumps are not).
+///     width (a post, a stem), its top holds `min_density` as many points per mm^2 as the lawn
+///     beside it, its footprint seen from above is covered (the lower 95 % bound of the share of
+///     cells within 0.8 of its semi-axes holding points is `min_covered` or more), and its points
+///     lie on it within `max_roughness` times the ground's own noise (a clipped surface is as
+///     smooth as the sensor sees the lawn; a rose's canes and a tree's lumps are not).
 /// Heights are along +z (the caller turns the cloud, as FindHedges does); mm throughout.
 
 #include <Eigen/Core>
