@@ -381,10 +381,11 @@ void AddFindFunctions(py::module_& m) {
         return out;
       },
       py::arg("xyz"), py::arg("scale") = 0.0, py::arg("seed") = 42,
-      "`hedgefit find` on (N, 3) points: the ground, the objects on it and every hedge ball among them. scale: "
-      "multiplies the points (1000 for metres; 0 = guessed from their span and spacing). Keyword arguments are "
-      "segment.hedges' options (min_radius=300, up='-y', ...). Returns the dict `find --format json` gives per cloud "
-      "('hedges': id, verdict, ball, center_mm, radius_mm, ...) and 'hedge_id', each point's ball (0: none).");
+      "`hedgefit find` on (N, 3) points: the ground, the objects on it, every hedge ball and every clipped topiary "
+      "shape among them. scale: multiplies the points (1000 for metres; 0 = guessed from their span and spacing). "
+      "Keyword arguments are segment.hedges' options (min_radius=300, up='-y', max_roughness=3.5, ...). Returns the "
+      "dict `find --format json` gives per cloud ('hedges': id, verdict, ball, topiary, shape, center_mm, radius_mm, "
+      "...) and 'hedge_id', each point's ball or topiary (0: none).");
 }
 
 // Around the hedge: several captures with poses, fused.
