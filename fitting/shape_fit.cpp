@@ -293,4 +293,17 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
 }
 
 
+Eigen::Matrix3d ShapeAxes(const Eigen::Vector3d& up, double heading_deg) {
+  const Eigen::Vector3d z = up.normalized();
+  Eigen::Vector3d flat = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;
+  if (flat.norm() < 1e-6) flat = Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z;
+  flat.normalize();
+  const double h = heading_deg * M_PI / 180;
+  Eigen::Matrix3d axes;
+  axes.col(0) = std::cos(h) * flat + std::sin(h) * z.cross(flat);
+  axes.col(1) = z.cross(axes.col(0));
+  axes.col(2) = z;
+  return axes;
+}
+
 }  // namespace hedgefit::fitting

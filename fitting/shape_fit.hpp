@@ -46,4 +46,9 @@ struct ClippedShape {
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                              double widest_mm = 0, std::size_t max_points = 800);
 
+/// A shape's axes in its cloud's frame, as columns: along its heading, across it, along `up`.
+/// The heading turns counter-clockwise about `up` from the cloud's x axis laid flat (its y axis
+/// when x is `up`). trim's target, render's overlay and fitters.shape read the shape so.
+Eigen::Matrix3d ShapeAxes(const Eigen::Vector3d& up, double heading_deg);
+
 }  // namespace hedgefit::fitting

@@ -1,5 +1,7 @@
 #include "fitting/trim.hpp"
 
+#include "fitting/shape_fit.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -114,12 +116,8 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   // An orthonormal frame with z along the pole: rings of equal cos(theta) about it.
   const Eigen::Vector3d z = pole.normalized();
   const Eigen::Vector3d x = z.unitOrthogonal(), y = z.cross(x);
-  // The shape's axes: the first along the heading from the cloud's x laid flat.
-  Eigen::Vector3d flat = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;
-  if (flat.norm() < 1e-6) flat = Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z;
-  flat.normalize();
-  const double h = o.heading_deg * M_PI / 180;
-  const Eigen::Vector3d along = std::cos(h) * flat + std::sin(h) * z.cross(flat), across = z.cross(along);
+  const Eigen::Matrix3d axes = ShapeAxes(z, o.heading_deg);
+  const Eigen::Vector3d along = axes.col(0), across = axes.col(1);
   if (shaped) {
     plan.target_axes_mm = o.axes_mm;
     plan.target_heading_deg = o.heading_deg;

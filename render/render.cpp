@@ -37,6 +37,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "fitting/shape_fit.hpp"
 #include "pipeline/error.hpp"
 #include "render/virtual_display.hpp"
 
@@ -323,12 +324,8 @@ struct SphereLayer {
 // A shape overlay's transform: unit sphere -> its semi-axes along the heading (from x laid flat
 // about `up`), across it and along `up`, at its centre (as fitting::PlanTrim reads them).
 Eigen::Matrix4d ShapeFromUnit(const SphereOverlay& s) {
-  const Eigen::Vector3d z = s.up.normalized();
-  Eigen::Vector3d flat = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;
-  if (flat.norm() < 1e-6) flat = Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z;
-  flat.normalize();
-  const double h = s.heading_deg * M_PI / 180;
-  const Eigen::Vector3d along = std::cos(h) * flat + std::sin(h) * z.cross(flat), across = z.cross(along);
+  const Eigen::Matrix3d axes = fitting::ShapeAxes(s.up, s.heading_deg);
+  const Eigen::Vector3d along = axes.col(0), across = axes.col(1), z = axes.col(2);
   Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
   t.block<3, 1>(0, 0) = along * s.axes_mm.x();
   t.block<3, 1>(0, 1) = across * s.axes_mm.y();

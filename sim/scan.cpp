@@ -176,6 +176,18 @@ cloud::PointCloud CastAll(const ScanScene& scene, const std::vector<Ray>& rays, 
   return c;
 }
 
+// A pinhole camera's rays, one per pixel of a width x height image with focal length f (px).
+void CameraRays(const Eigen::Vector3d& eye, const Eigen::Vector3d& forward, const Eigen::Vector3d& right, int width,
+                int height, double f, double noise_mm, std::vector<Ray>* rays) {
+  const Eigen::Vector3d down = forward.cross(right);
+  for (int v = 0; v < height; ++v) {
+    for (int w = 0; w < width; ++w) {
+      const Eigen::Vector3d d = (forward * f + right * (w - width / 2.0) + down * (v - height / 2.0)).normalized();
+      rays->push_back({eye, d, noise_mm});
+    }
+  }
+}
+
 Eigen::Vector3d Direction(double azimuth, double elevation) {
   return {std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth), std::sin(elevation)};
 }
@@ -449,13 +461,7 @@ cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
         if (toward.norm() > 1) forward = (std::cos(25 * kDeg) * forward + std::sin(25 * kDeg) * toward.normalized()).normalized();
         const Eigen::Vector3d right = (std::abs(forward.z()) > 0.999 ? Eigen::Vector3d::UnitX()
                                                                     : forward.cross(Eigen::Vector3d::UnitZ()).normalized());
-        const Eigen::Vector3d down = forward.cross(right);
-        for (int v = 0; v < height; ++v) {
-          for (int w = 0; w < width; ++w) {
-            const Eigen::Vector3d d = (forward * f + right * (w - width / 2.0) + down * (v - height / 2.0)).normalized();
-            rays.push_back({eye, d, o.noise_mm});
-          }
-        }
+        CameraRays(eye, forward, right, width, height, f, o.noise_mm, &rays);
       }
     }
     return CastAll(scene, rays, o, 30000);
@@ -469,14 +475,7 @@ cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
     const Eigen::Vector3d eye(middle.x() + (ex / 2 + 4000) * std::cos(a), middle.y() + (ey / 2 + 4000) * std::sin(a),
                               middle.z() + 4000);
     const Eigen::Vector3d forward = (middle - eye).normalized();
-    const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-    const Eigen::Vector3d down = forward.cross(right);
-    for (int v = 0; v < height; ++v) {
-      for (int w = 0; w < width; ++w) {
-        const Eigen::Vector3d d = (forward * f + right * (w - width / 2.0) + down * (v - height / 2.0)).normalized();
-        rays.push_back({eye, d, o.noise_mm});
-      }
-    }
+    CameraRays(eye, forward, forward.cross(Eigen::Vector3d::UnitZ()).normalized(), width, height, f, o.noise_mm, &rays);
   }
   return CastAll(scene, rays, o, 80000);
 }
