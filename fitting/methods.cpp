@@ -286,7 +286,7 @@ FitMethod ShapeRow() {
                 return r;
               }
               std::nth_element(z.begin(), z.begin() + z.size() / 100, z.end());
-              const ClippedShape s = FitClippedShape(pts, z[z.size() / 100], 0, 0, 4000);
+              const ClippedShape s = FitClippedShape(pts, z[z.size() / 100], 0, 0, 4000, true);
               r.converged = s.converged;
               if (!s.converged) {
                 r.message = "no shape with a vertical axis fits";

@@ -293,7 +293,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     c.topiary = true;
     // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose
     // lower half no sensor saw is pinned by the top's curvature alone, and wants them all).
-    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000);
+    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true);
     if (fine.converged) c.shape = fine;
   }
   return c;
