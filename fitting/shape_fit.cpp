@@ -174,6 +174,38 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
   return out;
 }
 
+// Residuals are not independent: a leaf layer, a reconstruction's patches and a lower half no
+// sensor saw move whole parts of the surface together. A block jackknife over 16 patches (8
+// sectors about the axis, above and below the centre) refits `family` from `q` without each, on
+// at most 800 of `p`: the 95 % half-widths of its free parameters, or an empty vector when fewer
+// than 4 patches could be left out.
+Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family family, const Full& q, const Bounds& bounds) {
+  std::vector<Eigen::Vector3d> q_pts;
+  const std::size_t q_step = p.size() / 800 + 1;
+  for (std::size_t i = 0; i < p.size(); i += q_step) q_pts.push_back(p[i]);
+  auto block = [&](const Eigen::Vector3d& v) {
+    const Eigen::Vector3d d = v - q.head<3>();
+    const int sector = std::clamp(int((std::atan2(d.y(), d.x()) + M_PI) / (2 * M_PI) * 8), 0, 7);
+    return sector * 2 + (d.z() >= 0 ? 1 : 0);
+  };
+  std::vector<Eigen::VectorXd> refits;
+  for (int b = 0; b < 16; ++b) {
+    std::vector<Eigen::Vector3d> kept;
+    for (const auto& v : q_pts) if (block(v) != b) kept.push_back(v);
+    if (kept.size() == q_pts.size() || kept.size() < 20) continue;  // an empty patch says nothing
+    const FamilyFit f = FitFamily(kept, family, q, bounds);
+    if (f.ok) refits.push_back(f.x);
+  }
+  if (refits.size() < 4) return {};
+  Eigen::VectorXd centre = Eigen::VectorXd::Zero(refits[0].size());
+  for (const auto& x : refits) centre += x;
+  centre /= double(refits.size());
+  Eigen::VectorXd var = Eigen::VectorXd::Zero(centre.size());
+  for (const auto& x : refits) var += (x - centre).cwiseAbs2();
+  const double n = double(refits.size());
+  return (var * (n - 1) / n).cwiseSqrt() * 1.96;
+}
+
 }  // namespace
 
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
@@ -269,39 +301,8 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96 *
                        std::sqrt(double(p.size()) / double(all.size()));
   if (jackknife) {
-    // Residuals are not independent: a leaf layer, a reconstruction's patches and a lower half no
-    // sensor saw move whole parts of the surface together. A block jackknife over 16 patches
-    // (8 sectors about the axis, above and below the centre) refits the chosen family without
-    // each, on at most 800 points; the larger of the two intervals is reported.
-    std::vector<Eigen::Vector3d> q_pts;
-    const std::size_t q_step = p.size() / 800 + 1;
-    for (std::size_t i = 0; i < p.size(); i += q_step) q_pts.push_back(p[i]);
-    constexpr int kBlocks = 16;
-    auto block = [&](const Eigen::Vector3d& v) {
-      const Eigen::Vector3d d = v - best->q.head<3>();
-      const int sector = std::clamp(int((std::atan2(d.y(), d.x()) + M_PI) / (2 * M_PI) * 8), 0, 7);
-      return sector * 2 + (d.z() >= 0 ? 1 : 0);
-    };
-    std::vector<Eigen::VectorXd> refits;
-    for (int b = 0; b < kBlocks; ++b) {
-      std::vector<Eigen::Vector3d> kept;
-      for (const auto& v : q_pts) if (block(v) != b) kept.push_back(v);
-      if (kept.size() == q_pts.size() || kept.size() < 20) continue;  // an empty block says nothing
-      const FamilyFit f = FitFamily(kept, family, best->q, bounds);
-      if (f.ok) refits.push_back(f.x);
-    }
-    if (refits.size() >= 4) {
-      Eigen::VectorXd centre = Eigen::VectorXd::Zero(sd.size());
-      for (const auto& x : refits) centre += x;
-      centre /= double(refits.size());
-      Eigen::VectorXd var = Eigen::VectorXd::Zero(sd.size());
-      for (const auto& x : refits) var += (x - centre).cwiseAbs2();
-      const double n = double(refits.size());
-      const Eigen::VectorXd jk = (var * (n - 1) / n).cwiseSqrt() * 1.96;
-      // The heading's step is radians; every other parameter mm, as sd's.
-      sd = sd.cwiseMax(jk);
-      s.jackknifed = true;
-    }
+    const Eigen::VectorXd jk = JackknifeCi95(p, family, best->q, bounds);
+    if (jk.size() == sd.size()) sd = sd.cwiseMax(jk), s.jackknifed = true;
   }
   s.center_ci95_mm = sd.head<3>();
   if (family == Family::kBall) {
