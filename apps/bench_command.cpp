@@ -83,7 +83,9 @@ void AddGardenBench(CLI::App* bench, CommandFn* run) {
       "  hedgefit bench garden --renderer povray --camera real --dir build/garden-povray   # leaf discs, ~5 minutes\n"
       "  hedgefit bench garden --reuse --no-clean  # the fits see the clouds as converted (default --clean)\n"
       "  hedgefit bench garden --hard --dir build/garden-hard   # pair, low/high camera, small far, big near, off centre, touching, left edge, cut by frame, shrubs\n"
-      "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n");
+      "  hedgefit bench garden --random 12 --dir build/garden-random   # 12 gardens drawn from seeds 1..12\n"
+      "  hedgefit bench garden --paper 4 --first-seed 101 --dir build/garden-paper-held   # the paper's size, held-back seeds\n"
+      "  hedgefit bench garden --gardens outdoor,paper3 --renderer povray --dir build/garden-pov\n");
   struct GardenArgs {
     bench::GardenOptions garden;
     StageFlags flags;  // bench::GardenOptions::Table()'s options
@@ -92,7 +94,8 @@ void AddGardenBench(CLI::App* bench, CommandFn* run) {
   };
   auto ga = std::make_shared<GardenArgs>();
   const auto specs = bench::GardenOptions::Table().Specs();
-  ga->flags.Add(g, specs, {"dir", "scale", "reuse", "renderer", "camera", "hard", "random"}, "Captures");
+  ga->flags.Add(g, specs, {"dir", "scale", "reuse", "renderer", "camera", "hard", "random", "paper", "first_seed", "gardens"},
+                "Captures");
   ga->flags.Add(g, specs, {}, "Measuring");
   auto* clean = g->add_flag("--clean,!--no-clean", ga->clean,
                             "clean each capture's cloud as `compare` does (the default), or with --no-clean fit it as "
@@ -104,7 +107,9 @@ void AddGardenBench(CLI::App* bench, CommandFn* run) {
     *run = [=]() {
       PrepareRegistry(true);
       const auto given = ga->flags.Given();
-      if (given.count("hard") && given.count("random")) throw Error("--hard and --random: give one set of gardens");
+      if (given.count("hard") + given.count("random") + given.count("paper") + given.count("gardens") > 1) {
+        throw Error("--hard, --random, --paper and --gardens: give one set of gardens");
+      }
       bench::GardenOptions::Table().Apply(given, &ga->garden);
       if (!ga->clean) ga->garden.cleaning = "[]";
       if (!ga->pipeline.empty()) ga->garden.cleaning = ReadFilterStagesFile(ga->pipeline);

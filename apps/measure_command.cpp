@@ -39,7 +39,7 @@ using json = nlohmann::ordered_json;  // keys in the order written: hedge first
 
 struct MeasureArgs {
   std::string left, right, rig, overlay, methods = "ransac_ray";
-  bool no_clean = false, print_pipeline = false, pretty = false;
+  bool no_clean = false, print_pipeline = false, pretty = false, strict = false;
   CaptureFlags capture;
   // Several captures with poses (around/).
   std::string manifest, trajectory, captures, fused, plot, format = "json";
@@ -104,7 +104,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       "fit and capture times, and with --garden the hedge's image box; not_a_ball (and a warning) when the\n"
       "points are not a ball's (a shrub taken for a hedge: see README, compare). Every capture checks its\n"
       "rig against its own images (rig_check: ok, widened, unusable; docs/commands.md). Exit 2 when no fit\n"
-      "converges, 3 when a result is unusable (its line's \"unusable\" says why).\n"
+      "converges, 3 when a result is unusable (its line's \"unusable\" says why) or, with --strict, unchecked.\n"
       "Several captures around a hedge (docs/around.md):\n"
       "  hedgefit measure --manifest build/around/hedgefit/single_ring_4/manifest_odometry.json --plot around.png\n"
       "  hedgefit measure --trajectory poses.tum --captures DIR --rig rig.yaml --fused fused.pcd\n");
@@ -131,9 +131,12 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--overlay", a->overlay, "also write the left image with each fitted hedge drawn on it (PNG)");
   cmd->add_flag("--no-clean", a->no_clean, "fit the raw cloud (no outlier removal: filters.hedge_outlier)");
   cmd->add_flag("--pretty", a->pretty, "indented JSON instead of one line per object");
+  cmd->add_flag("--strict", a->strict,
+                "exit 3 also when the rig could not be checked against the capture (rig_check unchecked: too few "
+                "textured places across the frame), as a robot should");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
   a->capture.Add(cmd);
-  GroupFlags(cmd, {{"Inputs", {"--left", "--right", "--rig"}}, {"Fitting", {"--method", "--no-clean"}}, {"Outputs", {"--overlay", "--print-pipeline"}}, {"Output format", {"--pretty"}}});
+  GroupFlags(cmd, {{"Inputs", {"--left", "--right", "--rig"}}, {"Fitting", {"--method", "--no-clean"}}, {"Outputs", {"--overlay", "--print-pipeline"}}, {"Output format", {"--pretty", "--strict"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
@@ -191,7 +194,12 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       if (converged == 0) throw ProcessingError(a->left + ": no fit converged (" + failure + ")");
       if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());
       for (const std::string& why : m.not_balls) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), why.c_str());
-      return stereo::CaptureUnusable(ctx) ? kExitUnusable : kExitOk;
+      if (stereo::CaptureUnusable(ctx)) return kExitUnusable;
+      if (const std::string unchecked = stereo::CaptureUnchecked(ctx); !unchecked.empty()) {
+        std::fprintf(stderr, "hedgefit: %s: %s: %s\n", a->strict ? "error" : "warning", a->left.c_str(), unchecked.c_str());
+        if (a->strict) return kExitUnusable;
+      }
+      return kExitOk;
     };
   });
 }

@@ -37,7 +37,7 @@ struct StreamArgs {
   std::string rig, left, right, side_by_side, watch, methods = "ransac_ray";
   double idle_s = 10;
   long max_frames = 0;
-  bool no_clean = false, no_drop = false;
+  bool no_clean = false, no_drop = false, strict = true;
   CaptureFlags capture;
 };
 
@@ -81,7 +81,7 @@ static int RunStream(const StreamArgs& a) {
     src = io::OpenVideoPair(a.left, a.right);
   }
   io::Grabber grabber(std::move(src), !a.no_drop);
-  long frames = 0, taken = 0, dropped_total = 0, unusable_frames = 0;
+  long frames = 0, taken = 0, dropped_total = 0, unusable_frames = 0, unchecked_frames = 0;
   double total_ms = 0;
   std::map<std::string, double> stage_ms;
   using Clock = std::chrono::steady_clock;
@@ -115,6 +115,7 @@ static int RunStream(const StreamArgs& a) {
         const std::string hint = stereo::CaptureHint(ctx);
         for (const auto& st : report.stages) stage_ms[st.type] += st.wall_ms;
         unusable_frames += stereo::CaptureUnusable(ctx);
+        unchecked_frames += !stereo::CaptureUnchecked(ctx).empty();
         for (const auto& line : m.lines) {
           json j = head;
           for (const auto& [k, v] : line.items()) j[k] = v;
@@ -155,6 +156,12 @@ static int RunStream(const StreamArgs& a) {
                  unusable_frames, frames);
     return kExitUnusable;
   }
+  if (unchecked_frames > 0) {
+    std::fprintf(stderr, "hedgefit: %s: stream: %ld of %ld frames could not check the rig against the frame "
+                 "(rig_check unchecked; their lines' rig_check_reason says why)%s\n",
+                 a.strict ? "error" : "warning", unchecked_frames, frames, a.strict ? "; --no-strict accepts them" : "");
+    if (a.strict) return kExitUnusable;
+  }
   return frames > 0 ? kExitOk : kExitProcessing;
 }
 
@@ -185,8 +192,11 @@ void AddStreamCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--method", a->methods, "fit method(s), comma-separated")->capture_default_str();
   cmd->add_flag("--no-clean", a->no_clean, "fit the raw cloud (no outlier removal: filters.hedge_outlier)");
   cmd->add_flag("--no-drop", a->no_drop, "measure every frame of a camera or directory, however far behind");
+  cmd->add_flag("--strict,!--no-strict", a->strict,
+                "exit 3 when a frame's rig could not be checked against it (rig_check unchecked), as when a check "
+                "finds it unusable; the default, for a robot; --no-strict accepts such frames");
   a->capture.Add(cmd);
-  GroupFlags(cmd, {{"Inputs", {"--rig", "--left", "--right", "--side-by-side", "--watch", "--idle-timeout", "--max-frames", "--no-drop"}}, {"Fitting", {"--method", "--no-clean"}}});
+  GroupFlags(cmd, {{"Inputs", {"--rig", "--left", "--right", "--side-by-side", "--watch", "--idle-timeout", "--max-frames", "--no-drop", "--strict"}}, {"Fitting", {"--method", "--no-clean"}}});
   cmd->callback([=]() { *run = [=]() { return RunStream(*a); }; });
 }
 

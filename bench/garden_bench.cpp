@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
 
 #include "bench/lab_bench.hpp"
 #include "cloud/filters.hpp"
@@ -46,6 +47,14 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
                "N gardens drawn from seeds 1..N instead (random1 ...): one to three balls of the issue's range side by "
                "side, a camera 0.9-1.4 m up, sometimes a shrub (not with --hard)")
           .Range(0, 200)
+          .Add("paper", &O::paper,
+               "N gardens of the paper's outdoor size instead (paper1 ...): one or two balls of r 880-960 mm, the "
+               "nearest 2.0-2.4 m away, in one of the four leaf presets, sun or overcast")
+          .Range(0, 200)
+          .Add("first_seed", &O::first_seed,
+               "the first seed of --random and --paper (1: the tuning seeds; 101: the held-back ones)")
+          .Range(1, 100000)
+          .Add("gardens", &O::gardens, "these garden presets instead, comma-separated (sim::GardenPreset's names)")
           .Add("outline", &O::outline, "fit the envelope to each hedge's outline in both views too")
           .Add("leaves", &O::leaves,
                "the gardens across leaves instead (sim::GardenLeafPresetNames): boxwood, yew, privet and holly, each "
@@ -218,9 +227,18 @@ GardenResult RunGarden(const GardenOptions& a) {
   cloud::CheckFilterStages(a.cleaning, "bench garden's cleaning");
   std::vector<std::string> presets = a.hard ? sim::GardenHardPresetNames() : sim::GardenPresetNames();
   if (a.leaves) presets = sim::GardenLeafPresetNames();
-  if (a.random > 0) {
+  if (a.random > 0 || a.paper > 0) {
     presets.clear();
-    for (int i = 1; i <= a.random; ++i) presets.push_back("random" + std::to_string(i));
+    const std::string family = a.random > 0 ? "random" : "paper";
+    for (int i = 0; i < std::max(a.random, a.paper); ++i) presets.push_back(family + std::to_string(a.first_seed + i));
+  }
+  if (!a.gardens.empty()) {
+    presets.clear();
+    std::stringstream list(a.gardens);
+    for (std::string name; std::getline(list, name, ',');) {
+      sim::GardenPreset(name);  // an unknown name fails here, before any rendering
+      presets.push_back(name);
+    }
   }
   if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
   if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");

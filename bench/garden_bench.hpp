@@ -28,6 +28,9 @@ struct GardenOptions {
   std::string camera = "ideal";            ///< povray: ideal or real (sim::CameraModel)
   bool hard = false;                       ///< sim::GardenHardPresetNames() instead of the three presets
   int random = 0;                          ///< > 0: gardens random1 ... randomN (sim::GardenPreset) instead
+  int paper = 0;                           ///< > 0: gardens paper<first_seed> ... (sim::GardenPreset) instead
+  int first_seed = 1;                      ///< the first seed of random and paper (1 tuning, 101 held back)
+  std::string gardens;                     ///< comma-separated preset names instead of all the above
   bool leaves = false;                     ///< sim::GardenLeafPresetNames() instead (boxwood ... holly)
   bool outline = true;                     ///< the envelope fit also fits each hedge's outline (stereo::MeasureOutlines)
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)

@@ -719,12 +719,49 @@ GardenScene RandomGarden(std::uint64_t seed) {
   return sc;
 }
 
+// "paper<seed>": the paper's outdoor case drawn from a seed (sim::GardenPreset): one ball of r
+// 880-960 mm with its centre 2.0-2.4 m away, so its nearest leaves are 1.1-1.5 m from the
+// cameras, and in half the gardens a second one beside it, farther (2.4-3.0 m) and pushed back
+// until it is inside the view. The leaves are one of the four leaf presets (seed mod 4: boxwood,
+// yew, privet, holly), under sun or an overcast sky; the camera 0.9-1.4 m up, pitched 4-14
+// degrees. The same seed gives the same garden (RandomGarden's generator).
+GardenScene PaperGarden(std::uint64_t seed) {
+  std::mt19937_64 rng(seed + 7919);
+  auto u = [&rng] { return double(rng() >> 11) * (1.0 / 9007199254740992.0); };
+  static const char* const species[] = {"boxwood", "yew", "privet", "holly"};
+  const GardenHedge leafy = *LeafPresetHedge(species[seed % 4]);
+  GardenScene sc;
+  sc.pot = false;
+  sc.texture_seed = 3000 + seed;
+  sc.camera_height_mm = 900 + 500 * u();
+  sc.pitch_deg = 4 + 10 * u();
+  sc.overcast = u() < 0.4;
+  GardenHedge a = leafy;
+  a.radius_mm = 880 + 80 * u();
+  a.z_mm = 2000 + 400 * u();
+  a.x_mm = -1000 + 800 * u();
+  sc.hedges.push_back(a);
+  if (u() < 0.5) {
+    GardenHedge b = leafy;
+    b.radius_mm = 880 + 80 * u();
+    b.x_mm = a.x_mm + a.radius_mm + 150 + 350 * u() + b.radius_mm;
+    // Inside the view: the rig's half field is about 1.03 (960 / 933.3 px) of the distance.
+    b.z_mm = std::max(2400 + 600 * u(), (b.x_mm + b.radius_mm + 150) / 1.03);
+    sc.hedges.push_back(b);
+  }
+  return sc;
+}
+
 }  // namespace
 
 GardenScene GardenPreset(const std::string& name) {
   if (name.size() > 6 && name.compare(0, 6, "random") == 0 && name.size() <= 15 &&
       std::all_of(name.begin() + 6, name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
     return RandomGarden(std::stoull(name.substr(6)));
+  }
+  if (name.size() > 5 && name.compare(0, 5, "paper") == 0 && name.size() <= 14 &&
+      std::all_of(name.begin() + 5, name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    return PaperGarden(std::stoull(name.substr(5)));
   }
   if (std::optional<GardenScene> leafy = LeafGarden(name)) return *leafy;
   GardenScene sc;
@@ -801,7 +838,7 @@ GardenScene GardenPreset(const std::string& name) {
   } else {
     throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
                 "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs, boxwood, yew, privet, holly "
-                "(each also NAME_dome), or random<seed> (e.g. random7)");
+                "(each also NAME_dome), random<seed> (e.g. random7) or paper<seed> (e.g. paper3)");
   }
   return sc;
 }

@@ -159,7 +159,9 @@ cv::Mat RenderGardenSurface(const SimRig& rig, const GardenScene& scene);
 /// 2 m away, its front leaves 1.1 m from the cameras); the hard ones below; "random<seed>"
 /// (e.g. "random7"): a garden drawn from the seed, one to three balls of the range (r
 /// 420-600 mm, centres 2.0-2.7 m away) side by side, a camera 0.9-1.4 m up pitched 4-14 degrees,
-/// sometimes a two-lobed shrub beside them. Throws hedgefit::Error for another name.
+/// sometimes a two-lobed shrub beside them; "paper<seed>": the paper's outdoor size drawn from
+/// the seed, one or two balls of r 880-960 mm, the nearest 2.0-2.4 m away, in one of the four
+/// leaf presets (seed mod 4), sun or overcast. Throws hedgefit::Error for another name.
 GardenScene GardenPreset(const std::string& name);
 std::vector<std::string> GardenPresetNames();
 /// Harder gardens for segmentation, each a case that once failed or a corner of the issue's

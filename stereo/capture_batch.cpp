@@ -235,6 +235,23 @@ bool CaptureUnusable(pipeline::Context& ctx) {
   return std::any_of(checks->begin(), checks->end(), [](const auto& c) { return !c.second.unusable.empty(); });
 }
 
+std::string CaptureUnchecked(pipeline::Context& ctx) {
+  const auto* checks = ctx.Find<pipeline::InputChecks>("input_checks");
+  if (!checks) return "";
+  for (const auto& [id, check] : *checks) {
+    bool unchecked = false;
+    std::string why = "the rig could not be checked against this capture";
+    for (const auto& [key, value] : check.fields) {
+      const std::string* text = std::get_if<std::string>(&value);
+      if (!text) continue;
+      if (key == "rig_check" && *text == "unchecked") unchecked = true;
+      if (key == "rig_check_reason") why = "the rig could not be checked against this capture: " + *text;
+    }
+    if (unchecked) return why;
+  }
+  return "";
+}
+
 void ConvertCaptures(const ConvertOptions& o, const std::vector<CaptureFiles>& captures, const std::string& rig,
                      const std::function<std::string(const CaptureFiles&)>& output_of, bool debug, int threads,
                      const std::function<void(const CaptureOutcome&)>& done) {

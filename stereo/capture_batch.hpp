@@ -76,5 +76,9 @@ std::string CaptureHint(pipeline::Context& ctx);
 /// Whether stereo.rig_check found a hedge of this capture unusable (the rig does not fit the
 /// cameras): `convert`, `measure` and `stream` then exit with 3.
 bool CaptureUnusable(pipeline::Context& ctx);
+/// Why stereo.rig_check could not check the rig against this capture (a hedge's "rig_check" is
+/// "unchecked": too few textured places across the frame), or empty when it could. `measure
+/// --strict` and `stream` (unless --no-strict) refuse such a result with exit 3.
+std::string CaptureUnchecked(pipeline::Context& ctx);
 
 }  // namespace hedgefit::stereo

@@ -432,9 +432,12 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
     std::string verdict = "ok";
     if (!measured && h.vertical.samples == 0) {
       verdict = "unchecked";
-      check.warning = Format("the rig could not be checked against this capture: too few textured places matched "
-                             "(%.0f parts of the frame, %.0f corners) and the hedge's own rows were not measured",
-                             rows.cells, double(rows.samples.size()));
+      check.fields.emplace_back("rig_check_reason",
+                                Format("too few textured places matched (%.0f parts of the frame, %.0f corners) and the "
+                                       "hedge's own rows were not measured",
+                                       rows.cells, double(rows.samples.size())));
+      check.warning = "the rig could not be checked against this capture: " +
+                      std::get<std::string>(check.fields.back().second);
     } else if (frame_apart) {
       verdict = "unusable";
       check.unusable = Format("the rig file does not fit these cameras: the rectified rows are %.1f px apart in this "
@@ -455,6 +458,20 @@ CaptureRigCheck CheckCaptureRig(const cv::Mat& left_rect, const cv::Mat& right_r
                               "does not fit these cameras, the views are not a pair, or the hedge lies outside "
                               "--min-z/--max-z",
                               100 * share, 100 * o.min_matched_share);
+    }
+    if (verdict == "ok" && !measured) {
+      // The hedge's own rows agree, but they cover the hedge only: a roll or a focal length that
+      // does not fit shows across the frame, and the frame was not measured. Said as such, so a
+      // robot (`--strict`) can refuse the result rather than trust it.
+      verdict = "unchecked";
+      check.fields.emplace_back(
+          "rig_check_reason",
+          Format("too few textured places matched across the frame (%.0f parts of it, %.0f corners; a check needs 3 "
+                 "and 30): only the hedge's own rows were measured (%.2f px apart), which cannot show a rig that "
+                 "does not fit away from it",
+                 rows.cells, double(rows.samples.size()), near_rows));
+      check.warning = "the rig could not be checked against this capture's frame: " +
+                      std::get<std::string>(check.fields.back().second);
     }
     if (verdict == "ok" && (planar || near_rows > o.tolerance_px)) {
       verdict = "widened";

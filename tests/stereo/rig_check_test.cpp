@@ -202,3 +202,65 @@ TEST(RigCheck, ARollingCheckReadsTheFrameAndAKnockWithinItsPeriod) {
     }
   }
 }
+
+namespace {
+
+// A rectified pair that is flat grey but for `boxes` of random texture shifted 40 px between the
+// views (a hedge at one depth): a garden of smooth lawn and sky, as far as the corners go.
+std::pair<cv::Mat, cv::Mat> TexturedBoxes(const std::vector<cv::Rect>& boxes) {
+  cv::Mat left(400, 640, CV_8UC1, cv::Scalar(128)), right = left.clone();
+  cv::RNG rng(5);
+  for (const cv::Rect& b : boxes) {
+    cv::Mat tex(b.size(), CV_8UC1);
+    rng.fill(tex, cv::RNG::UNIFORM, 0, 255);
+    cv::GaussianBlur(tex, tex, cv::Size(3, 3), 0.8);
+    tex.copyTo(left(b));
+    tex.copyTo(right(b - cv::Point(40, 0)));
+  }
+  return {left, right};
+}
+
+const hedgefit::pipeline::OptionValue* Field(const hedgefit::pipeline::InputCheck& c, const std::string& key) {
+  for (const auto& [k, v] : c.fields) {
+    if (k == key) return &v;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+// A capture whose frame has too little texture for the check (one textured box: one or two of
+// the 48 cells) is "unchecked", with the reason in the hedge's fields, even when the hedge's own
+// rows agree: they cannot show a roll or a focal length that does not fit away from the hedge.
+// The same hedge in a frame textured all over is "ok", so the verdict comes from the frame's
+// texture, not from the hedge.
+TEST(RigCheck, AFrameWithTooLittleTextureIsUncheckedAndSaysWhy) {
+  hedgefit::stereo::StereoRig rig;
+  rig.P1 = (cv::Mat_<double>(3, 4) << 500, 0, 320, 0, 0, 500, 200, 0, 0, 0, 1, 0);
+  hedgefit::stereo::HedgeMatch hedge;
+  hedge.id = 1;
+  hedge.pixels = hedge.measured = 80 * 80;
+  hedge.vertical.samples = 40;  // the refinement measured the hedge's rows: 0.03 px apart
+  hedge.vertical_max_px = 0.03;
+  cv::Mat labels(400, 640, CV_32S, cv::Scalar(0));
+  labels(cv::Rect(300, 160, 80, 80)).setTo(1);
+  const hedgefit::stereo::RigCheckOptions options;
+  const auto [bl, br] = TexturedBoxes({cv::Rect(300, 160, 80, 80)});
+  const auto smooth = hedgefit::stereo::CheckCaptureRig(bl, br, rig, {hedge}, labels, cv::Mat(), 40, options);
+  ASSERT_LT(smooth.rows.cells, 3) << "the test needs a frame the check cannot measure";
+  EXPECT_EQ(smooth.verdict, "unchecked");
+  const auto& check = smooth.checks.at(1);
+  const auto* verdict = Field(check, "rig_check");
+  ASSERT_NE(verdict, nullptr);
+  EXPECT_EQ(std::get<std::string>(*verdict), "unchecked");
+  const auto* reason = Field(check, "rig_check_reason");
+  ASSERT_NE(reason, nullptr);
+  EXPECT_NE(std::get<std::string>(*reason).find("too few textured places"), std::string::npos);
+  EXPECT_TRUE(check.unusable.empty()) << "nothing showed the rig wrong: unchecked, not unusable";
+
+  const auto [fl, fr] = TexturedBoxes({cv::Rect(40, 0, 600, 400)});
+  const auto textured = hedgefit::stereo::CheckCaptureRig(fl, fr, rig, {hedge}, labels, cv::Mat(), 40, options);
+  ASSERT_GE(textured.rows.cells, 3);
+  EXPECT_EQ(textured.verdict, "ok");
+  EXPECT_EQ(Field(textured.checks.at(1), "rig_check_reason"), nullptr);
+}
