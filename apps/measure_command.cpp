@@ -3,6 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -85,6 +86,12 @@ int RunMeasureAround(const MeasureArgs& a) {
   if (!a.fused.empty()) cloud::WriteCloud(a.fused, r.cloud);
   if (!a.plot.empty()) render::WriteAroundView(r, a.plot);
   if (r.hedges.empty()) throw ProcessingError(source + ": no hedge could be fused from the captures");
+  const bool any_confirmed =
+      std::any_of(r.hedges.begin(), r.hedges.end(), [](const around::FusedHedge& h) { return h.unconfirmed.empty(); });
+  if (!any_confirmed) {
+    std::fprintf(stderr, "hedgefit: error: %s: every fused hedge is unconfirmed (its line says why)\n", source.c_str());
+    return kExitUnusable;
+  }
   return kExitOk;
 }
 

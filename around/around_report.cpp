@@ -56,6 +56,8 @@ std::vector<std::string> FuseJsonLines(const FuseResult& r, bool pretty) {
                      {"capture_centers_mm", centres},
                      {"points", h.points},
                      {"outline_rays", h.fit.outline_rays}});
+    // Not a hedge to act on: said in the line itself, so no reader takes it for one.
+    if (!h.unconfirmed.empty()) lines.back()["unconfirmed"] = h.unconfirmed;
   }
   for (const PoseResult& p : r.poses) {
     json j = {{"capture", p.name}, {"used", p.used}};
@@ -87,12 +89,20 @@ void PrintFuseTable(std::ostream& out, const FuseResult& r) {
                 "+- mm", "surface mm", "captures", "covered", "points");
   out << line;
   for (const FusedHedge& h : r.hedges) {
+    if (!h.unconfirmed.empty()) continue;
     const auto& c = h.fit.fit.sphere.center_mm;
     char centre[96];
     std::snprintf(centre, sizeof(centre), "(%.1f, %.1f, %.1f)", c.x(), c.y(), c.z());
     std::snprintf(line, sizeof(line), "%-5d %-30s %10.2f %8.2f %10.2f %9zu %8.1f%% %6zu\n", h.id, centre,
                   h.fit.fit.sphere.radius_mm, 1.96 * h.std_error_mm[3], h.fit.surface_radius_mm, h.views.size(),
                   100 * h.coverage, h.points);
+    out << line;
+  }
+  for (const FusedHedge& h : r.hedges) {
+    if (h.unconfirmed.empty()) continue;
+    const auto& c = h.fit.fit.sphere.center_mm;
+    std::snprintf(line, sizeof(line), "unconfirmed %d near (%.0f, %.0f, %.0f), r %.0f mm: %s\n", h.id, c.x(), c.y(), c.z(),
+                  h.fit.fit.sphere.radius_mm, h.unconfirmed.c_str());
     out << line;
   }
   out << "\n";

@@ -63,6 +63,15 @@ struct FuseOptions {
   double cell_deg = 10;                   ///< coverage cells, about this wide
   int cell_min_points = 3;                ///< a cell with fewer is not covered
   bool jackknife = true;                  ///< standard errors also from leaving out each capture
+  /// A fused hedge is unconfirmed (FusedHedge::unconfirmed says why) when fewer captures than
+  /// this saw it while more were used, when the captures together cover less than
+  /// `min_coverage` of its sphere, when its radius is outside [min_radius, max_radius], or when
+  /// its interval could not be computed. One capture's view of a ball at 2-3 m covers 20-35 % of
+  /// it (the around benches); a fence post, a shrub's lobe or a stretch of lawn taken for a hedge
+  /// by one capture covers a few percent.
+  int min_captures = 2;
+  double min_coverage = 0.1;
+  double min_radius_mm = 150, max_radius_mm = 2000;
   void Check() const;
   static const pipeline::OptionTable<FuseOptions>& Table();
 };
@@ -95,6 +104,9 @@ struct FusedHedge {
   std::vector<double> view_coverage;       ///< each capture's share of the sphere
   double coverage = 0;                     ///< all together
   std::size_t points = 0;
+  /// Why this hedge is not confirmed (FuseOptions::min_captures ...): reported apart from the
+  /// hedges, never as one; "" = confirmed.
+  std::string unconfirmed;
 };
 
 struct FuseResult {

@@ -281,6 +281,16 @@ void Score(const SetTruth& truth, const std::vector<around::View>& views, const 
       row->seen_share = plan.seen_share;
     }
   }
+  for (const auto& h : fused.hedges) {
+    if (!h.unconfirmed.empty()) {
+      ++row->unconfirmed;
+      continue;
+    }
+    const bool real = std::any_of(truth.hedges.begin(), truth.hedges.end(), [&](const fitting::Sphere& t) {
+      return (h.fit.fit.sphere.center_mm - t.center_mm).norm() < 0.5 * t.radius_mm;
+    });
+    row->phantoms += real ? 0 : 1;
+  }
   row->inside_share = checked ? double(inside) / checked : 0;
   // Each capture alone, against the truth nearest its centre (in the true pose).
   int singles = 0;
@@ -351,14 +361,14 @@ AroundBenchResult RunAroundBench(const AroundBenchOptions& o) {
 }
 
 void PrintAroundBench(const AroundBenchResult& r) {
-  std::printf("%-8s %-6s %-5s %3s %-8s %5s %6s %8s %8s %7s %6s %7s %7s %9s %9s %8s %8s %8s\n", "renderer", "scene",
-              "set", "n", "poses", "used", "found", "dR mm", "dC mm", "se R", "in95", "cover", "1 view", "alone dR",
+  std::printf("%-8s %-6s %-5s %3s %-8s %5s %6s %7s %8s %8s %7s %6s %7s %7s %9s %9s %8s %8s %8s\n", "renderer", "scene",
+              "set", "n", "poses", "used", "found", "ph/unc", "dR mm", "dC mm", "se R", "in95", "cover", "1 view", "alone dR",
               "given", "after", "trim L", "truth L");
   for (const AroundBenchRow& w : r.rows) {
-    std::printf("%-8s %-6s %-5s %3d %-8s %5d %3d/%-2d %8.2f %8.2f %7.2f %6.2f %6.1f%% %6.1f%% %9.2f %4.0f/%4.1f %4.1f/%4.2f %8s %8s\n",
+    std::printf("%-8s %-6s %-5s %3d %-8s %5d %3d/%-2d %4d/%-2d %8.2f %8.2f %7.2f %6.2f %6.1f%% %6.1f%% %9.2f %4.0f/%4.1f %4.1f/%4.2f %8s %8s\n",
                 w.renderer.c_str(), w.scene.c_str(), w.layout.c_str(), w.captures, w.poses.c_str(), w.used,
-                w.hedges_found, w.hedges_true, w.radius_error_mm, w.center_error_mm, w.radius_se_mm, w.inside_share,
-                100 * w.coverage, 100 * w.view_coverage, w.single_radius_error_mm, w.given_pose_mm, w.given_pose_deg,
+                w.hedges_found, w.hedges_true, w.phantoms, w.unconfirmed, w.radius_error_mm, w.center_error_mm,
+                w.radius_se_mm, w.inside_share, 100 * w.coverage, 100 * w.view_coverage, w.single_radius_error_mm, w.given_pose_mm, w.given_pose_deg,
                 w.pose_mm, w.pose_deg, w.trim_truth_l > 0 ? pipeline::Format("%.2f", w.trim_volume_l).c_str() : "",
                 w.trim_truth_l > 0 ? pipeline::Format("%.2f", w.trim_truth_l).c_str() : "");
   }
@@ -369,6 +379,7 @@ std::string AroundBenchJson(const AroundBenchResult& r) {
   for (const AroundBenchRow& w : r.rows) {
     out.push_back({{"renderer", w.renderer}, {"scene", w.scene}, {"layout", w.layout}, {"captures", w.captures},
                    {"poses", w.poses}, {"used", w.used}, {"hedges_true", w.hedges_true}, {"hedges_found", w.hedges_found},
+                   {"phantoms", w.phantoms}, {"unconfirmed", w.unconfirmed},
                    {"radius_error_mm", w.radius_error_mm}, {"center_error_mm", w.center_error_mm},
                    {"radius_se_mm", w.radius_se_mm}, {"inside_share", w.inside_share}, {"coverage", w.coverage},
                    {"view_coverage", w.view_coverage}, {"single_radius_error_mm", w.single_radius_error_mm},

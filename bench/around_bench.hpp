@@ -32,6 +32,8 @@ struct AroundBenchRow {
   std::string renderer, scene, layout, poses;
   int captures = 0, used = 0;
   int hedges_true = 0, hedges_found = 0;
+  int phantoms = 0;                  ///< fused hedges reported as hedges that are none of the true ones
+  int unconfirmed = 0;               ///< fused hedges reported as unconfirmed (FusedHedge::unconfirmed)
   double radius_error_mm = 0;        ///< worst |envelope radius - truth| over the hedges
   double center_error_mm = 0;        ///< worst centre distance
   double radius_se_mm = 0;           ///< the stated standard error of the worst

@@ -55,9 +55,14 @@ void WriteAroundView(const around::FuseResult& r, const std::string& path, int s
   for (const auto& hd : r.hedges) {
     const Eigen::Vector2d c = plane(hd.fit.fit.sphere.center_mm);
     const int rad = std::max(2, int(std::lround(hd.fit.fit.sphere.radius_mm * px)));
-    cv::circle(img, at(c), rad, cv::Scalar(0, 0, 0), 2, cv::LINE_AA);
-    cv::putText(img, pipeline::Format("%d: r %.1f mm, %.0f%% seen", hd.id, hd.fit.fit.sphere.radius_mm, 100 * hd.coverage),
-                at(c) + cv::Point(-rad, rad + 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    // An unconfirmed hedge (FusedHedge::unconfirmed) in grey, thin, and said so.
+    const bool confirmed = hd.unconfirmed.empty();
+    const cv::Scalar ink = confirmed ? cv::Scalar(0, 0, 0) : cv::Scalar(150, 150, 150);
+    cv::circle(img, at(c), rad, ink, confirmed ? 2 : 1, cv::LINE_AA);
+    cv::putText(img,
+                confirmed ? pipeline::Format("%d: r %.1f mm, %.0f%% seen", hd.id, hd.fit.fit.sphere.radius_mm, 100 * hd.coverage)
+                          : pipeline::Format("%d: unconfirmed", hd.id),
+                at(c) + cv::Point(-rad, rad + 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, ink, 1, cv::LINE_AA);
   }
   // The cameras: a wedge from where each stood, opening the way it looked.
   for (std::size_t k = 0; k < r.poses.size(); ++k) {
