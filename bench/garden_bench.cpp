@@ -13,6 +13,7 @@
 #include "bench/lab_bench.hpp"
 #include "cloud/filters.hpp"
 #include "pipeline/pipeline.hpp"
+#include "pipeline/print.hpp"
 #include "eval/truth_file.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/uncertainty.hpp"
@@ -158,6 +159,13 @@ void ScoreOutline(const std::vector<cloud::TangentRay>& rays, const fitting::Sph
     const double along = w.dot(ray.direction), dist = (w - along * ray.direction).norm();
     err[ray.view ? 1 : 0].push_back((dist - truth.radius_mm) * ray.focal_px / along);
   }
+  std::vector<double> all = err[0];
+  all.insert(all.end(), err[1].begin(), err[1].end());
+  std::sort(all.begin(), all.end());
+  row->outline_quantiles_px.clear();
+  for (double q : {0.02, 0.1, 0.25, 0.5, 0.75, 0.9}) {
+    if (!all.empty()) row->outline_quantiles_px.push_back(all[std::size_t(q * double(all.size() - 1))]);
+  }
   for (int v = 0; v < 2; ++v) {
     std::vector<double>& e = err[v];
     row->outline_rays[v] = e.size();
@@ -220,6 +228,54 @@ void ScoreColourPath(const cv::Mat& left, const cv::Mat& right, const stereo::St
 }
 
 }  // namespace
+
+std::vector<std::pair<std::string, fitting::SphereFitResult>> OracleFits(
+    const std::vector<Eigen::Vector3d>& points_mm, const std::vector<double>& pixel_mm,
+    const std::vector<cloud::TangentRay>& outline, const cv::Mat& surface, const sim::SimCamera& camera,
+    const fitting::Sphere& truth) {
+  std::vector<std::pair<std::string, fitting::SphereFitResult>> out;
+  if (surface.empty() || outline.empty() || points_mm.empty()) return out;
+  // The points at the leaves their pixels truly see.
+  std::vector<cv::Point3d> obj;
+  for (const auto& p : points_mm) obj.emplace_back(p.x(), p.y(), p.z());
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(camera.K), cv::Mat(camera.dist), px);
+  std::vector<Eigen::Vector3d> true_points;
+  std::vector<double> true_pixel_mm;
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    const int u = int(std::lround(px[i].x)), v = int(std::lround(px[i].y));
+    if (u < 0 || v < 0 || u >= surface.cols || v >= surface.rows) continue;
+    const cv::Vec3f t = surface.at<cv::Vec3f>(v, u);
+    if (!std::isfinite(t[2])) continue;
+    const Eigen::Vector3d q(t[0], t[1], t[2]);
+    const double depth = truth.radius_mm - (q - truth.center_mm).norm();
+    if (depth < -5 || depth > 60) continue;  // not this hedge's leaf
+    true_points.push_back(q);
+    if (!pixel_mm.empty()) true_pixel_mm.push_back(pixel_mm[i]);
+  }
+  // The outline's rays turned to graze the true envelope.
+  std::vector<cloud::TangentRay> true_outline;
+  for (cloud::TangentRay r : outline) {
+    const Eigen::Vector3d to_c = truth.center_mm - r.origin_mm;
+    const double dist = to_c.norm();
+    if (dist <= truth.radius_mm) continue;
+    const Eigen::Vector3d u = to_c / dist;
+    Eigen::Vector3d w = r.direction - r.direction.dot(u) * u;
+    if (w.norm() < 1e-9) continue;
+    w.normalize();
+    const double a = std::asin(truth.radius_mm / dist);
+    r.direction = std::cos(a) * u + std::sin(a) * w;
+    true_outline.push_back(r);
+  }
+  auto fit = [&](const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& pix,
+                 const std::vector<cloud::TangentRay>& rays) {
+    return fitting::RunFitMethod("envelope", pts, {}, 42, true, pix.empty() ? nullptr : &pix, &rays);
+  };
+  out.emplace_back("true_points", fit(true_points, true_pixel_mm, outline));
+  out.emplace_back("true_outline", fit(points_mm, pixel_mm, true_outline));
+  out.emplace_back("both", fit(true_points, true_pixel_mm, true_outline));
+  return out;
+}
 
 GardenResult RunGarden(const GardenOptions& a) {
   namespace fs = std::filesystem;
@@ -306,7 +362,10 @@ GardenResult RunGarden(const GardenOptions& a) {
         }
         const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
         const auto outline = outlines.find(g.id);
-        if (outline != outlines.end()) ScoreOutline(outline->second, row.truth, &row);
+        if (outline != outlines.end()) {
+          ScoreOutline(outline->second, row.truth, &row);
+          row.oracle = OracleFits(pts, pixel_mm, outline->second, surface, sim.left, row.truth);
+        }
         for (const auto& m : fitting::SphereMethodNames()) {
           row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, &pixel_mm,
                                                    outline != outlines.end() ? &outline->second : nullptr));
@@ -347,6 +406,39 @@ std::vector<std::pair<std::string, IntervalCoverage>> Coverage(const GardenResul
     if (c.cases > 0) out.emplace_back(m, c);
   }
   return out;
+}
+
+}  // namespace
+
+namespace {
+
+// The envelope's centre error along the view ray (+: too far) and its AER, as measured and with
+// the points, the outline or both swapped for the truth (GardenHedgeRow::oracle).
+void PrintOracle(const GardenResult& r) {
+  bool any = false;
+  for (const GardenScene& s : r.scenes) {
+    for (const GardenHedgeRow& h : s.rows) any = any || !h.oracle.empty();
+  }
+  if (!any) return;
+  std::printf("the envelope with the truth swapped in: centre along the view ray (+ too far) / AER, mm\n"
+              "  %-16s %4s %16s %16s %16s %16s\n", "garden", "id", "as measured", "true points", "true outline", "both");
+  auto cell = [](const fitting::SphereFitResult& f, const fitting::Sphere& t) {
+    if (!f.converged) return std::string("-");
+    const Eigen::Vector3d ray = t.center_mm.normalized();
+    return pipeline::Format("%+6.2f / %+5.2f", (f.sphere.center_mm - t.center_mm).dot(ray), f.sphere.radius_mm - t.radius_mm);
+  };
+  for (const GardenScene& s : r.scenes) {
+    for (const GardenHedgeRow& h : s.rows) {
+      if (h.oracle.empty()) continue;
+      std::string measured = "-";
+      for (const auto& f : h.fits) {
+        if (f.method == "envelope") measured = cell(f, h.truth);
+      }
+      std::printf("  %-16s %4d %16s", s.name.c_str(), h.id, measured.c_str());
+      for (const auto& [name, f] : h.oracle) std::printf(" %16s", cell(f, h.truth).c_str());
+      std::printf("\n");
+    }
+  }
 }
 
 }  // namespace
@@ -440,6 +532,7 @@ void PrintGarden(const GardenResult& r) {
     std::printf("  within 2 mm of the envelope: %.1f%% of the true leaves, %.1f%% of the measured points\n",
                 100 * l.true_outer_share, 100 * l.measured_outer_share);
   }
+  PrintOracle(r);
   std::printf("whole run %.1f s\n", r.seconds);
 }
 
@@ -463,10 +556,21 @@ std::string GardenJson(const GardenResult& r) {
                  {"outside_50mm_share", h.outside_50mm}};
       if (h.outline_rays[0] + h.outline_rays[1] > 0) {
         jh["outline"] = json::array();
+        jh["outline_quantiles_px"] = h.outline_quantiles_px;  // 2, 10, 25, 50, 75, 90 %, both views
         for (int v = 0; v < 2; ++v) {
           jh["outline"].push_back({{"view", v ? "right" : "left"}, {"rays", h.outline_rays[v]},
                                    {"median_px", h.outline_median_px[v]}, {"mad_px", h.outline_mad_px[v]},
                                    {"mean_px", h.outline_mean_px[v]}});
+        }
+      }
+      if (!h.oracle.empty()) {
+        jh["oracle"] = json::object();
+        for (const auto& [name, f] : h.oracle) {
+          if (!f.converged) continue;
+          const auto e = eval::Evaluate(f.sphere, h.truth);
+          jh["oracle"][name] = {{"center_mm", {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()}},
+                                {"radius_mm", f.sphere.radius_mm}, {"aer_mm", e.aer_mm}, {"ld_mm", e.ld_mm},
+                                {"top_bias_px", f.Extra("top_bias_px").value_or(0)}};
         }
       }
       jh["fits"] = json::array();

@@ -14,6 +14,7 @@
 
 #include "eval/evaluation.hpp"
 #include "cloud/cleaning.hpp"
+#include "cloud/outline.hpp"
 #include "pipeline/option_table.hpp"
 #include "stereo/capture.hpp"
 #include "sim/simulator.hpp"
@@ -54,7 +55,14 @@ struct GardenHedgeRow {
   std::vector<double> outside_share;            ///< per fit: fitting::OutsideShare of the points
   /// The outline's rays against the true envelope: how far each passes outside it, in px at its
   /// tangent point (negative: it cuts into the envelope), per view.
+  /// Where the envelope's error comes from: the envelope fitted again with one input swapped for
+  /// the renderer's truth (OracleFits): "true_points" (each point moved to the leaf its pixel
+  /// truly sees, the measured outline kept), "true_outline" (each outline ray turned, about the
+  /// camera, to graze the true envelope; the measured points kept), "both". Empty without a
+  /// per-pixel truth or an outline.
+  std::vector<std::pair<std::string, fitting::SphereFitResult>> oracle;
   std::size_t outline_rays[2] = {0, 0};
+  std::vector<double> outline_quantiles_px;  ///< the rays' offsets (px, + outside) at 2, 10, 25, 50, 75, 90 %
   double outline_mean_px[2] = {0, 0}, outline_median_px[2] = {0, 0}, outline_mad_px[2] = {0, 0};
 };
 
@@ -107,6 +115,16 @@ struct GardenResult {
 
 LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, const cv::Mat& surface,
                                  const sim::SimCamera& camera, const fitting::Sphere& truth);
+
+/// The envelope fit with its points, its outline or both replaced by the renderer's truth (see
+/// GardenHedgeRow::oracle): the points by the first leaf each one's pixel sees (`surface`, left
+/// camera `camera`; points whose pixel sees no leaf of this hedge are dropped), the outline's rays
+/// each turned in the plane through its camera and the true centre until it grazes the true
+/// envelope.
+std::vector<std::pair<std::string, fitting::SphereFitResult>> OracleFits(
+    const std::vector<Eigen::Vector3d>& points_mm, const std::vector<double>& pixel_mm,
+    const std::vector<cloud::TangentRay>& outline, const cv::Mat& surface, const sim::SimCamera& camera,
+    const fitting::Sphere& truth);
 
 GardenResult RunGarden(const GardenOptions& options);
 void PrintGarden(const GardenResult& result);
