@@ -274,6 +274,13 @@ std::vector<std::pair<std::string, fitting::SphereFitResult>> OracleFits(
   out.emplace_back("true_points", fit(true_points, true_pixel_mm, outline));
   out.emplace_back("true_outline", fit(points_mm, pixel_mm, true_outline));
   out.emplace_back("both", fit(true_points, true_pixel_mm, true_outline));
+  for (int view = 0; view < 2; ++view) {  // one view's measured outline alone: its disparity's share
+    std::vector<cloud::TangentRay> one;
+    for (const auto& r : outline) {
+      if (r.view == view) one.push_back(r);
+    }
+    out.emplace_back(view ? "right_outline" : "left_outline", fit(points_mm, pixel_mm, one));
+  }
   return out;
 }
 
@@ -421,7 +428,8 @@ void PrintOracle(const GardenResult& r) {
   }
   if (!any) return;
   std::printf("the envelope with the truth swapped in: centre along the view ray (+ too far) / AER, mm\n"
-              "  %-16s %4s %16s %16s %16s %16s\n", "garden", "id", "as measured", "true points", "true outline", "both");
+              "  %-16s %4s %16s %16s %16s %16s %16s %16s\n", "garden", "id", "as measured", "true points", "true outline",
+              "both", "left outline", "right outline");
   auto cell = [](const fitting::SphereFitResult& f, const fitting::Sphere& t) {
     if (!f.converged) return std::string("-");
     const Eigen::Vector3d ray = t.center_mm.normalized();
