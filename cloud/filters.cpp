@@ -367,7 +367,17 @@ FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOpti
     so.mean_k = 30;
     so.stddev_mul = 1.0;
     so.num_threads = options.num_threads;
-    return StatisticalOutlierRemoval(cloud, so);
+    // Hedges found by depth are judged each against its own points' neighbour distances, so a
+    // hedge's cleaning, and so its fit, does not depend on what else the frame holds (a cloud split
+    // into one file per hedge by `convert` is cleaned by `compare` as `measure` cleaned it whole).
+    const std::vector<HedgeGroup> groups = HedgeGroups(cloud);
+    if (groups.size() < 2) return StatisticalOutlierRemoval(cloud, so);
+    std::vector<bool> keep = StatisticalInliers(cloud, so, nullptr);  // points of no hedge: the whole cloud's
+    for (const HedgeGroup& g : groups) {
+      const std::vector<bool> own = StatisticalInliers(Select(cloud, g.indices), so, nullptr);
+      for (std::size_t j = 0; j < g.indices.size(); ++j) keep[g.indices[j]] = own[j];
+    }
+    return Finish(cloud, std::move(keep), so.keep_organized);
   }
   LocalOutlierOptions lo;
   lo.num_threads = options.num_threads;

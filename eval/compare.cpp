@@ -1,5 +1,7 @@
 #include "eval/compare.hpp"
 
+#include "cloud/outline_io.hpp"
+
 #include "cloud/describe.hpp"
 
 #include <nlohmann/json.hpp>
@@ -153,6 +155,10 @@ std::vector<CloudReport> CompareCloud(const std::string& file, const CompareOpti
   if (truths.empty()) {
     if (auto t = TruthFileFor(file)) truths = ReadTruthFiles(*t);
   }
+  // The outline `convert` wrote beside the cloud (cloud/outline_io.hpp), for the envelope, in mm:
+  // only for a cloud read at its own scale.
+  const std::optional<cloud::HedgeOutlines> outlines =
+      o.scale == 1.0 ? cloud::ReadOutlineSidecar(file) : std::optional<cloud::HedgeOutlines>();
   // A capture with several hedges (hedge_id field): one report per hedge.
   const auto groups = cloud::HedgeGroups(cleaned);
   std::vector<CloudReport> reports;
@@ -166,7 +172,12 @@ std::vector<CloudReport> CompareCloud(const std::string& file, const CompareOpti
     rep.truth = TruthForPoints(truths, pts);
     const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
     for (const auto& m : o.methods) {
-      rep.fits.push_back(fitting::RunFitMethod(m, pts, o.fit_options, o.seed, g.id >= 1, &pixel_mm));
+      const std::vector<cloud::TangentRay>* outline = nullptr;
+      if (outlines) {
+        const auto it = outlines->find(g.id);
+        if (it != outlines->end()) outline = &it->second;
+      }
+      rep.fits.push_back(fitting::RunFitMethod(m, pts, o.fit_options, o.seed, g.id >= 1, &pixel_mm, outline));
       rep.fits.back().hedge_id = g.id;
       fitting::AddUncertainty(pts, o.rig, &rep.fits.back(), o.matching);
     }

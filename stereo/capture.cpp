@@ -1,4 +1,6 @@
 #include "stereo/capture.hpp"
+
+#include "cloud/outline_io.hpp"
 #include "cloud/cleaning.hpp"
 #include "cloud/cloud_stages.hpp"
 
@@ -394,7 +396,11 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
   // Every capture checks its rig against its own images (whatever the matcher).
   p.push_back(stage("stereo.rig_check", RigCheckOptions::Table().Values(o.rig_check)));
   p.push_back(stage("stereo.reproject", ReprojectOptions::Table().Values(o.reproject)));
-  if (!output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", output}, {"encoding", "binary_compressed"}});
+  if (!output.empty()) {
+    p.push_back({{"type", "writers.pcd"}, {"filename", output}, {"encoding", "binary_compressed"}});
+    // The outline beside the cloud (cloud/outline_io.hpp): compare's envelope on it is measure's.
+    p.push_back({{"type", "writers.outline"}, {"filename", cloud::OutlineSidecarPath(output)}});
+  }
   return p.dump(2);
 }
 

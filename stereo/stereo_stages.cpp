@@ -10,7 +10,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include "cloud/cleaning.hpp"
 #include "cloud/cloud_io.hpp"
+#include "cloud/outline_io.hpp"
 #include "pipeline/option_table.hpp"
 #include "pipeline/parallel.hpp"
 #include "cloud/point_cloud.hpp"
@@ -488,11 +490,51 @@ void AddOutline(pipeline::Registry& r) {
         });
 }
 
+// writers.outline: each hedge's outline measured as `measure` measures it (about the cloud as
+// compare cleans it by default) and written beside the cloud, so that `compare` on the saved cloud
+// fits the envelope `measure` fits. The context's cloud is left as it was.
+void AddOutlineWriter(pipeline::Registry& r) {
+  StageInfo info{"writers.outline",
+                 "Writes each hedge's outline rays (stereo.outline, about the cloud cleaned as compare cleans it) "
+                 "as JSON beside the cloud (CLOUD.outline.json), so compare's envelope on the saved cloud is "
+                 "measure's",
+                 {pipeline::StringOption("filename", "",
+                                         "file to write (convert: the cloud's name + .outline.json); a '#' in it writes "
+                                         "one file per hedge")},
+                 {"cloud", "left_image", "right_image", "rig"}, {}, {".json"}};
+  r.Add(info, [](const Options& o) -> std::unique_ptr<pipeline::Stage> {
+    return std::make_unique<pipeline::LambdaStage>(o, [](const Options& opts, Context& ctx) {
+      const std::string file = opts.GetString("filename");
+      if (file.empty()) throw Error("stage 'writers.outline', option 'filename': give the file to write");
+      const cloud::PointCloud cleaned =
+          cloud::RunFilterStages(ctx.Get<cloud::PointCloud>("cloud"), cloud::DefaultCleaningJson(), "writers.outline");
+      const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
+      const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");
+      const cloud::HedgeOutlines outlines = MeasureCloudOutlines(
+          ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), labels ? *labels : cv::Mat(), RigOf(ctx),
+          cleaned, ctx.seed, ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt);
+      // One file per hedge where the clouds are one per hedge ('#' in the name, as the writers').
+      if (const auto hash = file.rfind('#'); hash != std::string::npos) {
+        for (const auto& [id, hedge_rays] : outlines) {
+          std::string one = file;
+          one.replace(hash, 1, std::to_string(id));
+          cloud::WriteOutlines(one, {{id, hedge_rays}});
+        }
+      } else {
+        cloud::WriteOutlines(file, outlines);
+      }
+      std::int64_t rays = 0;
+      for (const auto& [id, hedge_rays] : outlines) rays += std::int64_t(hedge_rays.size());
+      ctx.Note("rays", rays);
+    });
+  });
+}
+
 }  // namespace
 
 void RegisterStereoStages(pipeline::Registry& r) {
   // One row per family of stages.
-  for (auto add : {&AddReader, &AddRectification, &AddSegmenters, &AddAutoSegmenter, &AddMatcher, &AddRigCheck, &AddReprojection, &AddOutline}) add(r);
+  for (auto add : {&AddReader, &AddRectification, &AddSegmenters, &AddAutoSegmenter, &AddMatcher, &AddRigCheck, &AddReprojection, &AddOutline, &AddOutlineWriter}) add(r);
 }
 
 void CheckCaptureImages(const std::string& left, const std::string& right) {

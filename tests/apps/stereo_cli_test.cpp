@@ -290,6 +290,28 @@ TEST(ConvertCli, GardenRowGivesOnePcdPerHedgeAndComparePerHedge) {
     // tested in garden_test.
     EXPECT_LT(std::abs(c["fits"][0]["errors"]["aer_mm"].get<double>()), 10.0) << "hedge " << i + 1;
   }
+  // One answer whichever path measures it: convert wrote each hedge's outline beside its cloud
+  // (row_N.pcd.outline.json), so compare's envelope on the saved clouds is measure's on the
+  // capture, to 0.1 mm (the issue's bar; both read the same float32 points, clean them alike and
+  // fit the same rays, so they agree to rounding). Without the outline the envelope is another fit.
+  for (int id = 1; id <= 3; ++id) {
+    EXPECT_TRUE(std::filesystem::exists(dir / ("row_" + std::to_string(id) + ".pcd.outline.json"))) << id;
+  }
+  r = RunHedgefit("measure --garden --method envelope --rig garden/rig.yaml --left garden/garden_row_left.png "
+                  "--right garden/garden_row_right.png",
+                  dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::vector<nlohmann::json> measured;
+  std::istringstream lines(r.out);
+  for (std::string line; std::getline(lines, line);) measured.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(measured.size(), 3u) << r.out;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto& fit = j["clouds"][i]["fits"][0];
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(fit["center_mm"][k].get<double>(), measured[i]["center_mm"][k].get<double>(), 0.1) << "hedge " << i + 1;
+    }
+    EXPECT_NEAR(fit["radius_mm"].get<double>(), measured[i]["radius_mm"].get<double>(), 0.1) << "hedge " << i + 1;
+  }
   // Without --garden the default segmentation finds the hedges by depth too; with no '#' in -o
   // they share one file, each point carrying its hedge_id. This report used to throw ("basic_string::
   // replace") after the file was written, and convert exited 2.

@@ -621,5 +621,40 @@ TEST(LocalOutlier, BadOptionsAreNamed) {
   EXPECT_EQ(LocalOutlierRemoval(few, LocalOutlierOptions{}).kept, 5u);
 }
 
+
+// Hedges found by depth are each cleaned against their own neighbour distances: a hedge's kept
+// points are the same whether its cloud holds another hedge or not (convert writes one file per
+// hedge and compare cleans each; measure cleans the capture whole). A second, farther and so
+// sparser hedge would move a statistic taken over the whole cloud, and with it the first's cut.
+TEST(HedgeOutlier, EachHedgeIsCleanedOnItsOwn) {
+  std::vector<double> cos_near, cos_far;
+  PointCloud near = StereoSphere(800, 2000, 300, &cos_near), far = StereoSphere(800, 3400, 500, &cos_far);
+  for (std::size_t i = 0; i < near.size(); i += 300) near.points_mm.push_back(near.points_mm[i] * 0.97f);
+  near.Flatten();
+  for (auto& p : far.points_mm) p.x() += 1500.f;
+  PointCloud both;
+  both.points_mm = near.points_mm;
+  both.points_mm.insert(both.points_mm.end(), far.points_mm.begin(), far.points_mm.end());
+  both.fields[kHedgeIdField] = std::vector<float>(near.size(), 1.f);
+  both.fields[kHedgeIdField].resize(both.size(), 2.f);
+  both.Flatten();
+  near.fields[kHedgeIdField] = std::vector<float>(near.size(), 1.f);
+  const PointCloud alone = HedgeOutlierRemoval(near, HedgeOutlierOptions{}).cloud;
+  const PointCloud together = HedgeOutlierRemoval(both, HedgeOutlierOptions{}).cloud;
+  std::vector<Eigen::Vector3f> first;
+  for (std::size_t i = 0; i < together.size(); ++i) {
+    if (together.fields.at(kHedgeIdField)[i] == 1.f) first.push_back(together.points_mm[i]);
+  }
+  ASSERT_GT(alone.size(), near.size() / 2);
+  EXPECT_EQ(first, alone.points_mm);
+  // The whole cloud's statistic would have cut the first hedge otherwise.
+  StatisticalOutlierOptions so;
+  so.mean_k = 30;
+  std::size_t whole_first = 0;
+  const PointCloud whole = StatisticalOutlierRemoval(both, so).cloud;
+  for (std::size_t i = 0; i < whole.size(); ++i) whole_first += whole.fields.at(kHedgeIdField)[i] == 1.f ? 1 : 0;
+  EXPECT_NE(whole_first, alone.size());
+}
+
 }  // namespace
 }  // namespace hedgefit::cloud
