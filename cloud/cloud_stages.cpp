@@ -177,8 +177,8 @@ void RegisterCloudStages(Registry& r) {
   filter("filters.hedge_outlier",
          "The default cleaning's outlier removal, by what the cloud is: on a stereo capture's cloud (pixel_mm) "
          "local_outlier (k 20, threshold 2) then spacing_outlier (mean_k 30, max_ratio 8); on hedges found by "
-         "depth (hedge_id: leafy shells, unless shells is local) and clouds without pixel_mm statistical_outlier "
-         "(mean_k 30, stddev_mul 1)",
+         "depth (hedge_id: leafy shells, unless shells is local; each hedge against its own points) and clouds "
+         "without pixel_mm statistical_outlier (mean_k 30, stddev_mul 1)",
          TableOptions<HedgeOutlierOptions>(),
          TableFactory<HedgeOutlierOptions>("filters.hedge_outlier",
                                            [keep](const HedgeOutlierOptions& p, const Options&, Context& ctx) {

@@ -21,7 +21,7 @@ constexpr int kVersion = 1;
 
 std::string OutlineSidecarPath(const std::string& cloud_path) { return cloud_path + ".outline.json"; }
 
-void WriteOutlines(const std::string& path, const HedgeOutlines& outlines) {
+void WriteOutlines(const std::string& path, const HedgeOutlines& outlines, std::size_t cloud_points) {
   json hedges = json::array();
   for (const auto& [id, rays] : outlines) {
     json r = json::array();
@@ -34,13 +34,14 @@ void WriteOutlines(const std::string& path, const HedgeOutlines& outlines) {
   const json j = {{"format", kFormat},
                   {"version", kVersion},
                   {"frame", "the cloud's (the unrectified left camera), mm"},
+                  {"cloud_points", cloud_points},
                   {"ray", {"origin x", "origin y", "origin z", "direction x", "direction y", "direction z", "focal px",
                            "view (0 left, 1 right)"}},
                   {"hedges", hedges}};
   WriteTextFileAtomic(path, j.dump() + "\n");
 }
 
-HedgeOutlines ReadOutlines(const std::string& path) {
+OutlineFile ReadOutlines(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open the outline file; check the path");
   json j;
@@ -55,7 +56,10 @@ HedgeOutlines ReadOutlines(const std::string& path) {
   if (!j.is_object() || j.value("format", "") != kFormat) throw bad("not a hedgefit outline file");
   if (j.value("version", 0) != kVersion) throw bad("an outline file of another version");
   if (!j.contains("hedges") || !j["hedges"].is_array()) throw bad("no \"hedges\" array");
-  HedgeOutlines out;
+  if (!j.contains("cloud_points") || !j["cloud_points"].is_number_unsigned()) throw bad("no \"cloud_points\" count");
+  OutlineFile file;
+  file.cloud_points = j["cloud_points"].get<std::size_t>();
+  HedgeOutlines& out = file.outlines;
   for (const auto& h : j["hedges"]) {
     if (!h.is_object() || !h.contains("hedge_id") || !h["hedge_id"].is_number_integer() || !h.contains("rays") ||
         !h["rays"].is_array()) {
@@ -79,14 +83,20 @@ HedgeOutlines ReadOutlines(const std::string& path) {
       rays.push_back(t);
     }
   }
-  return out;
+  return file;
 }
 
-std::optional<HedgeOutlines> ReadOutlineSidecar(const std::string& cloud_path) {
+std::optional<HedgeOutlines> ReadOutlineSidecar(const std::string& cloud_path, std::size_t cloud_points) {
   const std::string path = OutlineSidecarPath(cloud_path);
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
-  return ReadOutlines(path);
+  OutlineFile file = ReadOutlines(path);
+  if (file.cloud_points != cloud_points) {
+    throw InputError(path + ": written for a cloud of " + std::to_string(file.cloud_points) + " points, but " +
+                     cloud_path + " has " + std::to_string(cloud_points) +
+                     "; write both again with hedgefit convert, or remove the outline file");
+  }
+  return std::move(file.outlines);
 }
 
 }  // namespace hedgefit::cloud

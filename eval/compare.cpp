@@ -158,7 +158,7 @@ std::vector<CloudReport> CompareCloud(const std::string& file, const CompareOpti
   // The outline `convert` wrote beside the cloud (cloud/outline_io.hpp), for the envelope, in mm:
   // only for a cloud read at its own scale.
   const std::optional<cloud::HedgeOutlines> outlines =
-      o.scale == 1.0 ? cloud::ReadOutlineSidecar(file) : std::optional<cloud::HedgeOutlines>();
+      o.scale == 1.0 ? cloud::ReadOutlineSidecar(file, points_read) : std::optional<cloud::HedgeOutlines>();
   // A capture with several hedges (hedge_id field): one report per hedge.
   const auto groups = cloud::HedgeGroups(cleaned);
   std::vector<CloudReport> reports;

@@ -513,15 +513,20 @@ void AddOutlineWriter(pipeline::Registry& r) {
       const cloud::HedgeOutlines outlines = MeasureCloudOutlines(
           ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), labels ? *labels : cv::Mat(), RigOf(ctx),
           cleaned, ctx.seed, ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt);
-      // One file per hedge where the clouds are one per hedge ('#' in the name, as the writers').
+      // One file per hedge where the clouds are one per hedge ('#' in the name, as the writers':
+      // each holds its hedge's finite points).
+      const cloud::PointCloud& written = ctx.Get<cloud::PointCloud>("cloud");
       if (const auto hash = file.rfind('#'); hash != std::string::npos) {
-        for (const auto& [id, hedge_rays] : outlines) {
+        for (const cloud::HedgeGroup& g : cloud::HedgeGroups(written)) {
           std::string one = file;
-          one.replace(hash, 1, std::to_string(id));
-          cloud::WriteOutlines(one, {{id, hedge_rays}});
+          one.replace(hash, 1, std::to_string(g.id));
+          const auto it = outlines.find(g.id);
+          cloud::HedgeOutlines own;
+          if (it != outlines.end()) own[g.id] = it->second;
+          cloud::WriteOutlines(ctx.OutputPath(one), own, g.indices.size());
         }
       } else {
-        cloud::WriteOutlines(file, outlines);
+        cloud::WriteOutlines(ctx.OutputPath(file), outlines, written.size());
       }
       std::int64_t rays = 0;
       for (const auto& [id, hedge_rays] : outlines) rays += std::int64_t(hedge_rays.size());

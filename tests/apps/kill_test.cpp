@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "cloud/cloud_io.hpp"
+#include "cloud/outline_io.hpp"
 #include "pipeline/error.hpp"
 #include "tests/test_data.hpp"
 
@@ -109,6 +110,11 @@ TEST(Kill, ABatchConvertKilledMidRunLeavesOnlyWholeClouds) {
     for (const auto& e : fs::directory_iterator(dir / "out")) {
       const std::string name = e.path().filename().string();
       if (name[0] == '.') continue;  // a hidden temporary: allowed to be partial
+      // Each capture's outline beside its cloud (cloud/outline_io.hpp), written atomically too.
+      if (name.size() > 13 && name.compare(name.size() - 13, 13, ".outline.json") == 0) {
+        EXPECT_NO_THROW(hedgefit::cloud::ReadOutlines(e.path().string())) << "killed after " << ms << " ms: " << name;
+        continue;
+      }
       EXPECT_NO_THROW(hedgefit::cloud::ReadCloud(e.path().string())) << "killed after " << ms << " ms: " << name;
       ++complete;
     }

@@ -596,12 +596,14 @@ TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
   r = RunHedgefit(one + "--box 1,2,30,40 --erode 2 --print-pipeline", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  ASSERT_EQ(j.size(), 7u);
+  ASSERT_EQ(j.size(), 8u);
   EXPECT_EQ(j[2]["type"], "stereo.segment_depth");
   EXPECT_EQ(j[2]["box"], nlohmann::json({1.0, 2.0, 30.0, 40.0}));
   EXPECT_EQ(j[2]["erode"], 2);
   EXPECT_EQ(j[4]["type"], "stereo.rig_check");  // every capture checks its rig
   EXPECT_EQ(j[6]["filename"], "o.pcd");
+  EXPECT_EQ(j[7]["type"], "writers.outline");  // the outline beside the cloud, for compare's envelope
+  EXPECT_EQ(j[7]["filename"], "o.pcd.outline.json");
 }
 
 // Every number of a rig is checked when it is made or read: non-finite or absurd values are one

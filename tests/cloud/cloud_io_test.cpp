@@ -319,9 +319,11 @@ TEST(OutlineFile, RoundTripsExactlyAndRefusesDamage) {
   o[2] = {a, a};
   o[5] = {a};
   const std::string cloud = (dir / "row_1.pcd").string();
-  EXPECT_FALSE(hedgefit::cloud::ReadOutlineSidecar(cloud).has_value());
-  hedgefit::cloud::WriteOutlines(hedgefit::cloud::OutlineSidecarPath(cloud), o);
-  const auto back = hedgefit::cloud::ReadOutlineSidecar(cloud);
+  EXPECT_FALSE(hedgefit::cloud::ReadOutlineSidecar(cloud, 1234).has_value());
+  hedgefit::cloud::WriteOutlines(hedgefit::cloud::OutlineSidecarPath(cloud), o, 1234);
+  // Written for another cloud (a run killed between the cloud and its outline): refused.
+  EXPECT_THROW(hedgefit::cloud::ReadOutlineSidecar(cloud, 1233), hedgefit::InputError);
+  const auto back = hedgefit::cloud::ReadOutlineSidecar(cloud, 1234);
   ASSERT_TRUE(back.has_value());
   ASSERT_EQ(back->size(), 2u);
   ASSERT_EQ(back->at(2).size(), 2u);
@@ -331,7 +333,7 @@ TEST(OutlineFile, RoundTripsExactlyAndRefusesDamage) {
   EXPECT_EQ(back->at(5)[0].view, 1);
   const std::string bad = (dir / "bad.outline.json").string();
   for (const std::string& text : {std::string("{"), std::string("{\"format\": \"other\"}"),
-                                  std::string("{\"format\": \"hedgefit-outline\", \"version\": 1, \"hedges\": "
+                                  std::string("{\"format\": \"hedgefit-outline\", \"version\": 1, \"cloud_points\": 1, \"hedges\": "
                                               "[{\"hedge_id\": 1, \"rays\": [[0, 0, 0, 2, 0, 0, 900, 0]]}]}")}) {
     std::ofstream(bad) << text;
     try {
