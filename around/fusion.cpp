@@ -210,14 +210,14 @@ const pipeline::OptionTable<FuseOptions>& FuseOptions::Table() {
           .Add("cell", &O::cell_deg, "coverage cells about this wide", "deg").Range(1, 45)
           .Add("cell_points", &O::cell_min_points, "a coverage cell with fewer points is not covered", "points").Range(1, 1e6)
           .Add("jackknife", &O::jackknife, "standard errors also from leaving out each capture in turn")
-          .Add("confirm_captures", &O::min_captures,
+          .Add("confirm_captures", &O::confirm_captures,
                "a hedge fewer captures saw, when more were used, is reported as unconfirmed", "captures")
           .Range(1, 1000)
-          .Add("confirm_coverage", &O::min_coverage,
+          .Add("confirm_coverage", &O::confirm_coverage,
                "a hedge whose sphere the captures cover less of is reported as unconfirmed", "")
           .Range(0, 1)
-          .Add("confirm_min_radius", &O::min_radius_mm, "a hedge of a smaller radius is reported as unconfirmed", "mm").Min(0)
-          .Add("confirm_max_radius", &O::max_radius_mm, "a hedge of a larger radius is reported as unconfirmed", "mm").Min(1);
+          .Add("confirm_min_radius", &O::confirm_min_radius_mm, "a hedge of a smaller radius is reported as unconfirmed", "mm").Min(0)
+          .Add("confirm_max_radius", &O::confirm_max_radius_mm, "a hedge of a larger radius is reported as unconfirmed", "mm").Min(1);
   return table;
 }
 
@@ -544,17 +544,17 @@ std::optional<FusedHedge> FuseHedge(const std::vector<View>& views, const State&
 // Why a fused hedge is not one to act on (FuseOptions::min_captures ...), or "".
 std::string Unconfirmed(const FusedHedge& h, int used_captures, const FuseOptions& o) {
   const double r = h.fit.fit.sphere.radius_mm;
-  if (int(h.views.size()) < o.min_captures && used_captures > int(h.views.size())) {
+  if (int(h.views.size()) < o.confirm_captures && used_captures > int(h.views.size())) {
     return pipeline::Format("seen by %d of the %d captures used (at least %d must see a hedge: confirm_captures)",
-                            int(h.views.size()), used_captures, o.min_captures);
+                            int(h.views.size()), used_captures, o.confirm_captures);
   }
-  if (h.coverage < o.min_coverage) {
+  if (h.coverage < o.confirm_coverage) {
     return pipeline::Format("the captures cover %.1f %% of its sphere (at least %.0f %%: confirm_coverage)", 100 * h.coverage,
-                            100 * o.min_coverage);
+                            100 * o.confirm_coverage);
   }
-  if (!(r >= o.min_radius_mm && r <= o.max_radius_mm)) {
-    return pipeline::Format("its radius %.0f mm is outside %.0f-%.0f mm (confirm_min_radius, confirm_max_radius)", r, o.min_radius_mm,
-                            o.max_radius_mm);
+  if (!(r >= o.confirm_min_radius_mm && r <= o.confirm_max_radius_mm)) {
+    return pipeline::Format("its radius %.0f mm is outside %.0f-%.0f mm (confirm_min_radius, confirm_max_radius)", r, o.confirm_min_radius_mm,
+                            o.confirm_max_radius_mm);
   }
   if (!h.std_error_mm.allFinite()) return "its interval could not be computed";
   return "";

@@ -69,9 +69,9 @@ struct FuseOptions {
   /// its interval could not be computed. One capture's view of a ball at 2-3 m covers 20-35 % of
   /// it (the around benches); a fence post, a shrub's lobe or a stretch of lawn taken for a hedge
   /// by one capture covers a few percent.
-  int min_captures = 2;
-  double min_coverage = 0.1;
-  double min_radius_mm = 150, max_radius_mm = 2000;
+  int confirm_captures = 2;
+  double confirm_coverage = 0.1;
+  double confirm_min_radius_mm = 150, confirm_max_radius_mm = 2000;
   void Check() const;
   static const pipeline::OptionTable<FuseOptions>& Table();
 };
@@ -104,7 +104,7 @@ struct FusedHedge {
   std::vector<double> view_coverage;       ///< each capture's share of the sphere
   double coverage = 0;                     ///< all together
   std::size_t points = 0;
-  /// Why this hedge is not confirmed (FuseOptions::min_captures ...): reported apart from the
+  /// Why this hedge is not confirmed (FuseOptions::confirm_captures ...): reported apart from the
   /// hedges, never as one; "" = confirmed.
   std::string unconfirmed;
 };

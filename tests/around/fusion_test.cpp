@@ -235,3 +235,49 @@ TEST(Fuse, CoverageOfAHemisphereIsHalf) {
 
 }  // namespace
 }  // namespace hedgefit::around
+
+namespace hedgefit::around {
+namespace {
+
+// Something one capture took for a hedge and no other saw (a shrub beside the ball, the lawn) is
+// fused as a hedge of its own, but reported unconfirmed with its reason, never as a plain hedge;
+// the ball every capture saw stays confirmed. A radius past the limits is unconfirmed too.
+TEST(Fuse, AHedgeOneCaptureSawIsUnconfirmed) {
+  const Eigen::Vector3d centre(0, 600, 0);
+  std::vector<View> views = Ring(4, centre, 2300, 13);
+  std::mt19937 rng(17);
+  const Eigen::Vector3d beside = views[0].world_from_camera * Eigen::Vector3d(1500, 0, 2600);
+  ViewHedge phantom = SeeBall(beside, views[0].world_from_camera, &rng);
+  phantom.id = 2;
+  views[0].hedges.push_back(phantom);
+  FuseOptions o;
+  o.registration = "none";
+  const FuseResult r = Fuse(views, o);
+  ASSERT_EQ(r.hedges.size(), 2u);
+  int confirmed = 0;
+  for (const FusedHedge& h : r.hedges) {
+    if (h.unconfirmed.empty()) {
+      ++confirmed;
+      EXPECT_LT((h.fit.fit.sphere.center_mm - centre).norm(), 5.0);
+      EXPECT_EQ(h.views.size(), 4u);
+    } else {
+      EXPECT_EQ(h.views.size(), 1u);
+      EXPECT_NE(h.unconfirmed.find("seen by 1 of the 4 captures"), std::string::npos) << h.unconfirmed;
+    }
+  }
+  EXPECT_EQ(confirmed, 1);
+  EXPECT_TRUE(std::any_of(r.warnings.begin(), r.warnings.end(),
+                          [](const std::string& w) { return w.find("unconfirmed") != std::string::npos; }));
+  // The limits: the ball itself, past confirm_max_radius.
+  o.confirm_max_radius_mm = kRadius - 50;
+  const FuseResult small = Fuse(views, o);
+  for (const FusedHedge& h : small.hedges) {
+    EXPECT_FALSE(h.unconfirmed.empty());
+    if (h.views.size() == 4u) {
+      EXPECT_NE(h.unconfirmed.find("radius"), std::string::npos) << h.unconfirmed;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace hedgefit::around
