@@ -348,6 +348,9 @@ const OptionTable<HedgeOutlierOptions>& HedgeOutlierOptions::Table() {
                "the local outlier factor's neighbours: pixels (from the pixels about each point where they surely "
                "hold the nearest, as filters.local_outlier) or space (a 3-D search)")
           .Choices({"pixels", "space"})
+          .Add("per_hedge", &O::per_hedge,
+               "shells statistical: each hedge against its own points' statistics, so its cleaning does not depend on "
+               "what else the cloud holds (false: the whole cloud's)")
           .Add("threads", &O::num_threads, "worker threads, 0 = all cores", "threads").Range(0, 1024);
   return table;
 }
@@ -371,7 +374,7 @@ FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOpti
     // hedge's cleaning, and so its fit, does not depend on what else the frame holds (a cloud split
     // into one file per hedge by `convert` is cleaned by `compare` as `measure` cleaned it whole).
     const std::vector<HedgeGroup> groups = HedgeGroups(cloud);
-    if (groups.size() < 2) return StatisticalOutlierRemoval(cloud, so);
+    if (groups.size() < 2 || !options.per_hedge) return StatisticalOutlierRemoval(cloud, so);
     std::vector<bool> keep = StatisticalInliers(cloud, so, nullptr);  // points of no hedge: the whole cloud's
     for (const HedgeGroup& g : groups) {
       const std::vector<bool> own = StatisticalInliers(Select(cloud, g.indices), so, nullptr);

@@ -115,6 +115,9 @@ struct HedgeOutlierOptions {
   std::string shells = "statistical";
   int num_threads = 0;  ///< 0 = all hardware threads
   std::string neighbours = "pixels";  ///< for the local outlier factor: as LocalOutlierOptions'
+  /// With shells "statistical": each hedge against its own points' statistics (true), so its
+  /// cleaning does not depend on what else the cloud holds, or the whole cloud's (false).
+  bool per_hedge = true;
   void Check() const;  ///< every field against Table(), then the rules between fields
   static const pipeline::OptionTable<HedgeOutlierOptions>& Table();  ///< the options, declared once
 };

@@ -6,7 +6,7 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|hard|random|leaves|find|around|headline [--slow]
+Usage: scripts/accuracy_tables.py lab|hard|random|leaves|paper|depth|find|around|headline [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   hard      the envelope fit's AER / LD per ball of `bench garden --hard`, both renderers
@@ -14,6 +14,10 @@ Usage: scripts/accuracy_tables.py lab|hard|random|leaves|find|around|headline [-
   leaves    per leaf preset (`bench garden --leaves`), both renderers: the envelope's AER, LD, interval
             coverage and width, and the outline's own error in px against the truth; with and without
             the outline
+  paper     the paper's hedge size (`bench garden --paper 4`, tuning seeds 1-4 and held-back 101-104), both
+            renderers: the envelope's AER, LD, error along the view ray, interval coverage and width
+  depth     the same gardens: the centre's error along the view ray as measured and with the points, the
+            outline or both swapped for the renderer's truth, and with one view's outline alone
   find      `hedgefit find` per data set: `bench find` (4 gardens per simulated sensor), the five real
             Velodyne scans of a calibration sphere and PCL's test clouds, with defaults: balls found,
             objects wrongly called balls, radius, centre and ground errors, time
@@ -47,6 +51,13 @@ GARDENS = {
     "random": [("hedgefit's renderer", "build/garden-random", ["--random", "12"]),
                ("POV-Ray, real camera", "build/garden-random-povray",
                 ["--random", "12", "--renderer", "povray", "--camera", "real"])],
+    "paper": [("hedgefit's renderer, tuning seeds 1-4", "build/garden-paper", ["--paper", "4"]),
+              ("hedgefit's renderer, held-back seeds 101-104", "build/garden-paper-held",
+               ["--paper", "4", "--first-seed", "101"]),
+              ("POV-Ray, real camera, tuning seeds 1-4", "build/garden-paper-pov",
+               ["--paper", "4", "--renderer", "povray", "--camera", "real"]),
+              ("POV-Ray, real camera, held-back seeds 101-104", "build/garden-paper-pov-held",
+               ["--paper", "4", "--first-seed", "101", "--renderer", "povray", "--camera", "real"])],
     "leaves": [("hedgefit's renderer", "build/garden-leaves", ["--leaves"]),
                ("POV-Ray, real camera", "build/garden-leaves-povray", ["--leaves", "--renderer", "povray", "--camera", "real"])],
 }
@@ -57,6 +68,10 @@ def rendered(directory, flags):
     if "--random" in flags:
         n = int(flags[flags.index("--random") + 1])
         return (d / f"garden_random{n}_right.png").exists()
+    if "--paper" in flags:
+        n = int(flags[flags.index("--paper") + 1])
+        first = int(flags[flags.index("--first-seed") + 1]) if "--first-seed" in flags else 1
+        return (d / f"garden_paper{first + n - 1}_right.png").exists()
     if "--hard" in flags:
         return len(list(d.glob("garden_*_right.png"))) >= 9
     if "--leaves" in flags:
@@ -208,6 +223,73 @@ def leaves():
         print(line)
     print("| targets (issue 42) | every preset | | 2 / 4 | 3 | 90 % | 5 | | |")
 
+def along_ray(h, fit):
+    """The centre's error along the camera's ray to the true centre (mm, + too far)."""
+    t = h["true_center_mm"]
+    n = sum(x * x for x in t) ** 0.5
+    return sum((c - x) * x / n for c, x in zip(fit["center_mm"], t))
+
+
+def paper():
+    """The paper's hedge size (bench garden --paper): the envelope's radius, centre and intervals."""
+    print("| data (simulated) | balls | mean / worst \\|AER\\|, mm | mean / worst LD, mm | centre along the view "
+          "ray, mean (+ too far), mm | 95 % intervals holding the truth (x, y, z, r) | mean radius half-width, mm |")
+    print("|---|---|---|---|---|---|---|")
+    for k, (label, directory, flags) in enumerate(GARDENS["paper"]):
+        j = bench("garden", f"paper{k}", directory, flags)
+        if j is None:
+            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * 5)
+            continue
+        aer, ld, along, inside, cases, half = [], [], [], 0, 0, []
+        for s in j["scenes"]:
+            for h in s["hedges"]:
+                fit = next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+                if fit is None:
+                    continue
+                aer.append(abs(fit["aer_mm"]))
+                ld.append(fit["ld_mm"])
+                along.append(along_ray(h, fit))
+                err = [a - b for a, b in zip(fit["center_mm"] + [fit["radius_mm"]],
+                                              h["true_center_mm"] + [h["true_radius_mm"]])]
+                ci = fit.get("ci95_mm")
+                if ci:
+                    inside += sum(abs(e) <= c for e, c in zip(err, ci))
+                    cases += 4
+                    half.append(ci[3])
+        n = len(aer)
+        print(f"| {label} | {n} | {sum(aer) / n:.2f} / {max(aer):.2f} | {sum(ld) / n:.2f} / {max(ld):.2f} | "
+              f"{sum(along) / n:+.2f} | {inside} of {cases} | {sum(half) / len(half):.1f} |")
+    print("| targets (issue 52) | | 1.5 mean | 2 / 4 | | 90 % | 5 |")
+
+
+def depth():
+    """Where the centre's depth error comes from: the envelope with its inputs swapped for the truth."""
+    names = [("as measured", None), ("true points", "true_points"), ("true outline", "true_outline"),
+             ("both true", "both"), ("left outline only", "left_outline"), ("right outline only", "right_outline")]
+    print("| data (simulated) | balls | " + " | ".join(n for n, _ in names) + " |")
+    print("|---|---|" + "---|" * len(names))
+    for k, (label, directory, flags) in enumerate(GARDENS["paper"]):
+        j = bench("garden", f"paper{k}", directory, flags)
+        if j is None:
+            print(f"| {label} | not rendered here |" + " |" * len(names))
+            continue
+        cells = {n: [] for n, _ in names}
+        for s in j["scenes"]:
+            for h in s["hedges"]:
+                fit = next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+                if fit is None:
+                    continue
+                for n, key in names:
+                    f = fit if key is None else h.get("oracle", {}).get(key)
+                    if f is not None:
+                        cells[n].append(along_ray(h, f))
+        row = []
+        for n, _ in names:
+            v = cells[n]
+            row.append(f"{sum(v) / len(v):+.2f} / {max(v, key=abs):+.2f}" if v else "-")
+        print(f"| {label} | {len(cells['as measured'])} | " + " | ".join(row) + " |")
+
+
 def find():
     OUT.mkdir(parents=True, exist_ok=True)
     out = OUT / "find.json"
@@ -358,8 +440,12 @@ if __name__ == "__main__":
         lab()
     elif what == "leaves":
         leaves()
-    elif what in GARDENS:
+    elif what in ("hard", "random"):
         garden(what)
+    elif what == "paper":
+        paper()
+    elif what == "depth":
+        depth()
     elif what == "find":
         find()
     elif what == "around":
