@@ -31,6 +31,9 @@ constexpr double kMaxTopBiasFootprintMm = 4.0;
 // kOutlineNoiseRangePx) and the log of its raggedness (px). Without an outline the last three
 // have no gradient and stay where they start (beta = top_bias_px).
 constexpr int kParams = 10;
+// The least mean negative log-likelihood a valid point of the search can have (ShellCost's guard):
+// a density of at most 1 / (sqrt(2 pi) 0.01 mm) per point, about -3.7 nats, with room to spare.
+constexpr double kMinMeanCost = -1e3;
 // Without an outline the top bias is the constant top_bias_px; with one it is fitted, about that
 // value with this spread (px): the outline, seen from both cameras, places the envelope, and
 // the front's points then say how deep the matcher reads its leaves.
@@ -252,7 +255,11 @@ class ParallelShellCost : public ceres::FirstOrderFunction {
       outline_grad[4 + k] += z / 0.02;
     }
     cost[0] = total * inv_n;
-    bool finite = std::isfinite(cost[0]);
+    // Every term is a negative log-density whose scales have floors (kMinScaleMm, the outline's
+    // noise and raggedness), so the mean cost cannot lie far below zero; one that does is a
+    // numerical overflow far from any fit (seen once, -1e152, on a bench's noiseless true points
+    // and rays, where Ceres' line search then aborted the process). Such a point is invalid too.
+    bool finite = std::isfinite(cost[0]) && cost[0] > kMinMeanCost;
     if (gradient) {
       for (int k = 0; k < kParams; ++k) {
         double g = 0;
