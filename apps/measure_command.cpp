@@ -202,9 +202,10 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());
       for (const std::string& why : m.not_balls) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), why.c_str());
       if (stereo::CaptureUnusable(ctx)) return kExitUnusable;
-      if (const std::string unchecked = stereo::CaptureUnchecked(ctx); !unchecked.empty()) {
-        std::fprintf(stderr, "hedgefit: %s: %s: %s\n", a->strict ? "error" : "warning", a->left.c_str(), unchecked.c_str());
-        if (a->strict) return kExitUnusable;
+      // Without --strict the capture's hint above has said it already.
+      if (const std::string unchecked = stereo::CaptureUnchecked(ctx); a->strict && !unchecked.empty()) {
+        std::fprintf(stderr, "hedgefit: error: %s: %s (--strict)\n", a->left.c_str(), unchecked.c_str());
+        return kExitUnusable;
       }
       return kExitOk;
     };

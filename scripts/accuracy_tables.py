@@ -158,6 +158,20 @@ def garden(which):
         print(f"| {label}: not rendered here | `scripts/make_docs.sh --slow` |" + " |" * (len(shown) - 1))
 
 
+def envelope_fit(h):
+    """A hedge's converged envelope fit in a garden bench's JSON, or None."""
+    return next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+
+
+def interval_hits(h, fit):
+    """(coordinates inside their 95 % intervals, coordinates with one, the radius' half-width or None)."""
+    ci = fit.get("ci95_mm")
+    if not ci:
+        return 0, 0, None
+    err = [a - b for a, b in zip(fit["center_mm"] + [fit["radius_mm"]], h["true_center_mm"] + [h["true_radius_mm"]])]
+    return sum(abs(e) <= c for e, c in zip(err, ci)), 4, ci[3]
+
+
 def leaves():
     """Per leaf preset and renderer: the envelope fit with the outline, and without it."""
     print("| renderer | preset | balls | mean / worst \\|AER\\|, mm | mean LD, mm | 95 % intervals holding the truth "
@@ -177,18 +191,15 @@ def leaves():
                 if s["name"].split("_")[0] != species:
                     continue
                 for h in s["hedges"]:
-                    fit = next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+                    fit = envelope_fit(h)
                     if fit is None:
                         continue
                     aer.append(fit["aer_mm"])
                     ld.append(fit["ld_mm"])
-                    err = [a - b for a, b in zip(fit["center_mm"] + [fit["radius_mm"]],
-                                                  h["true_center_mm"] + [h["true_radius_mm"]])]
-                    ci = fit.get("ci95_mm")
-                    if ci:
-                        inside += sum(abs(e) <= c for e, c in zip(err, ci))
-                        cases += 4
-                        half.append(ci[3])
+                    k, m, r = interval_hits(h, fit)
+                    inside, cases = inside + k, cases + m
+                    if r is not None:
+                        half.append(r)
                     for o in h.get("outline", []):
                         if o["rays"]:
                             out_med.append(o["median_px"])
@@ -243,19 +254,16 @@ def paper():
         aer, ld, along, inside, cases, half = [], [], [], 0, 0, []
         for s in j["scenes"]:
             for h in s["hedges"]:
-                fit = next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+                fit = envelope_fit(h)
                 if fit is None:
                     continue
                 aer.append(abs(fit["aer_mm"]))
                 ld.append(fit["ld_mm"])
                 along.append(along_ray(h, fit))
-                err = [a - b for a, b in zip(fit["center_mm"] + [fit["radius_mm"]],
-                                              h["true_center_mm"] + [h["true_radius_mm"]])]
-                ci = fit.get("ci95_mm")
-                if ci:
-                    inside += sum(abs(e) <= c for e, c in zip(err, ci))
-                    cases += 4
-                    half.append(ci[3])
+                k, m, r = interval_hits(h, fit)
+                inside, cases = inside + k, cases + m
+                if r is not None:
+                    half.append(r)
         n = len(aer)
         print(f"| {label} | {n} | {sum(aer) / n:.2f} / {max(aer):.2f} | {sum(ld) / n:.2f} / {max(ld):.2f} | "
               f"{sum(along) / n:+.2f} | {inside} of {cases} | {sum(half) / len(half):.1f} |")
@@ -276,7 +284,7 @@ def depth():
         cells = {n: [] for n, _ in names}
         for s in j["scenes"]:
             for h in s["hedges"]:
-                fit = next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
+                fit = envelope_fit(h)
                 if fit is None:
                     continue
                 for n, key in names:

@@ -465,6 +465,17 @@ void AddReprojection(pipeline::Registry& r) {
         }));
 }
 
+// Each hedge's outline in the context's rectified views about `cloud`'s hedges (stereo.outline,
+// writers.outline), with the segmentation's labels and ground plane where it left them.
+cloud::HedgeOutlines OutlinesOf(Context& ctx, const cloud::PointCloud& cloud,
+                                std::map<int, OutlineStats>* stats = nullptr) {
+  const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
+  const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");
+  return MeasureCloudOutlines(ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"),
+                              labels ? *labels : cv::Mat(), RigOf(ctx), cloud, ctx.seed,
+                              ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt, stats);
+}
+
 // stereo.outline: each hedge's outline in both views, about its envelope fitted to the cloud's
 // points, for fitters.envelope (after the cleaning: the start fit sees the points the fits will).
 void AddOutline(pipeline::Registry& r) {
@@ -474,13 +485,8 @@ void AddOutline(pipeline::Registry& r) {
                   {}, {"cloud", "left_image", "right_image", "rig"}, {"outlines"}, {}},
         [](const Options& o) -> std::unique_ptr<pipeline::Stage> {
           return std::make_unique<pipeline::LambdaStage>(o, [](const Options&, Context& ctx) {
-            const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
-            const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");
             std::map<int, OutlineStats> stats;
-            cloud::HedgeOutlines outlines = MeasureCloudOutlines(
-                ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), labels ? *labels : cv::Mat(),
-                RigOf(ctx), ctx.Get<cloud::PointCloud>("cloud"), ctx.seed,
-                ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt, &stats);
+            cloud::HedgeOutlines outlines = OutlinesOf(ctx, ctx.Get<cloud::PointCloud>("cloud"), &stats);
             std::int64_t left = 0, right = 0;
             for (const auto& [id, st] : stats) left += std::int64_t(st.left), right += std::int64_t(st.right);
             ctx.Note("outline_left", left);
@@ -508,11 +514,7 @@ void AddOutlineWriter(pipeline::Registry& r) {
       if (file.empty()) throw Error("stage 'writers.outline', option 'filename': give the file to write");
       const cloud::PointCloud cleaned =
           cloud::RunFilterStages(ctx.Get<cloud::PointCloud>("cloud"), cloud::DefaultCleaningJson(), "writers.outline");
-      const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
-      const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");
-      const cloud::HedgeOutlines outlines = MeasureCloudOutlines(
-          ctx.Get<cv::Mat>("left_image"), ctx.Get<cv::Mat>("right_image"), labels ? *labels : cv::Mat(), RigOf(ctx),
-          cleaned, ctx.seed, ground ? std::optional<cv::Vec4d>(*ground) : std::nullopt);
+      const cloud::HedgeOutlines outlines = OutlinesOf(ctx, cleaned);
       // One file per hedge where the clouds are one per hedge ('#' in the name, as the writers':
       // each holds its hedge's finite points).
       const cloud::PointCloud& written = ctx.Get<cloud::PointCloud>("cloud");
