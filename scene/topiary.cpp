@@ -7,7 +7,10 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <functional>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <queue>
@@ -49,35 +52,52 @@ void TopiaryOptions::Check() const { Table().Validate(*this); }
 
 namespace {
 
-// A union-find over watershed basins, each root knowing its peak height.
+// A union-find over watershed basins that keeps its merges: each merge makes a node whose two
+// children are the objects it joined, each node knowing its peak height.
 struct Basins {
   std::vector<int> parent;
   std::vector<float> peak;
+  std::vector<std::array<int, 2>> children;  // {-1, -1} for a basin of one peak
   int Add(float h) {
     parent.push_back(int(parent.size()));
     peak.push_back(h);
+    children.push_back({-1, -1});
     return parent.back();
   }
   int Find(int a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
     return a;
+  }
+  void Merge(int a, int b) {
+    const int n = Add(std::max(peak[std::size_t(a)], peak[std::size_t(b)]));
+    parent[std::size_t(a)] = parent[std::size_t(b)] = n;
+    children[std::size_t(n)] = {a, b};
   }
 };
 
-}  // namespace
+// The canopy height model (step 1): per top-view cell the highest point above the ground, closed
+// over one-cell holes and smoothed by one cell; and each point's cell.
+struct CanopyModel {
+  Eigen::Vector2d lo;
+  double cell = 0;
+  int nx = 0, ny = 0;
+  std::vector<float> smooth;
+  std::vector<int> cell_of;  // per index of idx
+};
 
-std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
-                                      const GroundModel& ground, double cell, const TopiaryOptions& o) {
-  std::vector<HeightPart> out;
-  if (idx.empty() || ground.empty()) return out;
+CanopyModel MakeCanopyModel(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx, const GroundModel& ground,
+                            double cell) {
+  CanopyModel m;
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   for (std::size_t i : idx) lo = lo.cwiseMin(pts[i].head<2>()), hi = hi.cwiseMax(pts[i].head<2>());
   // At most 16 million cells: a larger cloud's grid coarsens.
   while ((hi - lo).prod() / (cell * cell) > 1.6e7) cell *= 1.5;
   const int nx = int((hi.x() - lo.x()) / cell) + 3, ny = int((hi.y() - lo.y()) / cell) + 3;
+  m.lo = lo, m.cell = cell, m.nx = nx, m.ny = ny;
   const std::size_t cells = std::size_t(nx) * std::size_t(ny);
   std::vector<float> height(cells, 0.f);
-  std::vector<int> cell_of(idx.size());
+  std::vector<int>& cell_of = m.cell_of;
+  cell_of.resize(idx.size());
   for (std::size_t k = 0; k < idx.size(); ++k) {
     const Eigen::Vector3d& p = pts[idx[k]];
     const int cx = int((p.x() - lo.x()) / cell) + 1, cy = int((p.y() - lo.y()) / cell) + 1;
@@ -104,7 +124,23 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts, c
     }
     return res;
   };
-  const std::vector<float> smooth = filter3(filter3(filter3(height, 0), 1), 2);
+  m.smooth = filter3(filter3(filter3(height, 0), 1), 2);
+  return m;
+}
+
+}  // namespace
+
+std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
+                                      const GroundModel& ground, double cell_mm, const TopiaryOptions& o) {
+  std::vector<HeightPart> out;
+  if (idx.empty() || ground.empty()) return out;
+  const CanopyModel m = MakeCanopyModel(pts, idx, ground, cell_mm);
+  const int nx = m.nx, ny = m.ny;
+  const double cell = m.cell;
+  const Eigen::Vector2d& lo = m.lo;
+  const std::vector<float>& smooth = m.smooth;
+  const std::vector<int>& cell_of = m.cell_of;
+  const std::size_t cells = smooth.size();
   const float floor_h = float(GroundBand(ground));
   const float peak_h = float(0.75 * o.min_height_mm);
   // Peaks: the highest cell within two cells, standing at least 3/4 of min_height up.
@@ -149,34 +185,51 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts, c
       int a = basins.Find(label[n]), b = basins.Find(label[std::size_t(c)]);
       if (a == b) continue;
       const float ridge = std::min(smooth[n], smooth[std::size_t(c)]);
-      if (ridge > float(o.merge_saddle) * std::min(basins.peak[std::size_t(a)], basins.peak[std::size_t(b)])) {
-        if (basins.peak[std::size_t(a)] < basins.peak[std::size_t(b)]) std::swap(a, b);
-        basins.parent[std::size_t(b)] = a;
-      }
+      if (ridge > float(o.merge_saddle) * std::min(basins.peak[std::size_t(a)], basins.peak[std::size_t(b)])) basins.Merge(a, b);
     }
   }
-  std::vector<int> group(basins.parent.size(), -1);
-  auto part_of_root = [&](int root) -> HeightPart& {
-    if (group[std::size_t(root)] < 0) {
-      group[std::size_t(root)] = int(out.size());
-      out.emplace_back();
-      out.back().peak_mm = basins.peak[std::size_t(root)];
-    }
-    return out[std::size_t(group[std::size_t(root)])];
-  };
+  // Each basin's points and cells; an object is the basins under its node of the merge tree.
+  const std::size_t nodes = basins.parent.size();
+  std::vector<std::vector<std::size_t>> basin_points(nodes), basin_cells(nodes);
   for (std::size_t k = 0; k < idx.size(); ++k) {
     const int l = label[std::size_t(cell_of[k])];
-    if (l < 0) continue;
-    HeightPart& part = part_of_root(basins.Find(l));
-    part.points.push_back(idx[k]);
-    part.cell_height_mm.push_back(smooth[std::size_t(cell_of[k])]);
+    if (l >= 0) basin_points[std::size_t(l)].push_back(k);
   }
   for (std::size_t c = 0; c < cells; ++c) {
-    if (label[c] < 0) continue;
-    const int root = basins.Find(label[c]);
-    if (group[std::size_t(root)] < 0 || smooth[c] < 0.5f * basins.peak[std::size_t(root)]) continue;
-    const double x = lo.x() + (double(int(c) % nx) - 0.5) * cell, y = lo.y() + (double(int(c) / nx) - 0.5) * cell;
-    out[std::size_t(group[std::size_t(root)])].upper_cells.emplace_back(x, y, smooth[c]);
+    if (label[c] >= 0) basin_cells[std::size_t(label[c])].push_back(c);
+  }
+  // An object, and the two it was merged from down to `depth` more merges: the last merge joined
+  // it across its lowest ridge.
+  std::function<HeightPart(int, int)> make = [&](int node, int depth) {
+    HeightPart part;
+    part.peak_mm = basins.peak[std::size_t(node)];
+    std::vector<int> stack{node};
+    while (!stack.empty()) {
+      const int n = stack.back();
+      stack.pop_back();
+      const auto& ch = basins.children[std::size_t(n)];
+      if (ch[0] >= 0) {
+        stack.push_back(ch[0]), stack.push_back(ch[1]);
+        continue;
+      }
+      for (std::size_t k : basin_points[std::size_t(n)]) {
+        part.points.push_back(idx[k]);
+        part.cell_height_mm.push_back(smooth[std::size_t(cell_of[k])]);
+      }
+      for (std::size_t c : basin_cells[std::size_t(n)]) {
+        if (smooth[c] < 0.5f * part.peak_mm) continue;
+        const double x = lo.x() + (double(int(c) % nx) - 0.5) * cell, y = lo.y() + (double(int(c) / nx) - 0.5) * cell;
+        part.upper_cells.emplace_back(x, y, smooth[c]);
+      }
+    }
+    const auto& ch = basins.children[std::size_t(node)];
+    if (depth > 0 && ch[0] >= 0) part.halves = {make(ch[0], depth - 1), make(ch[1], depth - 1)};
+    return part;
+  };
+  for (std::size_t n = 0; n < nodes; ++n) {
+    if (basins.parent[n] != int(n)) continue;
+    HeightPart part = make(int(n), kSplitDepth);
+    if (!part.points.empty()) out.push_back(std::move(part));
   }
   return out;
 }
@@ -324,6 +377,38 @@ TopiaryCandidate JudgeHeightPart(const std::vector<Eigen::Vector3d>& pts, Height
   return JudgeTopiary(pts, std::move(part.points), ground, lawn, cell, o, widest, &part.cell_height_mm, part.peak_mm);
 }
 
+// A part judged, and when its fitted footprint holds holes, the lower foliage joined to it peeled
+// off in its place if what is left holds topiary. The watershed joins two peaks across a ridge
+// above merge_saddle of the lower one: a clipped shape with a rose cane or a tree's low branches
+// leaning on it becomes one object, fitted with a shape spread over both, whose footprint their
+// points do not cover (or not densely). The merge tree is undone from its last merge, its lowest
+// ridge: the half holding the object's peak is judged again (and peeled again while refused,
+// kSplitDepth times at most), the lower half stays refused. Not taken apart: an object whose
+// footprint is covered (refused for its roughness, density or height: one plant; a rose without
+// its tallest canes would pass for clipped), one longer than wide (a row, a fence or a bed, whose
+// valleys the watershed already parts; a slice of a box hedge would pass), and a lower half (a
+// big rough plant's bumps, peeled one by one, would).
+std::vector<TopiaryCandidate> JudgeSplitting(const std::vector<Eigen::Vector3d>& pts, HeightPart part, const GroundModel& ground,
+                                             const LawnDensity& lawn, double cell, const TopiaryOptions& o, bool peeling = false) {
+  std::vector<HeightPart> halves = std::move(part.halves);
+  std::vector<TopiaryCandidate> out;
+  out.push_back(JudgeHeightPart(pts, std::move(part), ground, lawn, cell, o));
+  const TopiaryCandidate& whole = out.front();
+  const bool compact = whole.shape.converged && whole.shape.top_mm >= o.min_height_mm && whole.elongation <= o.max_elongation;
+  const bool holes = whole.covered_lower < o.min_covered || whole.density < o.min_density;
+  if (whole.topiary || halves.size() != 2 || !compact || !(holes || peeling)) return out;
+  HeightPart& top = halves[0].peak_mm >= halves[1].peak_mm ? halves[0] : halves[1];
+  HeightPart& lower = &top == &halves[0] ? halves[1] : halves[0];
+  if (top.points.size() < 30) return out;
+  std::vector<TopiaryCandidate> peeled = JudgeSplitting(pts, std::move(top), ground, lawn, cell, o, true);
+  if (std::none_of(peeled.begin(), peeled.end(), [](const TopiaryCandidate& c) { return c.topiary; })) return out;
+  TopiaryCandidate rest;
+  rest.points = std::move(lower.points);
+  rest.reason = whole.reason;
+  peeled.push_back(std::move(rest));
+  return peeled;
+}
+
 }  // namespace
 
 std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
@@ -336,10 +421,12 @@ std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pt
   }
   // Each part is fitted and judged on its own, into its own slot: in parallel, and the same
   // result whatever the timing.
-  std::vector<TopiaryCandidate> out(parts.size());
+  std::vector<std::vector<TopiaryCandidate>> judged(parts.size());
   pipeline::ParallelFor(parts.size(), 0, 1, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t k = begin; k < end; ++k) out[k] = JudgeHeightPart(pts, std::move(parts[k]), ground, lawn, cell, o);
+    for (std::size_t k = begin; k < end; ++k) judged[k] = JudgeSplitting(pts, std::move(parts[k]), ground, lawn, cell, o);
   });
+  std::vector<TopiaryCandidate> out;
+  for (auto& j : judged) std::move(j.begin(), j.end(), std::back_inserter(out));
   return out;
 }
 

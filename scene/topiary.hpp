@@ -18,6 +18,10 @@
 ///     cells within 0.8 of its semi-axes holding points is `min_covered` or more), and its points
 ///     lie on it within `max_roughness` times the ground's own noise (a clipped surface is as
 ///     smooth as the sensor sees the lawn; a rose's canes and a tree's lumps are not).
+///  5. An object refused whose compact fitted footprint its points do not fill (cover or density)
+///     may be a clipped shape with lower foliage leaning on it across a ridge above merge_saddle:
+///     its last merges are undone, the half holding its peak judged again each time, and what
+///     that leaves as topiary replaces it (the lower halves stay refused).
 /// Heights are along +z (the caller turns the cloud, as FindHedges does); mm throughout.
 
 #include <Eigen/Core>
@@ -77,7 +81,15 @@ struct HeightPart {
   float peak_mm = 0;                 ///< the part's highest smoothed cell
   /// The part's cells at or above half its peak: centre x, y and smoothed height, mm.
   std::vector<Eigen::Vector3d> upper_cells;
+  /// The two objects the watershed merged into this one across its lowest ridge (each with its
+  /// own halves), down to kSplitDepth merges; empty for one peak's basin or below that depth.
+  std::vector<HeightPart> halves;
 };
+
+/// How many times a refused object's lower foliage is peeled off, at most (FindTopiary, step 5):
+/// each time its last merge, across its lowest ridge, is undone. A lumpy neighbour is several
+/// basins, joined one by one.
+inline constexpr int kSplitDepth = 6;
 
 /// Splits `idx` (indices into `pts`, scene frame) into objects by the watershed of their height
 /// above `ground` (step 2 above), on cells of `cell_mm`.

@@ -20,8 +20,9 @@ succeeds where it should fail) stops the script and leaves the file as it was.
 
 tests/docs/check_docs.py fails when a docs page shows an output block without a marker.
 
-Usage: scripts/make_docs_shown.py [--slow] [--check] [FILE...]
-  --check   list the markers and whether each block is there; run nothing
+Usage: scripts/make_docs_shown.py [--slow] [--check] [--only TEXT] [FILE...]
+  --check       list the markers and whether each block is there; run nothing
+  --only TEXT   run only the markers whose command contains TEXT (slow ones too); leave the rest
 """
 import re
 import subprocess
@@ -56,8 +57,19 @@ def run(command, must_fail):
 
 def main():
     argv = sys.argv[1:]
-    slow = "--slow" in argv
+    only = None
+    if "--only" in argv:
+        k = argv.index("--only")
+        if k + 1 >= len(argv):
+            raise SystemExit("make_docs_shown: --only needs the text a marker's command contains")
+        only = argv[k + 1]
+        del argv[k:k + 2]
+    slow = "--slow" in argv or only is not None
     check = "--check" in argv
+
+    def skipped(command):
+        return only is not None and only not in command
+
     for page in pages([a for a in argv if not a.startswith("--")]):
         text = page.read_text()
 
@@ -66,7 +78,7 @@ def main():
             if check:
                 print(f"{page.relative_to(ROOT)}: [{kind or 'default'}] {command}")
                 return m.group(0)
-            if kind == "slow" and not slow:
+            if (kind == "slow" and not slow) or skipped(command):
                 return m.group(0)
             out = run(command, kind == "fails")
             body = "".join(indent + line + "\n" for line in out.rstrip("\n").split("\n"))
@@ -77,7 +89,7 @@ def main():
             if check:
                 print(f"{page.relative_to(ROOT)}: [table{' ' + kind if kind else ''}] {command}")
                 return m.group(0)
-            if kind == "slow" and not slow:
+            if (kind == "slow" and not slow) or skipped(command):
                 return m.group(0)
             out = run(command, False)
             if not all(line.startswith("|") for line in out.strip().split("\n")):

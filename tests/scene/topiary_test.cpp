@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -132,6 +133,64 @@ TEST(SplitByHeight, TouchingDomesPartAHedgeRowDoesNot) {
   EXPECT_EQ(rows, 1);
 }
 
+// A dome (semi-axes 300 x 300 x 450 mm, as the real garden's) with a lumpy bank of lower foliage
+// against its side (a tree crown's low edge, as at the real garden's sixth topiary): the ridges
+// between them stand above merge_saddle of the bank's lumps, so the watershed joins them, and the
+// joined object's fitted shape is spread over both, its footprint too thinly held. Peeled off
+// lump by lump (FindTopiary, step 5), the dome is found and the bank is not. The bank's points
+// by the dome's foot stay in its basin and pull its sides in: 10 mm on the centre and 3 % on the
+// axes, against the 5 mm noise's 1 % when it stands alone (FitTopiaryShape's tests).
+TEST(FindTopiary, ADomeWithANeighbourLeaningOnItIsTakenApart) {
+  std::mt19937 rng(6);
+  std::vector<Eigen::Vector3d> pts = SeenFromAbove({0, 0, 0}, 300, 300, 450, 0, 5, 20, &rng);
+  const std::size_t dome = pts.size();
+  std::normal_distribution<double> lump(0, 25);
+  std::uniform_real_distribution<double> pick(0, 1);
+  // The neighbour: a lumpy bank of foliage 400 x 900 mm beside the dome, across the line between
+  // them (a tree crown's low edge), 300 mm high, a third of it missing (a reconstruction's holes).
+  auto in_bank = [](double x, double y, double grow) {
+    const double u = (x + 480) / (180 + grow), v = y / (450 + grow);
+    return u * u + v * v < 1;
+  };
+  for (double x = -700; x <= -200; x += 20) {
+    for (double y = -500; y <= 500; y += 20) {
+      if (!in_bank(x, y, 0) || pick(rng) < 0.15) continue;
+      pts.emplace_back(x, y, std::max(0.0, 300 + lump(rng)));
+    }
+  }
+  std::vector<std::size_t> idx(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) idx[i] = i;
+  std::normal_distribution<double> lawn_noise(0, 5);
+  for (double x = -2500; x <= 2500; x += 20) {
+    for (double y = -2500; y <= 2500; y += 20) {
+      if (std::hypot(x, y) < 320 || in_bank(x, y, 20)) continue;
+      pts.emplace_back(x, y, lawn_noise(rng));
+    }
+  }
+  TopiaryOptions o;
+  // The watershed joins them: one object holds points of both, and keeps what it merged.
+  bool joined = false;
+  for (const auto& part : SplitByHeight(pts, idx, FlatGround(5), 40, o)) {
+    const bool both = std::any_of(part.points.begin(), part.points.end(), [&](std::size_t i) { return i < dome; }) &&
+                      std::any_of(part.points.begin(), part.points.end(), [&](std::size_t i) { return i >= dome; });
+    joined = joined || (both && part.halves.size() == 2);
+  }
+  ASSERT_TRUE(joined);
+  const auto found = FindTopiary(pts, idx, FlatGround(5), 20, o);
+  int topiary = 0;
+  std::string refused;
+  for (const auto& c : found) {
+    if (!c.topiary) refused += c.reason + "; ";
+    if (!c.topiary) continue;
+    ++topiary;
+    EXPECT_NEAR(c.shape.center_mm.x(), 0, 10);
+    EXPECT_NEAR(c.shape.center_mm.y(), 0, 10);
+    EXPECT_NEAR(c.shape.axes_mm.x(), 300, 0.03 * 300);
+    EXPECT_NEAR(c.shape.top_mm, 450, 0.03 * 450);
+  }
+  EXPECT_EQ(topiary, 1) << refused;
+}
+
 // A simulated bed of squat topiary (sim::RandomTopiaryBed, seed 1: a tuning seed) seen from
 // above only by a drone's photogrammetry: every shape found, as the right family, nothing else
 // (the rose between them, the low box hedge row, the post) called topiary.
@@ -185,9 +244,8 @@ TEST(FindHedges, EveryTopiaryOfABedSeenFromAbove) {
 
 // The real garden: TrimBot2020's model of its Wageningen test garden (west half) and the
 // project's own annotated map. The target is all 6 topiary within 200 mm of their
-// annotated centres (top view) and at most 1 other object called topiary; today 5 are found (the
-// sixth, reconstructed as a sparse, scattered dome under a tree's edge, is refused: see
-// docs/accuracy.md), so this holds today's result and fails on any loss.
+// annotated centres (top view) and at most 1 other object called topiary. The sixth is found only
+// once the watershed's join to the foliage beside it is undone (FindTopiary's split).
 TEST(RealData, TopiaryOfTheWageningenGardenWestHalf) {
   HEDGEFIT_REQUIRE_DATA("gardens/wageningen_west/garden_west.ply");
   cloud::PointCloud c = cloud::ReadCloud(hedgefit::testing::DataPath("gardens/wageningen_west/garden_west.ply"));
@@ -219,7 +277,7 @@ TEST(RealData, TopiaryOfTheWageningenGardenWestHalf) {
   }
   int other = 0;
   for (std::size_t k = 0; k < r.objects.size(); ++k) other += r.objects[k].topiary && !used[k];
-  EXPECT_GE(found, 5);
+  EXPECT_EQ(found, 6);
   EXPECT_LE(other, 1) << "roses, box hedges, trees, fences or the bench called topiary";
   // Topiary in this garden are squat: 0.35-0.5 m tall, 0.55-0.9 m across (the map's extents).
   for (std::size_t k = 0; k < r.objects.size(); ++k) {
