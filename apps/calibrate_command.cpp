@@ -77,8 +77,8 @@ void AddCalibrateCommand(CLI::App& app, CommandFn* run) {
   auto* cmd = app.add_subcommand("calibrate", "Stereo calibration from chessboard pairs: Zhang per camera, stereo, Bouguet rectification");
   cmd->footer(
       "Examples:\n"
-      "  hedgefit calibrate --left '../shared/data/calib_chessboard/left*.jpg' \\\n"
-      "      --right '../shared/data/calib_chessboard/right*.jpg' --board 9x6 --square 1 -o build/opencv_rig.yaml\n"
+      "  hedgefit calibrate --left 'data/calib_chessboard/left*.jpg' \\\n"
+      "      --right 'data/calib_chessboard/right*.jpg' --board 9x6 --square 1 -o build/opencv_rig.yaml\n"
       "  hedgefit calibrate --list pairs.txt --board 12x11 --square 30 --model rational -o rig.yaml --json\n"
       "  hedgefit calibrate --left 'l*.png' --right 'r*.png' --charuco 12x9 --square 40 --marker 30 -o rig.yaml\n"
       "Pairs are matched by sorted order; a list file has one 'LEFT RIGHT' pair per line.\n");

@@ -99,7 +99,7 @@ void AddCompareCommand(CLI::App& app, CommandFn* run) {
       "Examples:\n"
       "  hedgefit compare sample_clouds/*.pcd\n"
       "  hedgefit compare scan.pcd --truth scan.truth.json --method hyper,ransac_geometric --format json\n"
-      "  hedgefit compare ../shared/data/sphere_scans/example2/L1_S1.xyz --scale 1000 --min-radius 250 --max-radius 350\n"
+      "  hedgefit compare data/sphere_scans/example2/L1_S1.xyz --scale 1000 --min-radius 250 --max-radius 350\n"
       "  hedgefit compare build/garden/row_*.pcd --truth build/garden/garden_row.truth.json --method ransac,envelope\n"
       "Truth: --truth FILE, or CLOUD.truth.json beside each cloud: {\"center_mm\": [x, y, z], \"radius_mm\": r}, or\n"
       "{\"hedges\": [...]} for several; each hedge (a cloud's hedge_id field) is matched to the nearest one.\n"

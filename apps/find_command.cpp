@@ -116,7 +116,7 @@ void AddFindCommand(CLI::App& app, CommandFn* run) {
   auto* cmd = app.add_subcommand("find", "Find the ground, the objects on it and every hedge ball in any cloud (LiDAR, photogrammetry, a map)");
   cmd->footer(
       "Examples:\n"
-      "  hedgefit find ../shared/data/sphere_scans/example2/L1_S1.xyz\n"
+      "  hedgefit find data/sphere_scans/example2/L1_S1.xyz\n"
       "  hedgefit find scan.ply --format json --labelled scan_labelled.ply --plot scan_top.png\n"
       "  hedgefit find map.pcd --scale 1000 --min-radius 250 --max-radius 1200\n"
       "Units are guessed as `info` guesses them (span, then spacing); --scale overrides. Up is +z, or -y for a\n"

@@ -16,7 +16,7 @@ void AddInfoCommand(CLI::App& app, CommandFn* run) {
   cmd->footer(
       "Examples:\n"
       "  hedgefit info sample_clouds/cap_z2300_a60_o10.pcd\n"
-      "  hedgefit info --json ../shared/data/pcl_test/table_scene_mug_stereo_textured.pcd\n");
+      "  hedgefit info --json data/pcl_test/table_scene_mug_stereo_textured.pcd\n");
   auto file = std::make_shared<std::string>();
   auto as_json = std::make_shared<bool>(false);
   cmd->add_option("FILE", *file, "cloud file (" + cloud::CloudExtensionList() + ")")->required();

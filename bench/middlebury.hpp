@@ -20,7 +20,7 @@ struct BadPixelScore {
 /// pixels where `mask` is non-zero (empty mask = everywhere). Holes count as bad.
 BadPixelScore ScoreDisparity(const cv::Mat& disparity, const cv::Mat& truth, const cv::Mat& mask, double threshold_px);
 
-/// A rectified pair with ground-truth disparity, as shipped in ../shared/data/stereo_gt.
+/// A rectified pair with ground-truth disparity, as shipped in data/stereo_gt.
 struct TruthPair {
   std::string name;
   cv::Mat left, right;  ///< 8-bit BGR or grey

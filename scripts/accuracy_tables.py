@@ -27,12 +27,16 @@ Usage: scripts/accuracy_tables.py lab|hard|random|leaves|paper|depth|find|around
 Run from the repository's root after a build; the JSON goes to build/docs/accuracy/.
 """
 import json
+import os
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+# Real data: $HEDGEFIT_DATA_DIR, else data/ (docs/data.md), else the workspace's ../shared/data.
+DATA = Path(os.environ.get("HEDGEFIT_DATA_DIR") or next(
+    (d for d in (ROOT / "data", ROOT.parent / "shared/data") if d.is_dir()), ROOT / "data"))
 HEDGEFIT = ROOT / "build/apps/hedgefit"
 OUT = ROOT / "build/docs/accuracy"
 SLOW = "--slow" in sys.argv
@@ -324,7 +328,7 @@ def find():
         print(f"| {label} | {len(rs)} gardens | {min(pts) / 1e3:.0f}-{max(pts) / 1e3:.0f} k | {len(found)} of {len(balls)} | "
               f"{false} | {sum(dr) / len(dr):.2f} / {max(dr):.2f} % of r | {max(dc):.2f} % of r | {max(dg):.1f} mm | "
               f"{sum(secs) / len(secs):.2f} / {max(secs):.2f} s |")
-    data = ROOT.parent / "shared/data"
+    data = DATA
     scans = sorted((data / "sphere_scans/example2").glob("L1_S*.xyz"))
     if scans:
         radii, found, others, secs = [], 0, 0, []

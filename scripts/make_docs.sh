@@ -13,6 +13,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 H=./build/apps/hedgefit
 [ -x "$H" ] || { echo "make_docs: build first ($H is missing)" >&2; exit 1; }
+# The examples read real data from data/ (docs/data.md); link it where this workspace keeps it.
+if [ ! -e data ]; then
+  for d in "${HEDGEFIT_DATA_DIR:-}" ../shared/data; do
+    if [ -n "$d" ] && [ -d "$d" ]; then ln -sfn "$(cd "$d" && pwd)" data; break; fi
+  done
+fi
 mkdir -p docs/cli
 for c in info pipeline plugins compare find simulate calibrate render convert measure stream trim rig check-rig \
          "bench lab" "bench garden" "bench find" "bench around"; do

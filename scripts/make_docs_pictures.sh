@@ -47,7 +47,7 @@ $H measure --method envelope --rig $S/rig.yaml --left $S/garden_shrubs_left.png 
 # The trim plan of the middle ball (envelope 520 mm) against a 500 mm target.
 $H trim $G/row_2.pcd --radius 500 --method envelope --render docs/trim_row2.png > /dev/null
 # PCL's real outdoor pair (grey): the round shrub, segmented by depth inside a box.
-D=../shared/data/stereo_plants/pcl_outdoor_stereo_pair
+D=data/stereo_plants/pcl_outdoor_stereo_pair
 if [ -f $D/stereo_left.png ]; then
   $H rig --size 640x480 --focal 368.5347 --cx 318.1122 --cy 224.3349 --baseline 838.7445 -o build/docs/pcl_rig.yaml > /dev/null
   $H convert --left $D/stereo_left.png --right $D/stereo_right.png --rig build/docs/pcl_rig.yaml \
@@ -60,7 +60,7 @@ echo "wrote docs/render_cap_z2300_o30.png docs/compare_plot.png docs/reconstruct
 # Hedges in any cloud: a simulated 16-beam LiDAR drive past a garden, and a real Velodyne scan.
 [ -f build/scans/lidar16_garden1.ply ] || $H bench find --sensors lidar16 --gardens 1 --dir build/scans > /dev/null
 $H find build/scans/lidar16_garden1.ply --plot docs/find_lidar_garden.png > /dev/null
-$H find ../shared/data/sphere_scans/example2/L1_S3.xyz --plot docs/find_velodyne.png > /dev/null
+[ ! -f data/sphere_scans/example2/L1_S3.xyz ] || $H find data/sphere_scans/example2/L1_S3.xyz --plot docs/find_velodyne.png > /dev/null
 # Around the hedge: a row of two balls fused from eight captures with odometry-like poses.
 [ -f build/around/hedgefit/row_ring_8/manifest_odometry.json ] || \
   $H bench around --scenes row --layouts ring --captures 8 --poses odometry --dir build/around > /dev/null

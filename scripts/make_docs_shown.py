@@ -13,6 +13,9 @@ or a Markdown table (lines starting with '|') right after
 
 whose COMMAND prints the table (scripts/accuracy_tables.py assembles the benches' JSON into one).
 
+Real data is read from data/ (docs/data.md); when it is absent, data/ is linked to
+$HEDGEFIT_DATA_DIR or the workspace's ../shared/data where one exists.
+
 COMMAND runs with bash from the repository's root, stdout and stderr together, and its output
 replaces the block. Markers run in file order, so a marker may use what an earlier one made
 (`simulate -o build/lab` before `calibrate --left 'build/lab/...'`). A command that fails (or
@@ -24,6 +27,7 @@ Usage: scripts/make_docs_shown.py [--slow] [--check] [--only TEXT] [FILE...]
   --check       list the markers and whether each block is there; run nothing
   --only TEXT   run only the markers whose command contains TEXT (slow ones too); leave the rest
 """
+import os
 import re
 import subprocess
 import sys
@@ -55,7 +59,23 @@ def run(command, must_fail):
     return proc.stdout
 
 
+def link_data():
+    """The docs' examples read real data from data/ (docs/data.md). When it is not there, link it to
+    $HEDGEFIT_DATA_DIR or the workspace's ../shared/data, if either is."""
+    link = ROOT / "data"
+    if link.exists():
+        return
+    for source in (os.environ.get("HEDGEFIT_DATA_DIR"), str(ROOT.parent / "shared/data")):
+        if source and Path(source).is_dir():
+            if link.is_symlink():
+                link.unlink()
+            link.symlink_to(Path(source).resolve())
+            print(f"make_docs_shown: data/ -> {Path(source).resolve()}", file=sys.stderr)
+            return
+
+
 def main():
+    link_data()
     argv = sys.argv[1:]
     only = None
     if "--only" in argv:

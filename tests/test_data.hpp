@@ -1,5 +1,5 @@
 #pragma once
-// Where tests find ../shared/data, and a skip with a clear message when it is absent.
+// Where tests find the real data (docs/data.md), and a skip with a clear message when it is absent.
 
 #include <gtest/gtest.h>
 
@@ -34,6 +34,7 @@ inline std::filesystem::path ScratchDir() {
   do {                                                                                           \
     if (!std::filesystem::exists(hedgefit::testing::DataPath(relative))) {                       \
       GTEST_SKIP() << "real data " << hedgefit::testing::DataPath(relative)                      \
-                   << " is absent; set HEDGEFIT_DATA_DIR to the shared data folder to run this"; \
+                   << " is absent; docs/data.md says where to get it (scripts/get_data.sh), "   \
+                   << "and HEDGEFIT_DATA_DIR may name the folder";                             \
     }                                                                                            \
   } while (0)

@@ -5,7 +5,8 @@ Stages: every `kind.name` token (readers., writers., filters., fitters., stereo.
 stage `hedgefit plugins --json` lists. Commands and flags: in every code block and inline code span,
 each `hedgefit COMMAND ...` invocation's command must exist and each of its --flags must appear in
 `hedgefit COMMAND --help`. Shown outputs: every plain ``` block (an output, not a language's code) sits
-right under a `<!-- shown: COMMAND -->` marker, so scripts/make_docs_shown.py regenerates it. Usage: check_docs.py HEDGEFIT_EXE SOURCE_DIR. Exit 1 lists what is missing.
+right under a `<!-- shown: COMMAND -->` marker, so scripts/make_docs_shown.py regenerates it. No page and no --help names this workspace's shared/data folder: examples read data/ (docs/data.md).
+Usage: check_docs.py HEDGEFIT_EXE SOURCE_DIR. Exit 1 lists what is missing.
 """
 import json
 import pathlib
@@ -78,6 +79,13 @@ for doc in docs:
                                     "script reproduces)")
         else:
             fence = None
+    # examples read real data from data/ (docs/data.md), which a clone can have; not this workspace's folder
+    for i, line in enumerate(text.split("\n")):
+        if "shared/data" in line:
+            problems.append(f"{rel}:{i + 1}: names shared/data; examples use data/ (docs/data.md)")
+for command, h in sorted(helps.items()):
+    if h and "shared/data" in h:
+        problems.append(f"'hedgefit {command} --help' names shared/data; examples use data/ (docs/data.md)")
 for p in sorted(set(problems)):
     print(p)
 print(f"{len(docs)} documents checked: {len(set(problems))} problems")
