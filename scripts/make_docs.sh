@@ -9,6 +9,8 @@
 #                             benches, the accuracy tables (scripts/accuracy_tables.py) and
 #                             bench_middlebury: an hour or more, POV-Ray's renders when missing).
 # The pictures in docs/ come from scripts/make_docs_pictures.sh.
+# --check changes nothing: it fails when a help page or a quick block (all but slow) differs from
+# what today's build prints (scripts/make_docs_shown.py --check, in a temporary copy of the tree).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 H=./build/apps/hedgefit
@@ -18,6 +20,19 @@ if [ ! -e data ]; then
   for d in "${HEDGEFIT_DATA_DIR:-}" ../shared/data; do
     if [ -n "$d" ] && [ -d "$d" ]; then ln -sfn "$(cd "$d" && pwd)" data; break; fi
   done
+fi
+if [ "${1:-}" = "--check" ]; then
+  T=$(mktemp -d)
+  stale=0
+  for c in info pipeline plugins compare find simulate calibrate render convert measure stream trim rig check-rig \
+           "bench lab" "bench garden" "bench find" "bench around"; do
+    "$H" $c --help > "$T/help.txt"
+    cmp -s "$T/help.txt" "docs/cli/${c// /-}.txt" || { echo "make_docs --check: docs/cli/${c// /-}.txt differs from 'hedgefit $c --help'"; stale=1; }
+  done
+  rm -rf "$T"
+  /usr/bin/python3 scripts/make_docs_shown.py --check || stale=1
+  [ $stale = 0 ] || { echo "make_docs --check: run scripts/make_docs.sh and commit what it changes" >&2; exit 1; }
+  exit 0
 fi
 mkdir -p docs/cli
 for c in info pipeline plugins compare find simulate calibrate render convert measure stream trim rig check-rig \

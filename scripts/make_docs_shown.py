@@ -6,10 +6,12 @@ A shown output is a plain ``` block right after a marker line
     <!-- shown: COMMAND -->          run by default (seconds to a minute or two)
     <!-- shown slow: COMMAND -->     run only with --slow (POV-Ray renders, long benches)
     <!-- shown fails: COMMAND -->    an error example: the command must exit non-zero
+    <!-- shown timed: COMMAND -->    run by default; its numbers are timings (or hang on them), so
+                                     --check compares its words, not its numbers
 
 or a Markdown table (lines starting with '|') right after
 
-    <!-- table: COMMAND -->  /  <!-- table slow: COMMAND -->
+    <!-- table: COMMAND -->  /  <!-- table slow: COMMAND -->  /  <!-- table timed: COMMAND -->
 
 whose COMMAND prints the table (scripts/accuracy_tables.py assembles the benches' JSON into one).
 
@@ -23,31 +25,35 @@ succeeds where it should fail) stops the script and leaves the file as it was.
 
 tests/docs/check_docs.py fails when a docs page shows an output block without a marker.
 
-Usage: scripts/make_docs_shown.py [--slow] [--check] [--only TEXT] [FILE...]
-  --check       list the markers and whether each block is there; run nothing
+Usage: scripts/make_docs_shown.py [--slow] [--check | --list] [--only TEXT] [FILE...]
+  --check       regenerate every quick block (all but slow) in a temporary copy of the tree and
+                fail, listing them, on any block that differs from the page: a figure gone stale.
+                Blocks that read data/ are skipped, saying so, when it is absent.
+  --list        list the markers; run nothing
   --only TEXT   run only the markers whose command contains TEXT (slow ones too); leave the rest
 """
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-MARKER = re.compile(r"^([ \t]*)<!-- shown( slow| fails)?: (.*?) -->\n\1```[a-z]*\n(.*?)\1```\n", re.S | re.M)
-TABLE = re.compile(r"^<!-- table( slow)?: (.*?) -->\n((?:\|.*\n)+)", re.M)
+MARKER = re.compile(r"^([ \t]*)<!-- shown( slow| fails| timed)?: (.*?) -->\n\1```[a-z]*\n(.*?)\1```\n", re.S | re.M)
+TABLE = re.compile(r"^<!-- table( slow| timed)?: (.*?) -->\n((?:\|.*\n)+)", re.M)
 
 
-def pages(args):
-    files = [Path(a) for a in args] or [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-    return [f if f.is_absolute() else ROOT / f for f in files]
+def pages(root, args):
+    files = [Path(a) for a in args] or [root / "README.md", *sorted((root / "docs").glob("*.md"))]
+    return [f if f.is_absolute() else root / f for f in files]
 
 
-def run(command, must_fail):
+def run(command, must_fail, cwd):
     started = time.time()
-    proc = subprocess.run(["bash", "-c", command], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                          text=True)
+    proc = subprocess.run(["bash", "-c", command], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     failed = proc.returncode != 0
     if failed != must_fail:
         sys.stderr.write(proc.stdout)
@@ -74,6 +80,28 @@ def link_data():
             return
 
 
+def scratch_tree():
+    """A copy of the repository's tracked files, with build/ and data/ linked, for --check."""
+    tree = Path(tempfile.mkdtemp(prefix="hedgefit_docs_check_"))
+    listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, text=True)
+    files = [f for f in listed.stdout.split("\0") if f] if listed.returncode == 0 else []
+    if not files:
+        raise SystemExit("make_docs_shown: --check needs a git checkout (it copies the tracked files)")
+    for f in files:
+        (tree / f).parent.mkdir(parents=True, exist_ok=True)
+        if (ROOT / f).is_file():
+            shutil.copy2(ROOT / f, tree / f)
+    for name in ("build", "data"):
+        if (ROOT / name).exists():
+            (tree / name).symlink_to((ROOT / name).resolve())
+    return tree
+
+
+def words(text):
+    """A timed block's text without its numbers: what --check compares of it."""
+    return re.sub(r"[ \t]+", " ", re.sub(r"[-+]?\d+(\.\d+)?(e[-+]?\d+)?", "#", text))
+
+
 def main():
     link_data()
     argv = sys.argv[1:]
@@ -84,42 +112,80 @@ def main():
             raise SystemExit("make_docs_shown: --only needs the text a marker's command contains")
         only = argv[k + 1]
         del argv[k:k + 2]
-    slow = "--slow" in argv or only is not None
-    check = "--check" in argv
+    slow = ("--slow" in argv or only is not None) and "--check" not in argv
+    listing, check = "--list" in argv, "--check" in argv
+    root = scratch_tree() if check else ROOT
+    has_data = (ROOT / "data").is_dir()
+    stale, skipped_data = [], []
 
     def skipped(command):
         return only is not None and only not in command
 
-    for page in pages([a for a in argv if not a.startswith("--")]):
+    def needs_absent_data(command):
+        # the commands that read real data: a data/ path, or a script that looks for it itself
+        reads = ("data/" in command or "find_real_table.py" in command or "accuracy_tables.py find" in command)
+        if reads and not has_data:
+            skipped_data.append(command)
+            return True
+        return False
+
+    for page in pages(root, [a for a in argv if not a.startswith("--")]):
         text = page.read_text()
+        rel = page.relative_to(root)
+
+        def compare(kind, command, old, new):
+            if not check:
+                return
+            same = words(old) == words(new) if kind == "timed" else old == new
+            if not same:
+                a, b = old.rstrip("\n").split("\n"), new.rstrip("\n").split("\n")
+                k = next((i for i in range(min(len(a), len(b))) if a[i] != b[i]), min(len(a), len(b)))
+                shown = a[k] if k < len(a) else "(nothing)"
+                made = b[k] if k < len(b) else "(nothing)"
+                # from a little before the first character that differs
+                j = next((i for i in range(min(len(shown), len(made))) if shown[i] != made[i]), min(len(shown), len(made)))
+                j = max(0, j - 30)
+                stale.append(f"{rel}: `{command[:90]}`, line {k + 1}\n    page:  ...{shown[j:j + 100]}\n"
+                             f"    today: ...{made[j:j + 100]}")
 
         def replace(m):
             indent, kind, command = m.group(1), (m.group(2) or "").strip(), m.group(3)
-            if check:
-                print(f"{page.relative_to(ROOT)}: [{kind or 'default'}] {command}")
+            if listing:
+                print(f"{rel}: [{kind or 'default'}] {command}")
                 return m.group(0)
-            if (kind == "slow" and not slow) or skipped(command):
+            if (kind == "slow" and not slow) or skipped(command) or (check and needs_absent_data(command)):
                 return m.group(0)
-            out = run(command, kind == "fails")
+            out = run(command, kind == "fails", root)
             body = "".join(indent + line + "\n" for line in out.rstrip("\n").split("\n"))
+            compare(kind, command, m.group(4), body)
             return f"{indent}<!-- shown{' ' + kind if kind else ''}: {command} -->\n{indent}```\n{body}{indent}```\n"
 
         def replace_table(m):
             kind, command = (m.group(1) or "").strip(), m.group(2)
-            if check:
-                print(f"{page.relative_to(ROOT)}: [table{' ' + kind if kind else ''}] {command}")
+            if listing:
+                print(f"{rel}: [table{' ' + kind if kind else ''}] {command}")
                 return m.group(0)
-            if (kind == "slow" and not slow) or skipped(command):
+            if (kind == "slow" and not slow) or skipped(command) or (check and needs_absent_data(command)):
                 return m.group(0)
-            out = run(command, False)
+            out = run(command, False, root)
             if not all(line.startswith("|") for line in out.strip().split("\n")):
                 raise SystemExit(f"make_docs_shown: `{command}` printed something other than a Markdown table")
+            compare(kind, command, m.group(3), out.strip() + "\n")
             return f"<!-- table{' ' + kind if kind else ''}: {command} -->\n{out.strip()}\n"
 
         new = TABLE.sub(replace_table, MARKER.sub(replace, text))
-        if new != text:
+        if new != text and not check:
             page.write_text(new)
-            print(f"make_docs_shown: {page.relative_to(ROOT)}", file=sys.stderr)
+            print(f"make_docs_shown: {rel}", file=sys.stderr)
+    if check:
+        shutil.rmtree(root, ignore_errors=True)
+        for command in skipped_data:
+            print(f"make_docs_shown: skipped (data/ is absent; docs/data.md): `{command[:90]}`", file=sys.stderr)
+        for s in stale:
+            print(s)
+        print(f"make_docs_shown --check: {len(stale)} block(s) differ from today's code"
+              + (" (run scripts/make_docs_shown.py and commit)" if stale else ""))
+        sys.exit(1 if stale else 0)
 
 
 if __name__ == "__main__":
