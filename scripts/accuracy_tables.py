@@ -40,6 +40,29 @@ DATA = Path(os.environ.get("HEDGEFIT_DATA_DIR") or next(
 HEDGEFIT = ROOT / "build/apps/hedgefit"
 OUT = ROOT / "build/docs/accuracy"
 SLOW = "--slow" in sys.argv
+_VERSION = []
+
+
+def version():
+    """Today's build's `hedgefit --version`."""
+    if not _VERSION:
+        _VERSION.append(subprocess.run([str(HEDGEFIT), "--version"], capture_output=True, text=True).stdout.strip())
+    return _VERSION[0]
+
+
+def stamp(out):
+    """Records which build wrote a bench's JSON, beside it (OUT/NAME.json.version)."""
+    Path(str(out) + ".version").write_text(version() + "\n")
+
+
+def load(out):
+    """A bench's JSON, refused when another version of hedgefit wrote it (or none is recorded)."""
+    tag = Path(str(out) + ".version")
+    made = tag.read_text().strip() if tag.exists() else "an unrecorded version"
+    if made != version():
+        raise SystemExit(f"accuracy_tables: {out.relative_to(ROOT)} was written by {made}, not {version()}: "
+                         "rerun the table that makes it (scripts/make_docs.sh --slow)")
+    return json.loads(out.read_text())
 
 # Lab configurations: (label, directory, flags). The real camera's rows average 7 noise draws.
 LAB = [
@@ -91,13 +114,15 @@ def bench(kind, name, directory, flags):
     out = OUT / f"{name}.json"
     # Written by this build from these captures already (the same run of make_docs, say): reuse it.
     captures = [p.stat().st_mtime for p in (ROOT / directory).glob("*_right.png")]
-    if out.exists() and captures and out.stat().st_mtime > max([HEDGEFIT.stat().st_mtime, *captures]):
-        return json.loads(out.read_text())
+    fresh = out.exists() and captures and out.stat().st_mtime > max([HEDGEFIT.stat().st_mtime, *captures])
+    if fresh and Path(str(out) + ".version").exists():
+        return load(out)
     cmd = [str(HEDGEFIT), "bench", kind, "--reuse", "--dir", directory, *flags, "--json", str(out)]
     proc = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if proc.returncode != 0:
         raise SystemExit(f"accuracy_tables: {' '.join(cmd)} failed:\n{proc.stderr}")
-    return json.loads(out.read_text())
+    stamp(out)
+    return load(out)
 
 
 def lab_cell(j, method):
@@ -307,7 +332,8 @@ def find():
     out = OUT / "find.json"
     subprocess.run([str(HEDGEFIT), "bench", "find", "--gardens", "4", "--beds", "0", "--json", str(out)], cwd=ROOT, check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    rows = json.loads(out.read_text())
+    stamp(out)
+    rows = load(out)
     print("| data | clouds | points per cloud | balls found | other objects called balls or topiary | radius error, mean / worst | "
           "centre error, worst | ground error, worst | time per cloud, mean / worst |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -379,7 +405,8 @@ def around():
             proc = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
             if proc.returncode != 0:
                 raise SystemExit(f"accuracy_tables: {' '.join(cmd)} failed:\n{proc.stderr}")
-            for r in json.loads(out.read_text()):
+            stamp(out)
+            for r in load(out):
                 trim = f"{r['trim_volume_l']:.1f} / {r['trim_truth_l']:.1f}" if r["trim_truth_l"] > 0 else ""
                 print(f"| {label} | {r['scene']} | {r['layout']} of {r['captures']} | {r['poses']} | {r['used']} | "
                       f"{r['radius_error_mm']:.2f} | {r['center_error_mm']:.2f} | {r['radius_se_mm']:.2f} | "
@@ -393,7 +420,7 @@ def headline():
         p = OUT / f"{name}.json"
         if not p.exists():
             return None
-        s = json.loads(p.read_text())["summary"][method]
+        s = load(p)["summary"][method]
         return f"{s['mean_abs_aer_mm']:.2f} / {s['mean_ld_mm']:.2f} mm"
 
     lab_h, lab_p = summary("lab1", "ransac_ray"), summary("lab3", "ransac_ray")
@@ -407,7 +434,7 @@ def headline():
           "; ".join(x or "not run" for x in (g_h, g_p)) + " | 4.02 / 18.3 mm (outdoor) |")
     f = OUT / "find.json"
     if f.exists():
-        rows = json.loads(f.read_text())
+        rows = load(f)
         balls = [b for r in rows for b in r["balls"]]
         found = [b for b in balls if b["found"]]
         false = sum(len(r["false_balls"]) for r in rows)
@@ -419,7 +446,7 @@ def headline():
     # ring and pose error, per renderer.
     worst = []
     for renderer in ("hedgefit", "povray"):
-        rows = [r for p in sorted(OUT.glob(f"around_{renderer}_*.json")) for r in json.loads(p.read_text())
+        rows = [r for p in sorted(OUT.glob(f"around_{renderer}_*.json")) for r in load(p)
                 if r["layout"] == "ring"]
         worst.append(f"{max(r['radius_error_mm'] for r in rows):.2f} / {max(r['center_error_mm'] for r in rows):.2f} mm"
                      if rows else None)

@@ -14,6 +14,8 @@ or a Markdown table (lines starting with '|') right after
     <!-- table: COMMAND -->  /  <!-- table slow: COMMAND -->  /  <!-- table timed: COMMAND -->
 
 whose COMMAND prints the table (scripts/accuracy_tables.py assembles the benches' JSON into one).
+A slow block or table, when regenerated, is followed by a line "*Made by hedgefit VERSION on DATE
+...*": --check does not rerun it, so it says which code made it.
 
 Real data is read from data/ (docs/data.md); when it is absent, data/ is linked to
 $HEDGEFIT_DATA_DIR or the workspace's ../shared/data where one exists.
@@ -42,8 +44,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-MARKER = re.compile(r"^([ \t]*)<!-- shown( slow| fails| timed)?: (.*?) -->\n\1```[a-z]*\n(.*?)\1```\n", re.S | re.M)
-TABLE = re.compile(r"^<!-- table( slow| timed)?: (.*?) -->\n((?:\|.*\n)+)", re.M)
+MARKER = re.compile(r"^([ \t]*)<!-- shown( slow| fails| timed)?: (.*?) -->\n\1```[a-z]*\n(.*?)\1```\n"
+                    r"(\n\1\*Made by hedgefit [^\n]*\*\n)?", re.S | re.M)
+TABLE = re.compile(r"^<!-- table( slow| timed)?: (.*?) -->\n((?:\|.*\n)+)(\n\*Made by hedgefit [^\n]*\*\n)?", re.M)
 
 
 def pages(root, args):
@@ -95,6 +98,13 @@ def scratch_tree():
         if (ROOT / name).exists():
             (tree / name).symlink_to((ROOT / name).resolve())
     return tree
+
+
+def stamp():
+    """What made a slow block: today's build and date."""
+    proc = subprocess.run([str(ROOT / "build/apps/hedgefit"), "--version"], capture_output=True, text=True)
+    version = proc.stdout.strip() if proc.returncode == 0 else "hedgefit (version unknown)"
+    return f"*Made by {version} on {time.strftime('%Y-%m-%d')}; a slow output, which the docs check does not rerun.*\n"
 
 
 def words(text):
@@ -158,7 +168,8 @@ def main():
             out = run(command, kind == "fails", root)
             body = "".join(indent + line + "\n" for line in out.rstrip("\n").split("\n"))
             compare(kind, command, m.group(4), body)
-            return f"{indent}<!-- shown{' ' + kind if kind else ''}: {command} -->\n{indent}```\n{body}{indent}```\n"
+            made = "\n" + indent + stamp() if kind == "slow" else ""
+            return f"{indent}<!-- shown{' ' + kind if kind else ''}: {command} -->\n{indent}```\n{body}{indent}```\n{made}"
 
         def replace_table(m):
             kind, command = (m.group(1) or "").strip(), m.group(2)
@@ -171,7 +182,8 @@ def main():
             if not all(line.startswith("|") for line in out.strip().split("\n")):
                 raise SystemExit(f"make_docs_shown: `{command}` printed something other than a Markdown table")
             compare(kind, command, m.group(3), out.strip() + "\n")
-            return f"<!-- table{' ' + kind if kind else ''}: {command} -->\n{out.strip()}\n"
+            made = "\n" + stamp() if kind == "slow" else ""
+            return f"<!-- table{' ' + kind if kind else ''}: {command} -->\n{out.strip()}\n{made}"
 
         new = TABLE.sub(replace_table, MARKER.sub(replace, text))
         if new != text and not check:
