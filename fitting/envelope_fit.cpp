@@ -1,4 +1,5 @@
 #include "fitting/envelope_fit.hpp"
+#include "fitting/log_erfc.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -71,18 +72,6 @@ constexpr double kStartLogitShare = -1.0;
 constexpr double kNoShareLogit = -6.0;
 // ... unless the first search ended with less than this share: that start's basin already.
 constexpr double kNoShareSkip = 0.01;
-
-// log(erfc(z)) and its derivative, accurate where erfc underflows (z > 5: the asymptotic series).
-double LogErfc(double z, double* derivative) {
-  if (z > 5) {
-    const double z2 = z * z, a = 1 - 0.5 / z2 + 0.75 / (z2 * z2), da = 1 / (z2 * z) - 3 / (z2 * z2 * z);
-    *derivative = -2 * z - 1 / z + da / a;
-    return -z2 - std::log(z * std::sqrt(M_PI)) + std::log(a);
-  }
-  const double e = std::erfc(z);
-  *derivative = -2 / std::sqrt(M_PI) * std::exp(-z * z) / e;
-  return std::log(e);
-}
 
 // Negative log-likelihood of the shell model over all points, parameters: centre (3), R,
 // log mu, log sigma, logit w. Points are centred on their mean (double precision far from the origin).

@@ -8,6 +8,14 @@
 /// shape, and thousands of points make any difference "significant"). A ball or spheroid whose
 /// centre lies below 0.8 of its vertical semi-axis above the ground is cut by it: a dome.
 ///
+/// Measured (`envelope`), the axes are the envelope's: where the outer leaves end, what the shears
+/// cut and a tape measure reads. The points of a leafy shape lie in a layer below it (and a
+/// reconstruction's in a thicker one), so the surface fitted through them is smaller. Along each
+/// point's normal, its residual from that surface is modelled as the envelope's offset, less a
+/// leaf's depth below the envelope (none for a share w, the shears' cut; exponential for the rest),
+/// plus the sensor's Gaussian noise (`noise_mm`): envelope_fit.hpp's model, in one dimension. Its
+/// maximum likelihood gives the offset, added to each semi-axis.
+///
 /// Up is +z: the caller turns its points (scene::FindHedges does; fitters.shape by its `up`).
 
 #include <Eigen/Core>
@@ -37,6 +45,9 @@ struct ClippedShape {
   /// (the full ones when its centre is above it).
   Eigen::Vector2d footprint_mm = Eigen::Vector2d::Zero();
   double top_mm = 0;             ///< the shape's top, height above the ground under its centre
+  /// How far the envelope lies outside the surface fitted through the points (mm, >= 0; already
+  /// in the axes, footprint and top); 0 unless asked for.
+  double envelope_offset_mm = 0;
 };
 
 /// Fits the three families to `points` (up +z, mm) standing on ground of height `ground_mm` and
@@ -46,9 +57,12 @@ struct ClippedShape {
 /// the intervals are scaled to all of them. converged = false on fewer than 20 points.
 /// `jackknife`: the intervals are also taken from a block jackknife over 16 patches of the surface
 /// (the larger of the two is reported): residuals that move together (a leaf layer, a lower half
-/// nobody saw) make the sandwich interval far too narrow.
+/// nobody saw) make the sandwich interval far too narrow. `envelope`: the axes are the envelope's
+/// (above), from the leaf layer's model with the noise `noise_mm` (at least 1 mm), of the chosen
+/// family fitted again without the points beyond 2.5 robust deviations of its median residual.
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
-                             double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false);
+                             double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
+                             bool envelope = false);
 
 /// A shape's axes in its cloud's frame, as columns: along its heading, across it, along `up`.
 /// The heading turns counter-clockwise about `up` from the cloud's x axis laid flat (its y axis

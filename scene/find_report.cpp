@@ -65,6 +65,7 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
                   {"footprint_mm", json::array({s.footprint_mm.x(), s.footprint_mm.y()})},
                   {"top_mm", s.top_mm},
                   {"roughness_mm", s.roughness_mm},
+                  {"envelope_offset_mm", s.envelope_offset_mm},
                   {"bic", {{"ball", s.bic_ball}, {"spheroid", s.bic_spheroid}, {"ellipsoid", s.bic_ellipsoid}}},
                   {"covered", o.covered},
                   {"covered_lower", o.covered_lower},

@@ -345,8 +345,9 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   } else {
     c.topiary = true;
     // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose
-    // lower half no sensor saw is pinned by the top's curvature alone, and wants them all).
-    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true);
+    // lower half no sensor saw is pinned by the top's curvature alone, and wants them all), and
+    // to its envelope: where its outer leaves end (fitting/shape_fit.hpp).
+    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true, true);
     if (fine.converged) c.shape = fine;
   }
   return c;

@@ -30,6 +30,10 @@ objects = json.load(open(os.path.join(garden, "objects.json")))["objects"]
 out = subprocess.run([exe, "find", clouds[0], "--format", "json"], check=True, capture_output=True, text=True).stdout
 cloud = json.loads(out)["clouds"][0]
 truth = [(1000 * o["position_m"][0], 1000 * o["position_m"][1]) for o in objects if o["label"].startswith("Topiary")]
+# The map's extents of each topiary: its diameters along the map's heading (semi-axes here), and
+# its height.
+extents = [(500 * o["diameters_m"][0], 500 * o["diameters_m"][1], 1000 * o["diameters_m"][2])
+           for o in objects if o["label"].startswith("Topiary")]
 
 
 def nearest_label(x, y):
@@ -77,15 +81,25 @@ if not per_topiary:
       f"{' (' + ', '.join(nearest_label(*h['center_mm'][:2]) for h in false) + ')' if false else ''} | "
       f"{', '.join(f'{n} {k}' for k, n in sorted(classes.items()))} | {sum(cloud['timings_ms'].values()) / 1000:.2f} s |")
   sys.exit(0)
-print("| annotated centre (m) | found | off (mm) | class | semi-axes (mm) | top (mm) | covered | roughness / noise |")
-print("|---|---|---|---|---|---|---|---|")
-for (tx, ty), hit in rows:
+print("| annotated centre (m) | map's semi-axes x height (mm) | found | off (mm) | class | semi-axes (mm) | top (mm) | "
+      "leaf layer (mm) | covered | roughness / noise |")
+print("|---|---|---|---|---|---|---|---|---|---|")
+wide, tall = [], []
+for ((tx, ty), hit), (ea, eb, eh) in zip(rows, extents):
+    mapped = f"{ea:.0f} x {eb:.0f} x {eh:.0f}"
     if not hit:
-        print(f"| {tx / 1000:.2f}, {ty / 1000:.2f} | no | | | | | | |")
+        print(f"| {tx / 1000:.2f}, {ty / 1000:.2f} | {mapped} | no | | | | | | | |")
         continue
     h, d = hit
     s = h.get("shape")
     axes = " x ".join(f"{a:.0f}" for a in s["axes_mm"]) if s else f"r {h['radius_mm']:.0f}"
-    print(f"| {tx / 1000:.2f}, {ty / 1000:.2f} | {h['id']} | {d:.0f} | {h['verdict']} | {axes} | "
-          f"{s['top_mm']:.0f} | {100 * s['covered']:.0f} % | {s['roughness_noise']:.1f} |" if s else
-          f"| {tx / 1000:.2f}, {ty / 1000:.2f} | {h['id']} | {d:.0f} | {h['verdict']} | {axes} | | | |")
+    if s:
+        wide.append(0.5 * (s["axes_mm"][0] + s["axes_mm"][1]) - 0.5 * (ea + eb))
+        tall.append(s["top_mm"] - eh)
+    print(f"| {tx / 1000:.2f}, {ty / 1000:.2f} | {mapped} | {h['id']} | {d:.0f} | {h['verdict']} | {axes} | "
+          f"{s['top_mm']:.0f} | {s.get('envelope_offset_mm', 0):.0f} | {100 * s['covered']:.0f} % | {s['roughness_noise']:.1f} |" if s else
+          f"| {tx / 1000:.2f}, {ty / 1000:.2f} | {mapped} | {h['id']} | {d:.0f} | {h['verdict']} | {axes} | | | | |")
+if wide:
+    print(f"| **found less the map's**, mean (range) | horizontal semi-axis {sum(wide) / len(wide):+.0f} "
+          f"({min(wide):+.0f} to {max(wide):+.0f}), top against height {sum(tall) / len(tall):+.0f} "
+          f"({min(tall):+.0f} to {max(tall):+.0f}) | | | | | | | | |")

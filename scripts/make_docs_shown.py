@@ -113,8 +113,15 @@ def words(text):
 
 
 def main():
-    link_data()
     argv = sys.argv[1:]
+    if "-h" in argv or "--help" in argv:
+        print(__doc__)
+        return
+    unknown = [a for k, a in enumerate(argv) if a.startswith("-") and a not in ("--slow", "--check", "--list", "--only")
+               and (k == 0 or argv[k - 1] != "--only")]
+    if unknown:
+        raise SystemExit(f"make_docs_shown: unknown option {unknown[0]}; see --help")
+    link_data()
     only = None
     if "--only" in argv:
         k = argv.index("--only")

@@ -93,6 +93,54 @@ TEST(FitTopiaryShape, ABallStandingFreeIsABall) {
   EXPECT_NEAR(s.center_mm.z(), 500, 5.0);
 }
 
+// Each point pushed inward along the ellipsoid's normal by a leaf's depth below the clipped
+// envelope: none for a share `clipped` (the shears' cut), exponential with mean `mu` for the rest.
+void InALeafLayer(std::vector<Eigen::Vector3d>* pts, const Eigen::Vector3d& center, const Eigen::Vector3d& axes,
+                  double clipped, double mu, std::mt19937* rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  std::exponential_distribution<double> depth(1 / mu);
+  for (auto& p : *pts) {
+    if (u(*rng) < clipped) continue;
+    const Eigen::Vector3d d = p - center;
+    const Eigen::Vector3d n = d.cwiseQuotient(axes.cwiseProduct(axes)).normalized();
+    p -= depth(*rng) * n;
+  }
+}
+
+// A clipped dome's points lie in a leaf layer 0-60 mm deep (half of them on the cut, the rest
+// 15 mm deep on average) with 5 mm noise: the surface through them is some 7 mm inside the
+// envelope. Measured, the axes are the envelope's, to the 2 % the issue asks (4-6 mm here);
+// the fit through all the points misses the horizontal semi-axes by more than 4 mm. Without
+// the measured fit's trim (kTrimDeviations) the vertical one comes out 5.4 mm (2.7 %) long.
+TEST(FitTopiaryShape, TheEnvelopeOfALeafyDomeIsWhereItsOuterLeavesEnd) {
+  std::mt19937 rng(11);
+  const Eigen::Vector3d center(0, 0, 60), axes(300, 300, 200);
+  auto pts = SeenFromAbove(center, 300, 300, 200, 0, 5, 12, &rng);
+  InALeafLayer(&pts, center, axes, 0.5, 15, &rng);
+  const TopiaryShape through = FitTopiaryShape(pts, 0, 5, 0, 4000, true, false);
+  const TopiaryShape measured = FitTopiaryShape(pts, 0, 5, 0, 4000, true, true);
+  ASSERT_TRUE(through.converged && measured.converged);
+  EXPECT_LT(through.axes_mm.x(), 300 - 4.0);  // the leaf layer is deeper than the target
+  EXPECT_NEAR(measured.axes_mm.x(), 300, 0.02 * 300);
+  EXPECT_NEAR(measured.axes_mm.z(), 200, 0.02 * 200);
+  EXPECT_NEAR(measured.top_mm, 260, 0.02 * 200);
+  // The offset is at most the layer's mean depth (7.5 mm) and some noise: the trimmed fit has
+  // already left the deepest leaves out.
+  EXPECT_GT(measured.envelope_offset_mm, 1.5);
+  EXPECT_LT(measured.envelope_offset_mm, 12.0);
+}
+
+// A bare surface (no leaf layer, 5 mm noise) has no envelope outside it: the offset stays
+// within a fraction of the noise.
+TEST(FitTopiaryShape, ABareShapeHasNoLeafLayer) {
+  std::mt19937 rng(12);
+  const auto pts = SeenFromAbove({0, 0, 250}, 320, 260, 210, 20, 5, 12, &rng);
+  const TopiaryShape s = FitTopiaryShape(pts, 0, 5, 0, 4000, true, true);
+  ASSERT_TRUE(s.converged);
+  EXPECT_LT(s.envelope_offset_mm, 2.5);
+  EXPECT_NEAR(s.axes_mm.z(), 210, 0.02 * 210);
+}
+
 GroundModel FlatGround(double noise_mm) {
   GroundModel g;
   g.origin_mm = {-5000, -5000};
