@@ -183,7 +183,8 @@ void AddAroundBench(CLI::App* bench, CommandFn* run) {
 }  // namespace
 
 void AddBenchCommand(CLI::App& app, CommandFn* run) {
-  auto* bench = app.add_subcommand("bench", "End-to-end benchmarks");
+  auto* bench = app.add_subcommand("bench", kBenchAbout);
+  bench->require_subcommand(1);
   AddLabBench(bench, run);
   AddGardenBench(bench, run);
   AddFindBench(bench, run);

@@ -10,7 +10,7 @@
 namespace hedgefit::apps {
 
 void AddSimulateCommand(CLI::App& app, CommandFn* run) {
-  auto* cmd = app.add_subcommand("simulate", "Render a simulated stereo rig's view of a chessboard or a textured sphere, with truth");
+  auto* cmd = app.add_subcommand("simulate", kSimulateAbout);
   cmd->footer(
       "Examples:\n"
       "  hedgefit simulate --preset paper-lab -o build/lab          # 16 board pairs + spheres at Z = 2000..2600 mm\n"
