@@ -261,15 +261,23 @@ FitMethod SpheroidRow() {
 FitMethod ShapeRow() {
   return {"shape", "fitters.shape",
           "Clipped topiary shape with a vertical axis: a ball, a dome, a spheroid or an ellipsoid with its heading, "
-          "chosen by BIC (as find's topiary); axes_mm along the heading, across it and vertical",
+          "chosen by BIC (as find's topiary); axes_mm along the heading, across it and vertical: the envelope's, where "
+          "the outer leaves end, unless envelope is false",
           {pipeline::StringOption("up", "z", "the vertical: z for most maps and scans, -y for a camera's cloud")
-               .Choices({"x", "y", "z", "-x", "-y", "-z"})},
+               .Choices({"x", "y", "z", "-x", "-y", "-z"}),
+           pipeline::BoolOption("envelope", true,
+                                "axes to the envelope (a trimmed refit and the leaf layer's offset, as find measures "
+                                "topiary); false: the surface fitted through the points"),
+           pipeline::DoubleOption("noise", 0, "the sensor's noise the leaf layer's model holds; 0: estimated from the "
+                                  "points (find gives it the lawn's)", "mm")},
           false,
           [](const Options& o) -> BoundFit {
             const std::string name = o.GetString("up");
+            const bool envelope = o.GetBool("envelope");
+            const double noise = o.GetDouble("noise");
             Eigen::Vector3d up = Eigen::Vector3d::Zero();
             up[name.back() - 'x'] = name[0] == '-' ? -1 : 1;
-            return [up](const FitInputs& in) {
+            return [up, envelope, noise](const FitInputs& in) {
               const Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitZ()).toRotationMatrix();
               std::vector<Eigen::Vector3d> pts;
               std::vector<double> z;
@@ -286,7 +294,7 @@ FitMethod ShapeRow() {
                 return r;
               }
               std::nth_element(z.begin(), z.begin() + z.size() / 100, z.end());
-              const ClippedShape s = FitClippedShape(pts, z[z.size() / 100], 0, 0, 4000, true);
+              const ClippedShape s = FitClippedShape(pts, z[z.size() / 100], noise, 0, 4000, true, envelope);
               r.converged = s.converged;
               if (!s.converged) {
                 r.message = "no shape with a vertical axis fits";
@@ -300,6 +308,7 @@ FitMethod ShapeRow() {
               r.SetExtra("axes_ci95_mm", {s.axes_ci95_mm.x(), s.axes_ci95_mm.y(), s.axes_ci95_mm.z()});
               r.SetExtra("center_ci95_mm", {s.center_ci95_mm.x(), s.center_ci95_mm.y(), s.center_ci95_mm.z()});
               r.SetExtra("heading_deg", {s.heading_deg});
+              r.SetExtra("envelope_offset_mm", {s.envelope_offset_mm});
               r.SetExtra("up", {up.x(), up.y(), up.z()});
               return r;
             };

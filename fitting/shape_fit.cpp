@@ -223,10 +223,12 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
 // The leaf layer's model (envelope_fit.hpp's, along the surface's normal): a residual r (outward
 // +) is delta - D + N(0, sigma^2), the leaf's depth D below the envelope 0 for a share w (the
 // shears' cut) and exponential (mean mu) for the rest; 2 % uniform outliers. Mean negative
-// log-likelihood at x = (delta, logit w, log mu).
-double LeafLayerNll(const std::vector<double>& r, double sigma, const Eigen::Vector3d& x) {
-  // The share and the depth held to where they still mean something (w 0.25 % to 99.75 %, mu
-  // 0.5 mm to 20 noise widths): beyond, the likelihood is flat and the search would wander.
+// log-likelihood at x = (delta, logit w, log mu, log sigma).
+double LeafLayerNll(const std::vector<double>& r, const Eigen::Vector4d& x) {
+  // The share, the depth and the noise held to where they still mean something (w 0.25 % to
+  // 99.75 %, mu 0.5 mm to 20 noise widths, sigma at least 0.5 mm): beyond, the likelihood is flat
+  // and the search would wander.
+  const double sigma = std::max(0.5, std::exp(x(3)));
   const double delta = x(0), w = 1 / (1 + std::exp(-std::clamp(x(1), -6.0, 6.0)));
   const double mu = 0.5 + std::exp(std::min(x(2), std::log(20 * sigma))), lambda = 1 / mu;
   const double span = 20 * sigma + 10 * mu, out = std::log(0.02 / span);
@@ -244,44 +246,47 @@ double LeafLayerNll(const std::vector<double>& r, double sigma, const Eigen::Vec
 }
 
 // Nelder-Mead on LeafLayerNll from the residuals' median; returns delta, the envelope's offset
-// from the fitted surface (mm, outward +).
+// from the fitted surface (mm, outward +). The noise `sigma` is held when given (> 0: the
+// sensor's, from the lawn), else estimated with the rest from the residuals' own spread.
 double EnvelopeOffset(const std::vector<double>& r, double sigma) {
-  const double med = MedianOf(r);
-  std::vector<Eigen::Vector3d> v = {Eigen::Vector3d(med + sigma, -1, std::log(std::max(1.0, 2 * sigma)))};
-  v.push_back(v[0] + Eigen::Vector3d(sigma, 0, 0));
-  v.push_back(v[0] + Eigen::Vector3d(0, 1.5, 0));
-  v.push_back(v[0] + Eigen::Vector3d(0, 0, 0.7));
+  const bool free_sigma = sigma <= 0;
+  if (free_sigma) sigma = std::max(0.5, 0.5 * RobustSpread(r));
+  const int n = free_sigma ? 4 : 3;  // the simplex moves the first n coordinates
+  std::vector<Eigen::Vector4d> v = {Eigen::Vector4d(MedianOf(r) + sigma, -1, std::log(std::max(1.0, 2 * sigma)), std::log(sigma))};
+  const Eigen::Vector4d steps(sigma, 1.5, 0.7, 0.5);
+  for (int k = 0; k < n; ++k) v.push_back(v[0] + steps(k) * Eigen::Vector4d::Unit(k));
   std::vector<double> f;
-  for (const auto& x : v) f.push_back(LeafLayerNll(r, sigma, x));
-  for (int it = 0; it < 200; ++it) {
-    std::vector<int> o = {0, 1, 2, 3};
-    std::sort(o.begin(), o.end(), [&](int i, int j) { return f[i] < f[j]; });
-    if (f[o[3]] - f[o[0]] < 1e-5) break;
-    Eigen::Vector3d c = (v[o[0]] + v[o[1]] + v[o[2]]) / 3;
-    const int h = o[3];
-    auto tryp = [&](double k) {
-      const Eigen::Vector3d x = c + k * (v[h] - c);
-      return std::make_pair(x, LeafLayerNll(r, sigma, x));
+  for (const auto& x : v) f.push_back(LeafLayerNll(r, x));
+  std::vector<int> o(std::size_t(n + 1));
+  for (int it = 0; it < 300; ++it) {
+    for (int k = 0; k <= n; ++k) o[std::size_t(k)] = k;
+    std::sort(o.begin(), o.end(), [&](int i, int j) { return f[std::size_t(i)] < f[std::size_t(j)]; });
+    const int best = o.front(), worst = o.back(), second = o[std::size_t(n - 1)];
+    if (f[std::size_t(worst)] - f[std::size_t(best)] < 1e-5) break;
+    Eigen::Vector4d c = Eigen::Vector4d::Zero();
+    for (int k = 0; k < n; ++k) c += v[std::size_t(o[std::size_t(k)])] / double(n);
+    auto at = [&](double k) {
+      const Eigen::Vector4d x = c + k * (v[std::size_t(worst)] - c);
+      return std::make_pair(x, LeafLayerNll(r, x));
     };
-    auto [xr, fr] = tryp(-1);
-    if (fr < f[o[0]]) {
-      auto [xe, fe] = tryp(-2);
+    auto [xr, fr] = at(-1);
+    if (fr < f[std::size_t(best)]) {
+      auto [xe, fe] = at(-2);
       if (fe < fr) xr = xe, fr = fe;
-      v[h] = xr, f[h] = fr;
-    } else if (fr < f[o[2]]) {
-      v[h] = xr, f[h] = fr;
+      v[std::size_t(worst)] = xr, f[std::size_t(worst)] = fr;
+    } else if (fr < f[std::size_t(second)]) {
+      v[std::size_t(worst)] = xr, f[std::size_t(worst)] = fr;
+    } else if (auto [xc, fc] = at(0.5); fc < f[std::size_t(worst)]) {
+      v[std::size_t(worst)] = xc, f[std::size_t(worst)] = fc;
     } else {
-      auto [xc, fc] = tryp(0.5);
-      if (fc < f[h]) {
-        v[h] = xc, f[h] = fc;
-      } else {
-        for (int k : {o[1], o[2], o[3]}) v[k] = 0.5 * (v[k] + v[o[0]]), f[k] = LeafLayerNll(r, sigma, v[k]);
+      for (int k = 1; k <= n; ++k) {
+        auto& x = v[std::size_t(o[std::size_t(k)])];
+        x = 0.5 * (x + v[std::size_t(best)]);
+        f[std::size_t(o[std::size_t(k)])] = LeafLayerNll(r, x);
       }
     }
   }
-  int best = 0;
-  for (int k = 1; k < 4; ++k) if (f[k] < f[best]) best = k;
-  return v[best](0);
+  return v[std::size_t(std::min_element(f.begin(), f.end()) - f.begin())](0);
 }
 
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
@@ -339,7 +344,7 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
   std::vector<double> r;
   const std::size_t every = p.size() / 600 + 1;
   for (std::size_t i = 0; i < p.size(); i += every) r.push_back(Radial(q, p[i], true));
-  m.offset_mm = std::max(0.0, EnvelopeOffset(r, std::max(1.0, noise_mm)));
+  m.offset_mm = std::max(0.0, EnvelopeOffset(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0));
   return m;
 }
 

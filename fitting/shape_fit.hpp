@@ -58,7 +58,8 @@ struct ClippedShape {
 /// `jackknife`: the intervals are also taken from a block jackknife over 16 patches of the surface
 /// (the larger of the two is reported): residuals that move together (a leaf layer, a lower half
 /// nobody saw) make the sandwich interval far too narrow. `envelope`: the axes are the envelope's
-/// (above), from the leaf layer's model with the noise `noise_mm` (at least 1 mm), of the chosen
+/// (above), from the leaf layer's model with the noise `noise_mm` (at least 1 mm; 0: estimated
+/// with the layer from the residuals), of the chosen
 /// family fitted again without the points beyond 2.5 robust deviations of its median residual.
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                              double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
