@@ -625,6 +625,29 @@ Scene SceneOf(const cloud::PointCloud& cloud, const FindOptions& o) {
   return sc;
 }
 
+// Each point of a ball that lies within another's outer edge too goes to the one whose surface
+// it lies nearer: a ball peeled first takes every point inside its shell, and so a crescent of
+// a neighbour that stands a few centimetres away, on its side, when that ball is too large (a
+// squat spheroid read as the cap of a 444 mm ball took the near side of a dome 41 mm from it,
+// and that crescent kept the large ball ahead of the spheroid; bench find --beds, seed 203).
+void NearestSurfaces(const ScenePoints& s, std::vector<Candidate>* balls, std::size_t first) {
+  auto off = [&](std::size_t i, const Judgement& j) { return std::abs((s.pts[i] - j.sphere.center_mm).norm() - j.sphere.radius_mm); };
+  for (std::size_t a = first; a < balls->size(); ++a) {
+    for (std::size_t b = first; b < balls->size(); ++b) {
+      if (a == b) continue;
+      Candidate& from = (*balls)[a];
+      Candidate& to = (*balls)[b];
+      const Judgement& jb = to.j;
+      std::vector<std::size_t> kept;
+      for (std::size_t i : from.points) {
+        const bool within = (s.pts[i] - jb.sphere.center_mm).norm() < jb.sphere.radius_mm + jb.band;
+        (within && off(i, jb) < off(i, from.j) ? to.points : kept).push_back(i);
+      }
+      from.points.swap(kept);
+    }
+  }
+}
+
 // Peels the balls off one top-view object, best hypothesis first (one where a ball was already
 // found is skipped); what no ball takes is an object of its own (or several), with the reason of
 // the largest failed sphere that lay in it.
@@ -634,6 +657,7 @@ void PeelBalls(const std::vector<std::size_t>& cluster, const ScenePoints& s, Ba
   std::vector<Judgement> failed;
   std::vector<fitting::Sphere> accepted;
   std::vector<char> in_ball(s.pts.size(), 0);
+  const std::size_t first = balls->size();
   for (const auto& h : finder.Hypotheses(cluster)) {
     if (remaining.size() < std::size_t(o.min_points)) break;
     bool overlaps = false;
@@ -667,6 +691,7 @@ void PeelBalls(const std::vector<std::size_t>& cluster, const ScenePoints& s, Ba
     balls->push_back(std::move(c));
     remaining.swap(rest);
   }
+  NearestSurfaces(s, balls, first);
   std::vector<std::size_t> left;
   for (std::size_t i : cluster) if (!in_ball[i]) left.push_back(i);
   for (auto& part : TopViewClusters(s.pts, left, o.gap_mm)) {

@@ -256,17 +256,22 @@ TEST(FindTopiary, ADomeWithANeighbourLeaningOnItIsTakenApart) {
   EXPECT_EQ(topiary, 1) << refused;
 }
 
+// A bed scanned by the simulated drone (bench find's aerial sensor, 5 mm noise at 5 m).
+cloud::PointCloud FromADrone(const sim::ScanScene& scene, std::uint64_t seed) {
+  sim::ScanOptions so;
+  so.sensor = sim::Sensor::kAerial;
+  so.seed = seed;
+  so.noise_mm = 5;
+  fitting::QuietSolverWarnings();
+  return sim::ScanGarden(scene, so);
+}
+
 // A simulated bed of squat topiary (sim::RandomTopiaryBed, seed 1: a tuning seed) seen from
 // above only by a drone's photogrammetry: every shape found, as the right family, nothing else
 // (the rose between them, the low box hedge row, the post) called topiary.
 TEST(FindHedges, EveryTopiaryOfABedSeenFromAbove) {
   const sim::ScanScene scene = sim::RandomTopiaryBed(1);
-  sim::ScanOptions so;
-  so.sensor = sim::Sensor::kAerial;
-  so.noise_mm = 5;
-  const cloud::PointCloud c = sim::ScanGarden(scene, so);
-  fitting::QuietSolverWarnings();
-  const FindResult r = FindHedges(c);
+  const FindResult r = FindHedges(FromADrone(scene, 1));
   std::vector<bool> used(r.objects.size(), false);
   int inside = 0, stated = 0;
   // The bed's free ball is the ball search's.
@@ -305,6 +310,26 @@ TEST(FindHedges, EveryTopiaryOfABedSeenFromAbove) {
     EXPECT_FALSE(r.objects[k].topiary && !used[k]) << "object " << r.objects[k].id << " (" << r.objects[k].verdict
                                                    << ") is no topiary of the bed";
   }
+}
+
+// Bed 203 (held back until it showed this): a flat spheroid, 350 x 350 x 213 mm, stands 41 mm from
+// a dome. The ball search took it first as the cap of a 444 mm ball, with a crescent of the
+// dome's near side, which a ball that large fits, and that crescent kept the ball ahead of the
+// spheroid (centre 234 mm off). Each point now goes to the ball whose surface it lies nearer.
+// Its axes to 2 %, the target, which the 5 mm noise and its leaf layer allow (the
+// simulated beds' mean error is 0.2-0.6 %).
+TEST(FindHedges, AFlatSpheroidBesideADomeIsNoCapOfABall) {
+  const sim::ScanScene scene = sim::RandomTopiaryBed(203);
+  const FindResult r = FindHedges(FromADrone(scene, 203));
+  const auto flat = std::find_if(scene.topiary.begin(), scene.topiary.end(),
+                                 [](const sim::ScanSpheroid& t) { return std::abs(t.axes_mm.z() - 213) < 1; });
+  ASSERT_NE(flat, scene.topiary.end()) << "the bed no longer holds the flat spheroid";
+  const FoundObject* found = nullptr;
+  for (const auto& o : r.objects) {
+    if (o.topiary && o.shape && (o.shape->center_mm.head<2>() - flat->center_mm.head<2>()).norm() < 100) found = &o;
+  }
+  ASSERT_NE(found, nullptr) << "no shape within 100 mm of the flat spheroid's centre";
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(found->shape->axes_mm[k], flat->axes_mm[k], 0.02 * flat->axes_mm[k]) << "axis " << k;
 }
 
 // The real garden: TrimBot2020's model of its Wageningen test garden (west half) and the
