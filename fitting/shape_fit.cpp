@@ -74,17 +74,31 @@ Eigen::VectorXd Reduce(const Full& q, Family f) {
 // The fit itself stays radial: on the real garden (wageningen_west), an orthogonal fit turned
 // every squat topiary into a lens 50-70 mm lower than its points' top, though on simulated
 // aerial scans it removed a +1-7 % bias of the vertical semi-axis under 6 mm noise.
-double Radial(const Full& q, const Eigen::Vector3d& p, bool orthogonal = false) {
-  const Eigen::Vector3d d = p - q.head<3>();
-  const double cs = std::cos(q(6)), sn = std::sin(q(6));
-  const double u = d.x() * cs + d.y() * sn, v = -d.x() * sn + d.y() * cs, w = d.z();
-  const double s = std::sqrt(u * u / (q(3) * q(3)) + v * v / (q(4) * q(4)) + w * w / (q(5) * q(5)));
-  const double n = d.norm();
-  if (s < 1e-12) return -std::min({q(3), q(4), q(5)});
-  if (!orthogonal) return n * (1 - 1 / s);
-  const Eigen::Vector3d g(u / (q(3) * q(3)), v / (q(4) * q(4)), w / (q(5) * q(5)));
-  return n * (1 - 1 / s) * Eigen::Vector3d(u, v, w).dot(g) / (n * g.norm());
-}
+class Surface {
+ public:
+  // The heading's sine and cosine and the axes' inverse squares once per shape, not per point: a
+  // fit's numerical Jacobian asks for every point's distance eight times an iteration.
+  explicit Surface(const Full& q)
+      : c_(q.head<3>()), cs_(std::cos(q(6))), sn_(std::sin(q(6))),
+        inv2_(1 / (q(3) * q(3)), 1 / (q(4) * q(4)), 1 / (q(5) * q(5))), smallest_(std::min({q(3), q(4), q(5)})) {}
+
+  double Radial(const Eigen::Vector3d& p, bool orthogonal = false) const {
+    const Eigen::Vector3d d = p - c_;
+    const Eigen::Vector3d uvw(d.x() * cs_ + d.y() * sn_, -d.x() * sn_ + d.y() * cs_, d.z());
+    const double s = std::sqrt(uvw.cwiseAbs2().dot(inv2_));
+    const double n = d.norm();
+    if (s < 1e-12) return -smallest_;
+    if (!orthogonal) return n * (1 - 1 / s);
+    const Eigen::Vector3d g = uvw.cwiseProduct(inv2_);
+    return n * (1 - 1 / s) * uvw.dot(g) / (n * g.norm());
+  }
+
+ private:
+  Eigen::Vector3d c_;
+  double cs_, sn_;
+  Eigen::Vector3d inv2_;
+  double smallest_;
+};
 
 struct Bounds {
   Full lo, hi;
@@ -114,9 +128,9 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
   const double heading = start(6);
   Eigen::VectorXd x = Reduce(start, f);
   auto residuals = [&](const Eigen::VectorXd& xv, Eigen::VectorXd* e) {
-    Full q = Expand(xv, f, heading);
+    const Surface surface(Expand(xv, f, heading));
     e->resize(Eigen::Index(p.size()));
-    for (std::size_t i = 0; i < p.size(); ++i) (*e)(Eigen::Index(i)) = Radial(q, p[i]);
+    for (std::size_t i = 0; i < p.size(); ++i) (*e)(Eigen::Index(i)) = surface.Radial(p[i]);
   };
   auto clamp = [&](Eigen::VectorXd* xv) {
     Full q = Expand(*xv, f, heading);
@@ -191,8 +205,12 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
 // sensor saw move whole parts of the surface together. A block jackknife over 16 patches (8
 // sectors about the axis, above and below the centre) refits `family` from `q` without each, on
 // at most 800 of `p`: the 95 % half-widths of its free parameters, or an empty vector when fewer
-// than 4 patches could be left out.
-Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family family, const Full& q, const Bounds& bounds) {
+// than 4 patches could be left out. With the leaf `layer` (FitLeafLayer's solution on all of
+// `p`), each refit's semi-axes carry their own envelope offset (noise `noise_mm`), so the axes' intervals hold the offset's
+// uncertainty too: a leaf layer seen thicker on one side moves it.
+Eigen::Vector4d FitLeafLayer(const std::vector<double>& r, double sigma, const Eigen::Vector4d* start);
+Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family family, const Full& q, const Bounds& bounds,
+                              const Eigen::Vector4d* layer, double noise_mm) {
   std::vector<Eigen::Vector3d> q_pts;
   const std::size_t q_step = p.size() / 800 + 1;
   for (std::size_t i = 0; i < p.size(); i += q_step) q_pts.push_back(p[i]);
@@ -206,8 +224,18 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
     std::vector<Eigen::Vector3d> kept;
     for (const auto& v : q_pts) if (block(v) != b) kept.push_back(v);
     if (kept.size() == q_pts.size() || kept.size() < 20) continue;  // an empty patch says nothing
-    const FamilyFit f = FitFamily(kept, family, q, bounds);
-    if (f.ok) refits.push_back(f.x);
+    FamilyFit f = FitFamily(kept, family, q, bounds);
+    if (!f.ok) continue;
+    if (layer) {
+      std::vector<double> r;  // 300 residuals: the offset to a millimetre or two, 16 times over
+      const std::size_t every = kept.size() / 300 + 1;
+      const Surface surface(f.q);
+      for (std::size_t i = 0; i < kept.size(); i += every) r.push_back(surface.Radial(kept[i], true));
+      const double offset = std::max(0.0, FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, layer)(0));
+      const int axes = family == Family::kBall ? 1 : family == Family::kSpheroid ? 2 : 3;
+      f.x.segment(3, axes).array() += offset;
+    }
+    refits.push_back(f.x);
   }
   if (refits.size() < 4) return {};
   Eigen::VectorXd centre = Eigen::VectorXd::Zero(refits[0].size());
@@ -245,15 +273,18 @@ double LeafLayerNll(const std::vector<double>& r, const Eigen::Vector4d& x) {
   return total / double(std::max<std::size_t>(1, r.size()));
 }
 
-// Nelder-Mead on LeafLayerNll from the residuals' median; returns delta, the envelope's offset
-// from the fitted surface (mm, outward +). The noise `sigma` is held when given (> 0: the
+// Nelder-Mead on LeafLayerNll from the residuals' median: delta is the envelope's offset from the
+// fitted surface (mm, outward +). The noise `sigma` is held when given (> 0: the
 // sensor's, from the lawn), else estimated with the rest from the residuals' own spread.
-double EnvelopeOffset(const std::vector<double>& r, double sigma) {
+// Returns the whole solution (delta, logit w, log mu, log sigma). `start`: a solution on much the
+// same residuals (the jackknife's), which the simplex leaves in small steps.
+Eigen::Vector4d FitLeafLayer(const std::vector<double>& r, double sigma, const Eigen::Vector4d* start) {
   const bool free_sigma = sigma <= 0;
   if (free_sigma) sigma = std::max(0.5, 0.5 * RobustSpread(r));
   const int n = free_sigma ? 4 : 3;  // the simplex moves the first n coordinates
   std::vector<Eigen::Vector4d> v = {Eigen::Vector4d(MedianOf(r) + sigma, -1, std::log(std::max(1.0, 2 * sigma)), std::log(sigma))};
-  const Eigen::Vector4d steps(sigma, 1.5, 0.7, 0.5);
+  if (start) v[0].head(n) = start->head(n);
+  const Eigen::Vector4d steps = Eigen::Vector4d(sigma, 1.5, 0.7, 0.5) * (start ? 0.25 : 1.0);
   for (int k = 0; k < n; ++k) v.push_back(v[0] + steps(k) * Eigen::Vector4d::Unit(k));
   std::vector<double> f;
   for (const auto& x : v) f.push_back(LeafLayerNll(r, x));
@@ -286,7 +317,7 @@ double EnvelopeOffset(const std::vector<double>& r, double sigma) {
       }
     }
   }
-  return v[std::size_t(std::min_element(f.begin(), f.end()) - f.begin())](0);
+  return v[std::size_t(std::min_element(f.begin(), f.end()) - f.begin())];
 }
 
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
@@ -329,6 +360,8 @@ struct Measured {
   FamilyFit refit;                    // ok = false: none (too few points left, or none trimmed)
   std::vector<Eigen::Vector3d> kept;  // the points it was fitted to
   double offset_mm = 0;
+  Eigen::Vector4d layer = Eigen::Vector4d::Zero();  // FitLeafLayer's solution
+  bool measured = false;
 };
 
 Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, const FamilyFit& chosen, const Bounds& bounds,
@@ -343,8 +376,11 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
   // 600 residuals settle three parameters to about a millimetre under 6 mm noise.
   std::vector<double> r;
   const std::size_t every = p.size() / 600 + 1;
-  for (std::size_t i = 0; i < p.size(); i += every) r.push_back(Radial(q, p[i], true));
-  m.offset_mm = std::max(0.0, EnvelopeOffset(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0));
+  const Surface surface(q);
+  for (std::size_t i = 0; i < p.size(); i += every) r.push_back(surface.Radial(p[i], true));
+  m.layer = FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, nullptr);
+  m.offset_mm = std::max(0.0, m.layer(0));
+  m.measured = true;
   return m;
 }
 
@@ -426,7 +462,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96 *
                        std::sqrt(double(p.size()) / double(all.size()));
   if (jackknife) {
-    const Eigen::VectorXd jk = JackknifeCi95(fitted, family, best->q, bounds);
+    const Eigen::VectorXd jk = JackknifeCi95(fitted, family, best->q, bounds, measured.measured ? &measured.layer : nullptr, noise_mm);
     if (jk.size() == sd.size()) sd = sd.cwiseMax(jk), s.jackknifed = true;
   }
   s.center_ci95_mm = sd.head<3>();

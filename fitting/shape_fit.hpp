@@ -57,7 +57,8 @@ struct ClippedShape {
 /// the intervals are scaled to all of them. converged = false on fewer than 20 points.
 /// `jackknife`: the intervals are also taken from a block jackknife over 16 patches of the surface
 /// (the larger of the two is reported): residuals that move together (a leaf layer, a lower half
-/// nobody saw) make the sandwich interval far too narrow. `envelope`: the axes are the envelope's
+/// nobody saw) make the sandwich interval far too narrow; with `envelope`, each refit estimates its
+/// own envelope offset, so the axes' intervals hold the leaf layer's uncertainty. `envelope`: the axes are the envelope's
 /// (above), from the leaf layer's model with the noise `noise_mm` (at least 1 mm; 0: estimated
 /// with the layer from the residuals), of the chosen
 /// family fitted again without the points beyond 2.5 robust deviations of its median residual.
