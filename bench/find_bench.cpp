@@ -95,6 +95,11 @@ FindBenchRow Score(const sim::ScanScene& scene, const scene::FindResult& r) {
       e.found = true;
       e.shape = o.verdict;
       e.axes_mm = o.shape ? o.shape->axes_mm : Eigen::Vector3d::Constant(o.fit.sphere.radius_mm);
+      if (o.shape) {
+        e.axes_ci95_mm = o.shape->axes_ci95_mm;
+      } else if (const auto se = fitting::TotalStdError(o.fit)) {
+        e.axes_ci95_mm.setConstant(1.96 * (*se)[3]);
+      }
       const Eigen::Vector3d c = o.shape ? o.shape->center_mm : o.fit.sphere.center_mm;
       e.center_error_mm = (c - t.center_mm).norm();
       e.points = o.indices.size();
@@ -170,10 +175,10 @@ void PrintBeds(const FindBenchResult& result) {
   for (const auto& row : result.rows) {
     if (row.scene != "bed") continue;
     if (!header) {
-      std::cout << "\nsensor          bed     points    topiary found  false (what)        |da| mean/max %  dc max mm  time s\n";
+      std::cout << "\nsensor          bed     points    topiary found  false (what)        |da| mean/max %  held  dc max mm  time s\n";
       header = true;
     }
-    std::size_t found = 0, axes = 0;
+    std::size_t found = 0, axes = 0, held = 0;
     double da_sum = 0, da_max = 0, dc_max = 0;
     for (const auto& t : row.topiary) {
       if (!t.found) continue;
@@ -181,18 +186,21 @@ void PrintBeds(const FindBenchResult& result) {
       for (int k = 0; k < 3; ++k) {
         const double da = 100 * std::abs(t.axes_mm[k] - t.true_axes_mm[k]) / t.true_axes_mm[k];
         da_sum += da, da_max = std::max(da_max, da), ++axes;
+        held += std::abs(t.axes_mm[k] - t.true_axes_mm[k]) <= t.axes_ci95_mm[k];
       }
       dc_max = std::max(dc_max, t.center_error_mm);
     }
     std::string what;
     for (const auto& f : row.false_balls) what += (what.empty() ? "" : ",") + f;
-    Print(std::cout, "%-15s %6llu  %8zu  %zu / %zu          %zu %-14s  %5.2f / %5.2f    %7.1f    %6.2f\n", row.sensor.c_str(),
-          static_cast<unsigned long long>(row.seed), row.points, found, row.topiary.size(), row.false_balls.size(),
-          what.empty() ? "" : ("(" + what + ")").c_str(), axes ? da_sum / double(axes) : 0.0, da_max, dc_max, row.ms / 1000);
+    Print(std::cout, "%-15s %6llu  %8zu  %zu / %zu          %zu %-14s  %5.2f / %5.2f  %2zu/%-2zu  %7.1f    %6.2f\n",
+          row.sensor.c_str(), static_cast<unsigned long long>(row.seed), row.points, found, row.topiary.size(),
+          row.false_balls.size(), what.empty() ? "" : ("(" + what + ")").c_str(), axes ? da_sum / double(axes) : 0.0, da_max,
+          held, axes, dc_max, row.ms / 1000);
     for (const auto& t : row.topiary) {
-      Print(std::cout, "    axes %4.0f x %4.0f x %4.0f: %-10s %6.1f x %6.1f x %6.1f  dc %6.1f  %zu points\n", t.true_axes_mm.x(),
-            t.true_axes_mm.y(), t.true_axes_mm.z(), t.found ? t.shape.c_str() : "missed", t.axes_mm.x(), t.axes_mm.y(),
-            t.axes_mm.z(), t.center_error_mm, t.points);
+      Print(std::cout, "    axes %4.0f x %4.0f x %4.0f: %-10s %6.1f x %6.1f x %6.1f  +- %4.1f %4.1f %4.1f  dc %6.1f  %zu points\n",
+            t.true_axes_mm.x(), t.true_axes_mm.y(), t.true_axes_mm.z(), t.found ? t.shape.c_str() : "missed", t.axes_mm.x(),
+            t.axes_mm.y(), t.axes_mm.z(), t.axes_ci95_mm.x(), t.axes_ci95_mm.y(), t.axes_ci95_mm.z(), t.center_error_mm,
+            t.points);
     }
   }
 }
@@ -246,6 +254,7 @@ std::string FindBenchJson(const FindBenchResult& result) {
       r["topiary"].push_back({{"true_axes_mm", {t.true_axes_mm.x(), t.true_axes_mm.y(), t.true_axes_mm.z()}},
                               {"found", t.found}, {"shape", t.shape},
                               {"axes_mm", {t.axes_mm.x(), t.axes_mm.y(), t.axes_mm.z()}},
+                              {"axes_ci95_mm", {t.axes_ci95_mm.x(), t.axes_ci95_mm.y(), t.axes_ci95_mm.z()}},
                               {"center_error_mm", t.center_error_mm}, {"points", t.points}});
     }
     j.push_back(r);

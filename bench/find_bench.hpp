@@ -39,6 +39,7 @@ struct FindBenchBall {
 /// One truth topiary and what was found of it.
 struct FindBenchTopiary {
   Eigen::Vector3d true_axes_mm = Eigen::Vector3d::Zero(), axes_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axes_ci95_mm = Eigen::Vector3d::Zero();  ///< the stated 95 % half-widths
   double center_error_mm = 0;
   std::size_t points = 0;
   bool found = false;
