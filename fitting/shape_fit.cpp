@@ -490,6 +490,12 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
 }
 
 
+double DistanceOutside(const ClippedShape& s, const Eigen::Vector3d& p) {
+  Full q;
+  q << s.center_mm, s.axes_mm.cwiseMax(1e-6), s.heading_deg * M_PI / 180;
+  return Surface(q).Radial(p, true);
+}
+
 Eigen::Matrix3d ShapeAxes(const Eigen::Vector3d& up, double heading_deg) {
   const Eigen::Vector3d z = up.normalized();
   Eigen::Vector3d flat = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;

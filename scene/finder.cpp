@@ -761,6 +761,39 @@ void TopiaryAmongOthers(const ScenePoints& s, const GroundModel& ground, double 
   }
 }
 
+// A ball's points without those on the side of a topiary found by height beside it: within that
+// shape's shell (2.5 times its roughness, at least the ground's noise) and nearer its surface than
+// the ball's. A neighbour touching a squat spheroid seen from above lies, on its near side, on
+// the cap of a ball far larger than the spheroid, and keeps that ball's fit ahead of the
+// spheroid's (simulated bed 205: a 400 x 400 x 210 mm spheroid read as a 560 mm ball). Which
+// points went to which topiary, in `lent`.
+std::vector<std::size_t> WithoutNeighboursSides(const std::vector<Eigen::Vector3d>& pts, const Candidate& ball,
+                                                const std::vector<Candidate>& topiary, double noise_mm,
+                                                std::vector<std::vector<std::size_t>>* lent) {
+  const fitting::Sphere& sphere = ball.j.sphere;
+  std::vector<std::size_t> near;
+  for (std::size_t k = 0; k < topiary.size(); ++k) {
+    const TopiaryShape& t = topiary[k].topiary->shape;
+    const double reach = sphere.radius_mm + t.axes_mm.head<2>().maxCoeff() + 3 * std::max(noise_mm, t.roughness_mm);
+    if ((t.center_mm.head<2>() - sphere.center_mm.head<2>()).norm() < reach) near.push_back(k);
+  }
+  if (near.empty()) return ball.points;
+  std::vector<std::size_t> own;
+  for (std::size_t i : ball.points) {
+    const double to_ball = std::abs((pts[i] - sphere.center_mm).norm() - sphere.radius_mm);
+    int to = -1;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t k : near) {
+      const TopiaryShape& t = topiary[k].topiary->shape;
+      const double d = std::abs(fitting::DistanceOutside(t, pts[i]));
+      if (d <= 2.5 * std::max(noise_mm, t.roughness_mm) && d < to_ball && d < nearest) nearest = d, to = int(k);
+    }
+    if (to < 0) own.push_back(i);
+    else (*lent)[std::size_t(to)].push_back(i);
+  }
+  return own;
+}
+
 // A dome from the ball search whose points a spheroid or an ellipsoid fits clearly better (by
 // BIC, axes 5 % apart, and apart by more than twice their 95 % intervals) is that shape: a squat
 // clipped dome seen from above passes for the cap of a larger ball, whose radius would be a third
@@ -779,7 +812,9 @@ void ShapesOfBalls(const ScenePoints& s, const GroundModel& ground, double spaci
       continue;
     }
     const GroundModel& g = c.local_ground ? *c.local_ground : ground;
-    TopiaryCandidate t = JudgeTopiary(s.pts, c.points, g, lawn, cell, to, 1.3 * c.j.sphere.radius_mm);
+    std::vector<std::vector<std::size_t>> lent(topiary->size());
+    const std::vector<std::size_t> own = WithoutNeighboursSides(s.pts, c, *topiary, ground.noise_mm, &lent);
+    TopiaryCandidate t = JudgeTopiary(s.pts, own, g, lawn, cell, to, 1.3 * c.j.sphere.radius_mm);
     const Eigen::Vector3d& ax = t.shape.axes_mm;
     const Eigen::Vector3d& ci = t.shape.axes_ci95_mm;
     const bool apart = std::abs(ax.x() - ax.z()) > 2 * std::hypot(ci.x(), ci.z()) ||
@@ -791,9 +826,13 @@ void ShapesOfBalls(const ScenePoints& s, const GroundModel& ground, double spaci
     // The ball search has judged it clipped; the shape says which.
     t.topiary = true;
     t.reason.clear();
+    for (std::size_t k = 0; k < lent.size(); ++k) {
+      auto& theirs = (*topiary)[k].points;
+      theirs.insert(theirs.end(), lent[k].begin(), lent[k].end());
+    }
     Candidate shaped;
     shaped.j.verdict = t.shape.shape;
-    shaped.points = c.points;
+    shaped.points = own;
     shaped.topiary = std::move(t);
     topiary->push_back(std::move(shaped));
   }
