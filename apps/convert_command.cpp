@@ -13,8 +13,9 @@
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
 #include "stereo/capture.hpp"
-#include "stereo/capture_batch.hpp"
+#include "measure/capture_batch.hpp"
 #include "stereo/rig.hpp"
+#include "measure/recipes.hpp"
 
 namespace hedgefit::apps {
 
@@ -39,32 +40,32 @@ int RunConvert(const ConvertArgs& a) {
   }
   if (!single && a.input.empty()) throw Error("give --left/--right/-o for one capture, or --input DIR|MANIFEST");
   if (a.print_pipeline) {
-    const std::string shown = stereo::PerHedgePath(single ? a.output : "OUTPUT.pcd", a.capture.garden());
-    std::printf("%s\n", stereo::CapturePipelineJson(o, single ? a.left : "LEFT.png", single ? a.right : "RIGHT.png",
-                                                    a.rig, shown).c_str());
+    const std::string shown = measure::PerHedgePath(single ? a.output : "OUTPUT.pcd", a.capture.garden());
+    std::printf("%s\n", measure::ConvertPipelineJson(o, single ? a.left : "LEFT.png", single ? a.right : "RIGHT.png",
+                                                     a.rig, shown).c_str());
     return kExitOk;
   }
   if (single) cloud::CheckCloudOutput("-o", a.output);
   stereo::ReadRig(a.rig);  // a bad rig fails once, before any capture
-  std::vector<stereo::CaptureFiles> captures;
+  std::vector<measure::CaptureFiles> captures;
   if (single) {
     stereo::CheckCaptureImages(a.left, a.right);  // a missing or unreadable image: exit 1, before any work
-    captures.push_back({stereo::StemWithoutHedgeMark(a.output), a.left, a.right});
+    captures.push_back({measure::StemWithoutHedgeMark(a.output), a.left, a.right});
   } else {
-    captures = stereo::ListCaptures(a.input);
+    captures = measure::ListCaptures(a.input);
     fs::create_directories(a.output_dir);
   }
-  if (!a.shard.empty()) captures = stereo::Shard(captures, a.shard);
+  if (!a.shard.empty()) captures = measure::Shard(captures, a.shard);
   // A line per capture; a failure in a batch is reported and skipped, in a single capture it is
   // the run's error. Failures go to stderr even with --quiet: quiet hides progress, not problems.
   std::size_t done = 0, failed = 0, unusable = 0;
-  stereo::CaptureOutcome first_failure;
-  const auto output_of = [&](const stereo::CaptureFiles& c) {
-    return stereo::PerHedgePath(single ? a.output : (fs::path(a.output_dir) / (c.name + ".pcd")).string(),
+  measure::CaptureOutcome first_failure;
+  const auto output_of = [&](const measure::CaptureFiles& c) {
+    return measure::PerHedgePath(single ? a.output : (fs::path(a.output_dir) / (c.name + ".pcd")).string(),
                                 a.capture.garden());
   };
   const auto t0 = std::chrono::steady_clock::now();
-  stereo::ConvertCaptures(o, captures, a.rig, output_of, a.debug, a.threads, [&](const stereo::CaptureOutcome& c) {
+  measure::ConvertCaptures(o, captures, a.rig, output_of, a.debug, a.threads, [&](const measure::CaptureOutcome& c) {
     const char* name = c.capture->name.c_str();
     ++done;
     if (!c.error.empty()) {

@@ -15,7 +15,7 @@
 #include "stereo/stereo_stages.hpp"
 #include "cli/parse.hpp"
 #include "cli/measure_lines.hpp"
-#include "stereo/capture_batch.hpp"
+#include "measure/capture_batch.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
 #include "fitting/methods.hpp"
@@ -28,7 +28,8 @@
 #include "cli/stage_flags.hpp"
 #include "cloud/cloud_io.hpp"
 #include "fitting/methods.hpp"
-#include "render/around_view.hpp"
+#include "around/around_view.hpp"
+#include "measure/recipes.hpp"
 
 #include <iostream>
 
@@ -84,7 +85,7 @@ int RunMeasureAround(const MeasureArgs& a) {
   std::fflush(stdout);
   for (const std::string& w : r.warnings) std::fprintf(stderr, "hedgefit: warning: %s\n", w.c_str());
   if (!a.fused.empty()) cloud::WriteCloud(a.fused, r.cloud);
-  if (!a.plot.empty()) render::WriteAroundView(r, a.plot);
+  if (!a.plot.empty()) around::WriteAroundView(r, a.plot);
   if (r.hedges.empty()) throw ProcessingError(source + ": no hedge could be fused from the captures");
   const bool any_confirmed =
       std::any_of(r.hedges.begin(), r.hedges.end(), [](const around::FusedHedge& h) { return h.unconfirmed.empty(); });
@@ -160,7 +161,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       std::vector<std::string> fit_stages;
       for (const std::string& name : methods) fit_stages.push_back(fitting::FindFitMethod(name, "--method").stage);
       const json stages =
-          json::parse(stereo::MeasurePipelineJson(o, fit_stages, !a->no_clean, a->left, a->right, a->rig, a->overlay));
+          json::parse(measure::MeasurePipelineJson(o, fit_stages, !a->no_clean, a->left, a->right, a->rig, a->overlay));
       if (a->print_pipeline) {
         std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
         return kExitOk;
@@ -191,7 +192,7 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
         throw ProcessingError(named ? what : a->left + ": " + what);
       }
       const MeasureLines m = CollectMeasureLines(ctx, report);
-      if (const std::string hint = stereo::CaptureHint(ctx); !hint.empty()) {
+      if (const std::string hint = measure::CaptureHint(ctx); !hint.empty()) {
         std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), hint.c_str());
       }
       for (const auto& j : m.lines) std::printf("%s\n", a->pretty ? j.dump(2).c_str() : j.dump().c_str());
@@ -201,9 +202,9 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
       if (converged == 0) throw ProcessingError(a->left + ": no fit converged (" + failure + ")");
       if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());
       for (const std::string& why : m.not_balls) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), why.c_str());
-      if (stereo::CaptureUnusable(ctx)) return kExitUnusable;
+      if (measure::CaptureUnusable(ctx)) return kExitUnusable;
       // Without --strict the capture's hint above has said it already.
-      if (const std::string unchecked = stereo::CaptureUnchecked(ctx); a->strict && !unchecked.empty()) {
+      if (const std::string unchecked = measure::CaptureUnchecked(ctx); a->strict && !unchecked.empty()) {
         std::fprintf(stderr, "hedgefit: error: %s: %s (--strict)\n", a->left.c_str(), unchecked.c_str());
         return kExitUnusable;
       }

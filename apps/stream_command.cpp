@@ -16,7 +16,7 @@
 #include "apps/commands.hpp"
 #include "cli/parse.hpp"
 #include "cli/measure_lines.hpp"
-#include "stereo/capture_batch.hpp"
+#include "measure/capture_batch.hpp"
 #include "io/frame_source.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
@@ -25,6 +25,7 @@
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "stereo/overlap.hpp"
+#include "measure/recipes.hpp"
 
 namespace hedgefit::apps {
 
@@ -71,7 +72,7 @@ static int RunStream(const StreamArgs& a) {
   }
   // Built once: the rig, the pipeline and its stages.
   const stereo::StereoRig rig = stereo::ReadRig(a.rig);
-  stereo::OverlappedRunner runner(stereo::MeasurePipelineJson(o, fit_stages, !a.no_clean), "stream", registry);
+  stereo::OverlappedRunner runner(measure::MeasurePipelineJson(o, fit_stages, !a.no_clean), "stream", registry);
   std::unique_ptr<io::Source> src;
   if (!a.watch.empty()) {
     src = io::WatchDirectory(a.watch, a.idle_s);
@@ -112,10 +113,10 @@ static int RunStream(const StreamArgs& a) {
     if (why.empty()) {
       try {
         const MeasureLines m = CollectMeasureLines(ctx, report);
-        const std::string hint = stereo::CaptureHint(ctx);
+        const std::string hint = measure::CaptureHint(ctx);
         for (const auto& st : report.stages) stage_ms[st.type] += st.wall_ms;
-        unusable_frames += stereo::CaptureUnusable(ctx);
-        unchecked_frames += !stereo::CaptureUnchecked(ctx).empty();
+        unusable_frames += measure::CaptureUnusable(ctx);
+        unchecked_frames += !measure::CaptureUnchecked(ctx).empty();
         for (const auto& line : m.lines) {
           json j = head;
           for (const auto& [k, v] : line.items()) j[k] = v;

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/outline.hpp"
+#include "cloud/outline_rays.hpp"
 #include "cloud/point_cloud.hpp"
 #include "fitting/envelope_fit.hpp"
 #include "pipeline/option_table.hpp"

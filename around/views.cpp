@@ -7,6 +7,7 @@
 #include "stereo/image_io.hpp"
 #include "stereo/outline.hpp"
 #include "stereo/rig.hpp"
+#include "measure/outline_start.hpp"
 
 namespace hedgefit::around {
 
@@ -23,7 +24,7 @@ View MeasureView(const PosedCapture& capture, const std::string& rig_path, const
     const stereo::ConvertResult res = stereo::ConvertCapture(left, right, rig, o);
     const cloud::PointCloud cleaned = cloud::RunFilterStages(res.cloud, cloud::DefaultCleaningJson(), capture.left);
     const cloud::HedgeOutlines outlines =
-        stereo::MeasureCloudOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, cleaned, 42, res.ground);
+        measure::MeasureCloudOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, cleaned, 42, res.ground);
     for (const cloud::HedgeGroup& g : cloud::HedgeGroups(cleaned)) {
       ViewHedge h;
       h.id = g.id;

@@ -24,8 +24,6 @@
 #include <thread>
 #include <vector>
 
-#include "cloud/cloud_stages.hpp"
-#include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
@@ -33,6 +31,8 @@
 #include "stereo/capture.hpp"
 #include "stereo/overlap.hpp"
 #include "stereo/stereo_stages.hpp"
+#include "measure/modules.hpp"
+#include "measure/recipes.hpp"
 
 namespace {
 
@@ -113,7 +113,7 @@ std::vector<Timings> WarmFrames(const Scene& s, const std::vector<stereo::Conver
                                 const std::vector<std::string>& fits, int frames, const pipeline::Registry& registry) {
   std::vector<pipeline::Pipeline> pipelines;
   for (const auto& o : options) {
-    pipelines.push_back(pipeline::Pipeline::FromJson(stereo::MeasurePipelineJson(o, fits, true), "measure", registry, {},
+    pipelines.push_back(pipeline::Pipeline::FromJson(measure::MeasurePipelineJson(o, fits, true), "measure", registry, {},
                                                      {"left_image", "right_image", "rig"}));
   }
   std::vector<Timings> out(pipelines.size());
@@ -136,7 +136,7 @@ std::vector<Timings> WarmFrames(const Scene& s, const std::vector<stereo::Conver
 // while frame N is measured; the time per frame is between consecutive results.
 Timings StreamFrames(const Scene& s, const stereo::ConvertOptions& o, const std::vector<std::string>& fits, int frames,
                      const pipeline::Registry& registry) {
-  stereo::OverlappedRunner runner(stereo::MeasurePipelineJson(o, fits, true), "stream", registry);
+  stereo::OverlappedRunner runner(measure::MeasurePipelineJson(o, fits, true), "stream", registry);
   Timings t;
   int fed = 0;
   auto next = [&](cv::Mat* l, cv::Mat* r, pipeline::Context*, std::string*) {
@@ -215,9 +215,7 @@ int main(int argc, char** argv) {
     }
   }
   pipeline::Registry registry;
-  cloud::RegisterCloudStages(registry);
-  stereo::RegisterStereoStages(registry);
-  fitting::RegisterFittingStages(registry);
+  measure::AddStageModules(registry);
   const std::vector<std::string> fits = {fitting::FindFitMethod(method, "--method").stage};
   std::printf("capture to spheres, 1920 x 1200 pairs (hedgefit's renderer), %u hardware threads; fit: %s; ms per frame\n",
               std::thread::hardware_concurrency(), method.c_str());

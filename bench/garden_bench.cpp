@@ -22,6 +22,7 @@
 #include "sim/simulator.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/outline.hpp"
+#include "measure/outline_start.hpp"
 
 namespace hedgefit::bench {
 
@@ -337,7 +338,7 @@ GardenResult RunGarden(const GardenOptions& a) {
     const auto raw_groups = cloud::HedgeGroups(res.cloud);  // the written clouds, for the 50 mm share
     // Each hedge's outline, as stereo.outline measures it in a pipeline.
     const cloud::HedgeOutlines outlines =
-        a.outline ? stereo::MeasureCloudOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, cleaned, 42, res.ground)
+        a.outline ? measure::MeasureCloudOutlines(res.left_rect, res.right_rect, res.hedge_labels, rig, cleaned, 42, res.ground)
                   : cloud::HedgeOutlines();
     std::vector<fitting::Sphere> spheres;
     for (const auto& t : truths) spheres.push_back(fitting::Sphere{t.center_mm, t.radius_mm});

@@ -14,7 +14,7 @@
 
 #include "eval/evaluation.hpp"
 #include "cloud/cleaning.hpp"
-#include "cloud/outline.hpp"
+#include "cloud/outline_rays.hpp"
 #include "pipeline/option_table.hpp"
 #include "stereo/capture.hpp"
 #include "sim/simulator.hpp"

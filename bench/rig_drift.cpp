@@ -6,16 +6,15 @@
 #include <map>
 #include <unistd.h>
 
-#include "cloud/cloud_stages.hpp"
 #include "eval/truth_file.hpp"
-#include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/uncertainty.hpp"
 #include "pipeline/error.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
 #include "stereo/capture.hpp"
-#include "stereo/stereo_stages.hpp"
+#include "measure/recipes.hpp"
+#include "measure/modules.hpp"
 
 namespace hedgefit::bench {
 
@@ -42,7 +41,7 @@ void MeasureOne(const std::string& left, const std::string& rig_path, const std:
   const std::string right = Replace(left, "_left.", "_right.");
   const std::vector<eval::SphereTruth> truths = eval::ReadSphereTruths(Replace(left, "_left.png", ".truth.json"));
   const std::string json =
-      stereo::MeasurePipelineJson(stereo::ConvertOptions(), {stage}, true, left, right, rig_path, "");
+      measure::MeasurePipelineJson(stereo::ConvertOptions(), {stage}, true, left, right, rig_path, "");
   pipeline::Pipeline p = pipeline::Pipeline::FromJson(json, "rig drift", pipeline::Registry::Global());
   pipeline::Context ctx;
   ctx.quiet = true;
@@ -104,9 +103,7 @@ void MeasureOne(const std::string& left, const std::string& rig_path, const std:
 
 std::vector<DriftRow> RunRigDrift(const DriftOptions& o) {
   pipeline::Registry& registry = pipeline::Registry::Global();
-  registry.AddModule("cloud", &cloud::RegisterCloudStages);
-  registry.AddModule("stereo", &stereo::RegisterStereoStages);
-  registry.AddModule("fitting", &fitting::RegisterFittingStages);
+  measure::AddStageModules(registry);
   const std::string stage = fitting::FindFitMethod(o.method, "--method").stage;
   const stereo::StereoRig rig = stereo::ReadRig(o.rig);
   const std::string tmp = (fs::temp_directory_path() / ("hedgefit_drift_" + std::to_string(getpid()) + ".yaml")).string();

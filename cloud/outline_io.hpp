@@ -11,7 +11,7 @@
 #include <optional>
 #include <string>
 
-#include "cloud/outline.hpp"
+#include "cloud/outline_rays.hpp"
 
 namespace hedgefit::cloud {
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/uncertainty.hpp"
+#include "cloud/point_perturbation.hpp"
 #include "eval/evaluation.hpp"
 #include "fitting/sphere_fit.hpp"
 #include "pipeline/stage.hpp"

@@ -22,7 +22,7 @@
 #include <optional>
 #include <vector>
 
-#include "cloud/outline.hpp"
+#include "cloud/outline_rays.hpp"
 #include "pipeline/option_table.hpp"
 #include "fitting/sphere_fit.hpp"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cloud/outline.hpp"
+#include "cloud/outline_rays.hpp"
 #include "pipeline/stage.hpp"
 #include "fitting/sphere_fit.hpp"
 

@@ -8,7 +8,7 @@
 #include <optional>
 #include <vector>
 
-#include "cloud/uncertainty.hpp"
+#include "cloud/point_perturbation.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::fitting {

@@ -25,23 +25,21 @@
 #include "pipeline/version.hpp"
 #include "eval/evaluation.hpp"
 #include "fitting/fit_fields.hpp"
-#include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/trim.hpp"
-#include "render/render_stages.hpp"
 #include "around/around_report.hpp"
 #include "around/fusion.hpp"
 #include "around/views.hpp"
 #include "scene/find_report.hpp"
 #include "scene/finder.hpp"
-#include "scene/scene_stages.hpp"
 #include "cloud/describe.hpp"
 #include "stereo/capture.hpp"
-#include "stereo/capture_batch.hpp"
+#include "measure/capture_batch.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "stereo/rig_check.hpp"
-#include "cloud/cloud_stages.hpp"
+#include "measure/recipes.hpp"
+#include "measure/modules.hpp"
 
 namespace py = pybind11;
 using namespace hedgefit;
@@ -51,11 +49,7 @@ namespace {
 const pipeline::Registry& Stages() {
   static pipeline::Registry& registry = [] () -> pipeline::Registry& {
     pipeline::Registry& r = pipeline::Registry::Global();
-    r.AddModule("cloud", &cloud::RegisterCloudStages);
-    r.AddModule("fitting", &fitting::RegisterFittingStages);
-    r.AddModule("render", &render::RegisterRenderStages);
-    r.AddModule("scene", &scene::RegisterSceneStages);
-    r.AddModule("stereo", &stereo::RegisterStereoStages);
+    measure::AddStageModules(r);
     return r;
   }();
   return registry;
@@ -239,7 +233,7 @@ void AddCaptureFunctions(py::module_& m) {
         stereo::ConvertOptions o;
         if (garden) o.mode = stereo::SegmentMode::kGarden;
         nlohmann::json stages = nlohmann::json::parse(
-            stereo::MeasurePipelineJson(o, {fitting::FindFitMethod(method, "method").stage}, clean));
+            measure::MeasurePipelineJson(o, {fitting::FindFitMethod(method, "method").stage}, clean));
         // Each keyword sets that option in every capture stage that declares it (as a
         // `hedgefit measure` flag does); one no stage declares is an error.
         for (const auto& [key, value] : options) {
@@ -262,7 +256,7 @@ void AddCaptureFunctions(py::module_& m) {
         py::dict run = RunAndCollect(p, ctx);
         // What `hedgefit measure` prints as warnings (the rig check's, the colour mask's) as a
         // Python warning; an unusable hedge's dict also says why under "unusable".
-        if (const std::string hint = stereo::CaptureHint(ctx); !hint.empty()) {
+        if (const std::string hint = measure::CaptureHint(ctx); !hint.empty()) {
           if (PyErr_WarnEx(PyExc_RuntimeWarning, ("hedgefit.measure: " + hint).c_str(), 1) != 0) throw py::error_already_set();
         }
         return py::list(run["fits"]);

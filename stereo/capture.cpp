@@ -1,7 +1,5 @@
 #include "stereo/capture.hpp"
 
-#include "cloud/outline_io.hpp"
-#include "cloud/cleaning.hpp"
 #include "cloud/cloud_stages.hpp"
 
 #include <nlohmann/json.hpp>
@@ -363,7 +361,7 @@ ConvertOptions ReferenceOptions() {
 }
 
 std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left, const std::string& right,
-                                const std::string& rig, const std::string& output) {
+                                const std::string& rig) {
   using nlohmann::json;
   auto stage = [](const std::string& type, const std::map<std::string, pipeline::OptionValue>& values) {
     json j = {{"type", type}};
@@ -396,38 +394,14 @@ std::string CapturePipelineJson(const ConvertOptions& o, const std::string& left
   // Every capture checks its rig against its own images (whatever the matcher).
   p.push_back(stage("stereo.rig_check", RigCheckOptions::Table().Values(o.rig_check)));
   p.push_back(stage("stereo.reproject", ReprojectOptions::Table().Values(o.reproject)));
-  if (!output.empty()) {
-    p.push_back({{"type", "writers.pcd"}, {"filename", output}, {"encoding", "binary_compressed"}});
-    // The outline beside the cloud (cloud/outline_io.hpp): compare's envelope on it is measure's.
-    p.push_back({{"type", "writers.outline"}, {"filename", cloud::OutlineSidecarPath(output)}});
-  }
-  return p.dump(2);
-}
-
-std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector<std::string>& fit_stages, bool clean,
-                                const std::string& left, const std::string& right, const std::string& rig,
-                                const std::string& overlay) {
-  using nlohmann::json;
-  json p = json::parse(CapturePipelineJson(options, left, right, rig));
-  if (clean) {
-    for (auto stage : json::parse(cloud::DefaultCleaningJson())) {
-      if (options.reference_cleaning && stage["type"] == "filters.hedge_outlier") stage["neighbours"] = "space";
-      p.push_back(stage);
-    }
-  }
-  // The envelope fit also fits each hedge's outline, measured about a first fit to the cleaned points.
-  if (std::find(fit_stages.begin(), fit_stages.end(), "fitters.envelope") != fit_stages.end()) {
-    p.push_back({{"type", "stereo.outline"}});
-  }
-  for (const std::string& type : fit_stages) p.push_back({{"type", type}});
-  if (!overlay.empty()) p.push_back({{"type", "writers.overlay"}, {"filename", overlay}});
   return p.dump(2);
 }
 
 ConvertResult ConvertCapture(const cv::Mat& left_bgr, const cv::Mat& right_bgr, const StereoRig& rig,
                              const ConvertOptions& options) {
   options.Check();
-  // The process's registry, so a matcher added by a plugin or a library user works here too.
+  // The process's registry, so a matcher added by a plugin or a library user works here too. The
+  // capture path's stages are stereo/'s and cloud/'s, both at or below this layer.
   pipeline::Registry& registry = pipeline::Registry::Global();
   registry.AddModule("cloud", &cloud::RegisterCloudStages);
   registry.AddModule("stereo", &RegisterStereoStages);

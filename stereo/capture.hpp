@@ -141,7 +141,7 @@ struct ConvertOptions {
   std::string matcher = "stereo.sgbm";
   RigCheckOptions rig_check;  ///< stereo.rig_check, after the matcher
   ReprojectOptions reproject;
-  /// MeasurePipelineJson's cleaning searches every point's neighbours in 3-D, as 0.7.0 did
+  /// measure::MeasurePipelineJson's cleaning searches every point's neighbours in 3-D, as 0.7.0 did
   /// (ReferenceOptions), not on the image grid.
   bool reference_cleaning = false;
   void Check() const;
@@ -151,20 +151,12 @@ struct ConvertOptions {
 /// (`bench_capture` times both): the same results within the accuracy tables' 0.05 mm, slower.
 ConvertOptions ReferenceOptions();
 
-/// The capture path as a pipeline (JSON array of stages): readers.stereo with these files
-/// when `left` is not empty, then stereo.rectify, the segmentation stage, stereo.sgbm,
-/// stereo.reproject, and writers.pcd when `output` is not empty. `hedgefit convert
-/// --print-pipeline` prints it.
+/// The capture path, images to cloud, as a pipeline (JSON array of stages): readers.stereo
+/// with these files when `left` is not empty, then stereo.rectify, the segmentation stage, the
+/// matcher, stereo.rig_check and stereo.reproject. The measuring layer's recipes
+/// (measure/recipes.hpp) add the writers, the cleaning and the fits.
 std::string CapturePipelineJson(const ConvertOptions& options, const std::string& left = "",
-                                const std::string& right = "", const std::string& rig = "",
-                                const std::string& output = "");
-
-/// `hedgefit measure`'s pipeline: the capture stages (without a writer), the default cleaning
-/// when `clean` (cloud::DefaultCleaningJson), one stage per entry of `fit_stages` (e.g.
-/// "fitters.ransac_geometric"), and writers.overlay when `overlay` is not empty.
-std::string MeasurePipelineJson(const ConvertOptions& options, const std::vector<std::string>& fit_stages, bool clean,
-                                const std::string& left = "", const std::string& right = "",
-                                const std::string& rig = "", const std::string& overlay = "");
+                                const std::string& right = "", const std::string& rig = "");
 
 struct ConvertResult {
   cloud::PointCloud cloud;

@@ -16,11 +16,10 @@
 #include <opencv2/core.hpp>
 
 #include <cstddef>
-#include <cstdint>
 #include <map>
 #include <optional>
 
-#include "cloud/outline.hpp"
+#include "cloud/outline_rays.hpp"
 #include "cloud/point_cloud.hpp"
 #include "stereo/rig.hpp"
 
@@ -40,12 +39,5 @@ cloud::HedgeOutlines MeasureOutlines(const cv::Mat& left_rect, const cv::Mat& ri
                                      const StereoRig& rig, const std::map<int, Eigen::Vector4d>& start,
                                      const std::optional<cv::Vec4d>& ground = std::nullopt,
                                      std::map<int, OutlineStats>* stats = nullptr);
-
-/// MeasureOutlines about each hedge's envelope fitted to `cloud`'s points alone (per hedge_id
-/// group; fitting's "envelope" method with `seed`): what stage stereo.outline does.
-cloud::HedgeOutlines MeasureCloudOutlines(const cv::Mat& left_rect, const cv::Mat& right_rect, const cv::Mat& labels,
-                                          const StereoRig& rig, const cloud::PointCloud& cloud, std::uint64_t seed,
-                                          const std::optional<cv::Vec4d>& ground = std::nullopt,
-                                          std::map<int, OutlineStats>* stats = nullptr);
 
 }  // namespace hedgefit::stereo

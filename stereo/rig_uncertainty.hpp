@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "cloud/uncertainty.hpp"
+#include "cloud/point_perturbation.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/row_check.hpp"
 

@@ -24,6 +24,8 @@
 #include "stereo/overlap.hpp"
 #include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
+#include "measure/modules.hpp"
+#include "measure/recipes.hpp"
 #include "tests/test_data.hpp"
 
 namespace hedgefit::stereo {
@@ -224,10 +226,8 @@ TEST(Capture, OverlappedFramesGiveWhatOneAtATimeGives) {
   const cv::Mat l = RenderSphere(sim, false, scene), r = RenderSphere(sim, true, scene);
   const StereoRig rig = TrueRig(sim);
   Registry registry;
-  cloud::RegisterCloudStages(registry);
-  RegisterStereoStages(registry);
-  fitting::RegisterFittingStages(registry);
-  const std::string json = MeasurePipelineJson(ConvertOptions{}, {"fitters.ransac_ray"}, true);
+  measure::AddStageModules(registry);
+  const std::string json = measure::MeasurePipelineJson(ConvertOptions{}, {"fitters.ransac_ray"}, true);
   Pipeline alone = Pipeline::FromJson(json, "test", registry, {}, {"left_image", "right_image", "rig"});
   Context ctx;
   ctx.quiet = true;
@@ -509,9 +509,7 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
   const SimRig sim = PaperRig(0.5);
   WriteSimulatedCapture(dir, sim);
   pipeline::Registry registry;
-  cloud::RegisterCloudStages(registry);
-  fitting::RegisterFittingStages(registry);
-  RegisterStereoStages(registry);
+  measure::AddStageModules(registry);
   const std::string d = dir.string();
   const std::string json = R"([{"type": "readers.stereo", "left": ")" + d + R"(/l.png", "right": ")" + d +
                            R"(/r.png", "rig": ")" + d + R"(/rig.yaml"}, {"type": "stereo.rectify"},

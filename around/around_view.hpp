@@ -7,10 +7,10 @@
 
 #include "around/fusion.hpp"
 
-namespace hedgefit::render {
+namespace hedgefit::around {
 
 /// Draws `result` to a PNG of about `size` px on its longer side, looking down `result.up`; throws
 /// hedgefit::Error naming `path` when it cannot be written.
-void WriteAroundView(const around::FuseResult& result, const std::string& path, int size = 1200);
+void WriteAroundView(const FuseResult& result, const std::string& path, int size = 1200);
 
-}  // namespace hedgefit::render
+}  // namespace hedgefit::around

@@ -1,4 +1,4 @@
-#include "render/around_view.hpp"
+#include "around/around_view.hpp"
 
 #include <opencv2/imgproc.hpp>
 
@@ -8,9 +8,9 @@
 #include "pipeline/print.hpp"
 #include "stereo/image_io.hpp"
 
-namespace hedgefit::render {
+namespace hedgefit::around {
 
-void WriteAroundView(const around::FuseResult& r, const std::string& path, int size) {
+void WriteAroundView(const FuseResult& r, const std::string& path, int size) {
   // The view: looking down the vertical; the first capture's forward points up the picture.
   const Eigen::Vector3d up = r.up.normalized();
   Eigen::Vector3d ahead = Eigen::Vector3d::UnitZ();
@@ -89,4 +89,4 @@ void WriteAroundView(const around::FuseResult& r, const std::string& path, int s
   stereo::WriteImageAtomic(path, img);
 }
 
-}  // namespace hedgefit::render
+}  // namespace hedgefit::around

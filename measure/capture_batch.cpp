@@ -1,4 +1,4 @@
-#include "stereo/capture_batch.hpp"
+#include "measure/capture_batch.hpp"
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -15,13 +15,19 @@
 #include "pipeline/input_check.hpp"
 #include "pipeline/parallel.hpp"
 #include "pipeline/registry.hpp"
+#include "measure/recipes.hpp"
 #include "stereo/capture.hpp"
 #include "stereo/image_io.hpp"
 #include "stereo/segmentation.hpp"
 
-namespace hedgefit::stereo {
+namespace hedgefit::measure {
 
 namespace fs = std::filesystem;
+using stereo::ColorizeDisparity;
+using stereo::ConvertOptions;
+using stereo::HedgeRegion;
+using stereo::MaskOverlay;
+using stereo::WriteImageAtomic;
 
 namespace {
 
@@ -263,7 +269,7 @@ void ConvertCaptures(const ConvertOptions& o, const std::vector<CaptureFiles>& c
       c.output = output_of(captures[k]);
       try {
         pipeline::Pipeline p = pipeline::Pipeline::FromJson(
-            CapturePipelineJson(o, captures[k].left, captures[k].right, rig, c.output), "convert",
+            ConvertPipelineJson(o, captures[k].left, captures[k].right, rig, c.output), "convert",
             pipeline::Registry::Global());
         pipeline::Context ctx;
         ctx.quiet = true;
@@ -282,4 +288,4 @@ void ConvertCaptures(const ConvertOptions& o, const std::vector<CaptureFiles>& c
   });
 }
 
-}  // namespace hedgefit::stereo
+}  // namespace hedgefit::measure

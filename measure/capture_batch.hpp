@@ -10,12 +10,14 @@
 #include "pipeline/pipeline.hpp"
 
 namespace hedgefit::stereo {
+struct ConvertOptions;
+}  // namespace hedgefit::stereo
+
+namespace hedgefit::measure {
 
 struct CaptureFiles {
   std::string name, left, right;
 };
-
-struct ConvertOptions;
 
 /// What became of one capture in ConvertCaptures.
 struct CaptureOutcome {
@@ -32,7 +34,7 @@ struct CaptureOutcome {
 /// `--print-pipeline` shows) into `output_of(capture)`, `threads` at a time (0 = all cores),
 /// also writing the debug pictures when `debug`. `done` is called once per capture as it
 /// finishes, one call at a time; a failure is reported there, not thrown.
-void ConvertCaptures(const ConvertOptions& o, const std::vector<CaptureFiles>& captures, const std::string& rig,
+void ConvertCaptures(const stereo::ConvertOptions& o, const std::vector<CaptureFiles>& captures, const std::string& rig,
                      const std::function<std::string(const CaptureFiles&)>& output_of, bool debug, int threads,
                      const std::function<void(const CaptureOutcome&)>& done);
 
@@ -81,4 +83,4 @@ bool CaptureUnusable(pipeline::Context& ctx);
 /// --strict` and `stream` (unless --no-strict) refuse such a result with exit 3.
 std::string CaptureUnchecked(pipeline::Context& ctx);
 
-}  // namespace hedgefit::stereo
+}  // namespace hedgefit::measure
