@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "fitting/log_erfc.hpp"
 
@@ -201,53 +202,6 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
   return out;
 }
 
-// Residuals are not independent: a leaf layer, a reconstruction's patches and a lower half no
-// sensor saw move whole parts of the surface together. A block jackknife over 16 patches (8
-// sectors about the axis, above and below the centre) refits `family` from `q` without each, on
-// at most 800 of `p`: the 95 % half-widths of its free parameters, or an empty vector when fewer
-// than 4 patches could be left out. With the leaf `layer` (FitLeafLayer's solution on all of
-// `p`), each refit's semi-axes carry their own envelope offset (noise `noise_mm`), so the axes' intervals hold the offset's
-// uncertainty too: a leaf layer seen thicker on one side moves it.
-Eigen::Vector4d FitLeafLayer(const std::vector<double>& r, double sigma, const Eigen::Vector4d* start);
-Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family family, const Full& q, const Bounds& bounds,
-                              const Eigen::Vector4d* layer, double noise_mm) {
-  std::vector<Eigen::Vector3d> q_pts;
-  const std::size_t q_step = p.size() / 800 + 1;
-  for (std::size_t i = 0; i < p.size(); i += q_step) q_pts.push_back(p[i]);
-  auto block = [&](const Eigen::Vector3d& v) {
-    const Eigen::Vector3d d = v - q.head<3>();
-    const int sector = std::clamp(int((std::atan2(d.y(), d.x()) + M_PI) / (2 * M_PI) * 8), 0, 7);
-    return sector * 2 + (d.z() >= 0 ? 1 : 0);
-  };
-  std::vector<Eigen::VectorXd> refits;
-  for (int b = 0; b < 16; ++b) {
-    std::vector<Eigen::Vector3d> kept;
-    for (const auto& v : q_pts) if (block(v) != b) kept.push_back(v);
-    if (kept.size() == q_pts.size() || kept.size() < 20) continue;  // an empty patch says nothing
-    FamilyFit f = FitFamily(kept, family, q, bounds);
-    if (!f.ok) continue;
-    if (layer) {
-      std::vector<double> r;  // 300 residuals: the offset to a millimetre or two, 16 times over
-      const std::size_t every = kept.size() / 300 + 1;
-      const Surface surface(f.q);
-      for (std::size_t i = 0; i < kept.size(); i += every) r.push_back(surface.Radial(kept[i], true));
-      const double offset = std::max(0.0, FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, layer)(0));
-      const int axes = family == Family::kBall ? 1 : family == Family::kSpheroid ? 2 : 3;
-      f.x.segment(3, axes).array() += offset;
-    }
-    refits.push_back(f.x);
-  }
-  if (refits.size() < 4) return {};
-  Eigen::VectorXd centre = Eigen::VectorXd::Zero(refits[0].size());
-  for (const auto& x : refits) centre += x;
-  centre /= double(refits.size());
-  Eigen::VectorXd var = Eigen::VectorXd::Zero(centre.size());
-  for (const auto& x : refits) var += (x - centre).cwiseAbs2();
-  const double n = double(refits.size());
-  return (var * (n - 1) / n).cwiseSqrt() * 1.96;
-}
-
-
 // The leaf layer's model (envelope_fit.hpp's, along the surface's normal): a residual r (outward
 // +) is delta - D + N(0, sigma^2), the leaf's depth D below the envelope 0 for a share w (the
 // shears' cut) and exponential (mean mu) for the rest; 2 % uniform outliers. Mean negative
@@ -320,6 +274,51 @@ Eigen::Vector4d FitLeafLayer(const std::vector<double>& r, double sigma, const E
   return v[std::size_t(std::min_element(f.begin(), f.end()) - f.begin())];
 }
 
+// Residuals are not independent: a leaf layer, a reconstruction's patches and a lower half no
+// sensor saw move whole parts of the surface together. A block jackknife over 16 patches (8
+// sectors about the axis, above and below the centre) refits `family` from `q` without each, on
+// at most 800 of `p`: the 95 % half-widths of its free parameters, or an empty vector when fewer
+// than 4 patches could be left out. With the leaf `layer` (FitLeafLayer's solution on all of
+// `p`), each refit's semi-axes carry their own envelope offset (noise `noise_mm`), so the axes'
+// intervals hold the offset's uncertainty too: a leaf layer seen thicker on one side moves it.
+Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family family, const Full& q, const Bounds& bounds,
+                              const Eigen::Vector4d* layer, double noise_mm) {
+  std::vector<Eigen::Vector3d> q_pts;
+  const std::size_t q_step = p.size() / 800 + 1;
+  for (std::size_t i = 0; i < p.size(); i += q_step) q_pts.push_back(p[i]);
+  auto block = [&](const Eigen::Vector3d& v) {
+    const Eigen::Vector3d d = v - q.head<3>();
+    const int sector = std::clamp(int((std::atan2(d.y(), d.x()) + M_PI) / (2 * M_PI) * 8), 0, 7);
+    return sector * 2 + (d.z() >= 0 ? 1 : 0);
+  };
+  std::vector<Eigen::VectorXd> refits;
+  for (int b = 0; b < 16; ++b) {
+    std::vector<Eigen::Vector3d> kept;
+    for (const auto& v : q_pts) if (block(v) != b) kept.push_back(v);
+    if (kept.size() == q_pts.size() || kept.size() < 20) continue;  // an empty patch says nothing
+    FamilyFit f = FitFamily(kept, family, q, bounds);
+    if (!f.ok) continue;
+    if (layer) {
+      std::vector<double> r;  // 300 residuals: the offset to a millimetre or two, 16 times over
+      const std::size_t every = kept.size() / 300 + 1;
+      const Surface surface(f.q);
+      for (std::size_t i = 0; i < kept.size(); i += every) r.push_back(surface.Radial(kept[i], true));
+      const double offset = std::max(0.0, FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, layer)(0));
+      const int axes = family == Family::kBall ? 1 : family == Family::kSpheroid ? 2 : 3;
+      f.x.segment(3, axes).array() += offset;
+    }
+    refits.push_back(f.x);
+  }
+  if (refits.size() < 4) return {};
+  Eigen::VectorXd centre = Eigen::VectorXd::Zero(refits[0].size());
+  for (const auto& x : refits) centre += x;
+  centre /= double(refits.size());
+  Eigen::VectorXd var = Eigen::VectorXd::Zero(centre.size());
+  for (const auto& x : refits) var += (x - centre).cwiseAbs2();
+  const double n = double(refits.size());
+  return (var * (n - 1) / n).cwiseSqrt() * 1.96;
+}
+
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
 const FamilyFit* ChooseFamily(const FamilyFit& ball, const FamilyFit& spheroid, const FamilyFit& ellipsoid, double noise_mm,
                               ClippedShape* s, Family* family) {
@@ -360,8 +359,7 @@ struct Measured {
   FamilyFit refit;                    // ok = false: none (too few points left, or none trimmed)
   std::vector<Eigen::Vector3d> kept;  // the points it was fitted to
   double offset_mm = 0;
-  Eigen::Vector4d layer = Eigen::Vector4d::Zero();  // FitLeafLayer's solution
-  bool measured = false;
+  std::optional<Eigen::Vector4d> layer;  // FitLeafLayer's solution, once measured
 };
 
 Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, const FamilyFit& chosen, const Bounds& bounds,
@@ -379,8 +377,7 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
   const Surface surface(q);
   for (std::size_t i = 0; i < p.size(); i += every) r.push_back(surface.Radial(p[i], true));
   m.layer = FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, nullptr);
-  m.offset_mm = std::max(0.0, m.layer(0));
-  m.measured = true;
+  m.offset_mm = std::max(0.0, (*m.layer)(0));
   return m;
 }
 
@@ -462,7 +459,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96 *
                        std::sqrt(double(p.size()) / double(all.size()));
   if (jackknife) {
-    const Eigen::VectorXd jk = JackknifeCi95(fitted, family, best->q, bounds, measured.measured ? &measured.layer : nullptr, noise_mm);
+    const Eigen::VectorXd jk = JackknifeCi95(fitted, family, best->q, bounds, measured.layer ? &*measured.layer : nullptr, noise_mm);
     if (jk.size() == sd.size()) sd = sd.cwiseMax(jk), s.jackknifed = true;
   }
   s.center_ci95_mm = sd.head<3>();
