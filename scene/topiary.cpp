@@ -301,23 +301,42 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   // Seen from above, a solid top intercepts as many of the sensor's rays as the lawn beside it.
   const double footprint_mm2 = M_PI * s.footprint_mm.x() * s.footprint_mm.y();
   c.density = double(p.size()) / (footprint_mm2 * lawn.PerMm2Around(s.center_mm.head<2>(), s.footprint_mm.x()));
-  // The top view of the footprint: cells of the candidate's own points against the cells of the
-  // ellipse within 0.8 of its semi-axes.
-  std::unordered_set<std::int64_t> held;
-  auto key = [cell](double x, double y) {
-    return (std::int64_t(std::floor(x / cell)) << 32) ^ (std::int64_t(std::floor(y / cell)) & 0xffffffff);
+  // The top view of the footprint: the share of the ellipse within 0.8 of its semi-axes that lies
+  // within a disc of the cell's area (radius cell / sqrt(pi)) of one of the candidate's points.
+  // For points scattered at random it is a cell's chance of holding one; unlike cells, it is the
+  // same wherever the cloud lies and however it is turned. Read on a lattice of quarter cells in
+  // the shape's frame; `inside` counts the footprint in cells, the evidence the bound weighs.
+  const double reach = cell / std::sqrt(M_PI), reach2 = reach * reach;
+  std::unordered_map<std::int64_t, std::vector<Eigen::Vector2d>> bins;
+  auto bin = [reach](double x, double y) {
+    return (std::int64_t(std::floor(x / reach)) << 32) ^ (std::int64_t(std::floor(y / reach)) & 0xffffffff);
   };
-  for (const auto& v : p) held.insert(key(v.x(), v.y()));
+  for (const auto& v : p) bins[bin(v.x(), v.y())].push_back(v.head<2>());
+  auto near_point = [&](const Eigen::Vector2d& q) {
+    const auto bx = std::int64_t(std::floor(q.x() / reach)), by = std::int64_t(std::floor(q.y() / reach));
+    for (std::int64_t dx = -1; dx <= 1; ++dx) {
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        const auto it = bins.find(((bx + dx) << 32) ^ ((by + dy) & 0xffffffff));
+        if (it == bins.end()) continue;
+        for (const auto& w : it->second) {
+          if ((w - q).squaredNorm() <= reach2) return true;
+        }
+      }
+    }
+    return false;
+  };
   const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
-  std::size_t inside = 0, hit = 0;
-  for (double u = -fa; u <= fa; u += cell) {
-    for (double v = -fb; v <= fb; v += cell) {
+  const double ct = std::cos(th), st = std::sin(th), step = cell / 4;
+  std::size_t samples = 0, hits = 0;
+  for (double u = -fa; u <= fa; u += step) {
+    for (double v = -fb; v <= fb; v += step) {
       if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
-      ++inside;
-      hit += held.count(key(s.center_mm.x() + u * std::cos(th) - v * std::sin(th), s.center_mm.y() + u * std::sin(th) + v * std::cos(th)));
+      ++samples;
+      hits += near_point(s.center_mm.head<2>() + Eigen::Vector2d(u * ct - v * st, u * st + v * ct));
     }
   }
-  c.covered = inside > 0 ? double(hit) / double(inside) : 0;
+  const std::size_t inside = std::size_t(std::lround(double(samples) * step * step / (cell * cell)));
+  c.covered = samples > 0 ? double(hits) / double(samples) : 0;
   // The cover's lower 95 % bound (Wilson's score interval): a few cells cannot show a solid top.
   if (inside > 0) {
     const double n = double(inside), z = 1.96, p_hat = c.covered;

@@ -15,7 +15,8 @@
 ///     than `max_elongation` times its width (a row is) nor the shape taller than that times its
 ///     width (a post, a stem), its top holds `min_density` as many points per mm^2 as the lawn
 ///     beside it, its footprint seen from above is covered (the lower 95 % bound of the share of
-///     cells within 0.8 of its semi-axes holding points is `min_covered` or more), and its points
+///     the ellipse within 0.8 of its semi-axes lying within a cell's disc of one of its points,
+///     the evidence counted in cells of twice the spacing, is `min_covered` or more), and its points
 ///     lie on it within `max_roughness` times the ground's own noise (a clipped surface is as
 ///     smooth as the sensor sees the lawn; a rose's canes and a tree's lumps are not).
 ///  5. An object refused whose compact fitted footprint its points do not fill (cover or density)
@@ -65,7 +66,7 @@ using TopiaryShape = fitting::ClippedShape;
 struct TopiaryCandidate {
   std::vector<std::size_t> points;  ///< indices into the points given
   TopiaryShape shape;
-  double covered = 0;          ///< share of the footprint's top-view cells holding points
+  double covered = 0;          ///< share of the footprint (top view) within a cell's disc of a point
   double covered_lower = 0;    ///< its lower 95 % bound (Wilson)
   double elongation = 1;       ///< footprint's long over short semi-axis, or vertical over horizontal (the larger)
   double density = 0;          ///< points on its footprint over the lawn's beside it (per mm^2)

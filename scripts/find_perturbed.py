@@ -1,0 +1,109 @@
+#!/usr/bin/env python3
+"""`hedgefit find` on the real garden half under nuisances the other half may bring.
+
+Usage: scripts/find_perturbed.py [--why] [HEDGEFIT] [GARDEN_DIR] [OUT_DIR]
+Each case moves, turns, thins, roughens or re-units the cloud (and the map with it), runs
+`find` with defaults and scores it as scripts/find_real_table.py does: the map's topiary found
+within 200 mm in the top view, and other objects called topiary. Nothing here is tuned: it asks
+whether the verdicts hang on this half's pose, density or units. Needs numpy.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+why = "--why" in sys.argv
+sys.argv = [a for a in sys.argv if a != "--why"]
+exe = sys.argv[1] if len(sys.argv) > 1 else "build/apps/hedgefit"
+data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
+garden = sys.argv[2] if len(sys.argv) > 2 else os.path.join(data, "gardens", "wageningen_west")
+out_dir = sys.argv[3] if len(sys.argv) > 3 else "build/perturb"
+os.makedirs(out_dir, exist_ok=True)
+
+
+def read_ply(path):
+    with open(path, "rb") as f:
+        n = 0
+        while True:
+            line = f.readline().decode().strip()
+            if line.startswith("element vertex"):
+                n = int(line.split()[-1])
+            if line == "end_header":
+                break
+        dt = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")])
+        return np.frombuffer(f.read(n * dt.itemsize), dtype=dt, count=n)
+
+
+def write_xyz(path, xyz):
+    np.savetxt(path, xyz, fmt="%.4f")
+
+
+pts = read_ply(os.path.join(garden, "garden_west.ply"))
+xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
+objects = json.load(open(os.path.join(garden, "objects.json")))["objects"]
+truth = np.array([o["position_m"][:2] for o in objects if o["label"].startswith("Topiary")])
+rng = np.random.default_rng(7)
+
+
+def turned(deg):
+    a = np.radians(deg)
+    return np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+
+
+# name, transform of points (metres, z up) -> written cloud, map (x, y) in the written frame,
+# extra find flags
+cases = []
+for deg in (30, 90, 137, 200):
+    R = turned(deg)
+    cases.append((f"turned {deg} deg", xyz @ R.T, truth @ R[:2, :2].T, []))
+shift = np.array([-31.7, 48.2, 112.0])
+cases.append(("moved 58 m, 112 m up", xyz + shift, truth + shift[:2], []))
+keep = rng.random(len(xyz)) < 0.5
+cases.append(("half the points", xyz[keep], truth, []))
+keep = rng.random(len(xyz)) < 0.25
+cases.append(("a quarter of the points", xyz[keep], truth, []))
+cases.append(("10 mm more noise", xyz + rng.normal(0, 0.010, xyz.shape), truth, []))
+cases.append(("in millimetres", xyz * 1000, truth * 1000, []))
+yup = np.stack([xyz[:, 0], xyz[:, 2], -xyz[:, 1]], axis=1)
+cases.append(("y up", yup, truth, ["--up", "y"]))
+tilt = np.radians(2.0)
+T = np.array([[1, 0, 0], [0, np.cos(tilt), -np.sin(tilt)], [0, np.sin(tilt), np.cos(tilt)]])
+cases.append(("tilted 2 deg", xyz @ T.T, truth @ T[:2, :2].T, []))
+
+print("| case | topiary found | other objects called topiary | exit |")
+print("|---|---|---|---|")
+for k, (name, p, t, flags) in enumerate(cases):
+    path = os.path.join(out_dir, f"case{k}.xyz")
+    write_xyz(path, p)
+    unit = 1000.0 if name == "in millimetres" else 1.0
+    run = subprocess.run([exe, "find", path, "--format", "json", *flags], capture_output=True, text=True)
+    if run.returncode != 0:
+        print(f"| {name} | - | - | {run.returncode}: {run.stderr.strip()[:80]} |")
+        continue
+    cloud = json.loads(run.stdout)["clouds"][0]
+    shapes = [h for h in cloud["hedges"] if h["topiary"]]
+    used = set()
+    for tx, ty in t * (1000.0 / unit):
+        for h in shapes:
+            c = np.array(h["shape"]["center_mm"] if "shape" in h else h["center_mm"])
+            if name == "y up":
+                c = np.array([c[0], -c[2], c[1]])
+            if h["id"] not in used and np.hypot(c[0] - tx, c[1] - ty) < 200:
+                used.add(h["id"])
+                break
+    print(f"| {name} | {len(used)} of {len(t)} | {len(shapes) - len(used)} | {run.returncode} |")
+    if not why:
+        continue
+    # What became of each topiary missed, and what else was called topiary.
+    for tx, ty in t * (1000.0 / unit):
+        hit = [h for h in shapes if h["id"] in used and np.hypot(*(np.array(h["shape"]["center_mm"][:2]) - (tx, ty))) < 200]
+        if hit:
+            continue
+        near = min(cloud["hedges"], key=lambda h: np.hypot(h["center_mm"][0] - tx, h["center_mm"][1] - ty))
+        print(f"    missed ({tx:.0f}, {ty:.0f}): nearest object {near['id']}, {near['points']} points, "
+              f"{np.hypot(near['center_mm'][0] - tx, near['center_mm'][1] - ty):.0f} mm off: {near.get('not_a_ball', '')}")
+    for h in shapes:
+        if h["id"] not in used:
+            print(f"    other: {h['id']} {h['verdict']} at ({h['center_mm'][0]:.0f}, {h['center_mm'][1]:.0f}), {h['points']} points")
