@@ -5,33 +5,26 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <filesystem>
+#include <iostream>
 #include <memory>
 #include <string>
 
-#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
-#include "pipeline/output_check.hpp"
-#include "stereo/stereo_stages.hpp"
-#include "cli/parse.hpp"
-#include "cli/measure_lines.hpp"
-#include "measure/capture_batch.hpp"
-#include "pipeline/pipeline.hpp"
-#include "pipeline/registry.hpp"
-#include "fitting/methods.hpp"
-#include "fitting/sphere_fit.hpp"
-#include "stereo/capture.hpp"
 #include "around/around_report.hpp"
+#include "around/around_view.hpp"
 #include "around/fusion.hpp"
 #include "around/poses.hpp"
 #include "around/views.hpp"
+#include "cli/capture_flags.hpp"
+#include "cli/parse.hpp"
 #include "cli/stage_flags.hpp"
 #include "cloud/cloud_io.hpp"
 #include "fitting/methods.hpp"
-#include "around/around_view.hpp"
-#include "measure/recipes.hpp"
-
-#include <iostream>
+#include "measure/measure_capture.hpp"
+#include "pipeline/output_check.hpp"
+#include "pipeline/registry.hpp"
+#include "stereo/rig.hpp"
+#include "stereo/stereo_stages.hpp"
 
 namespace hedgefit::apps {
 
@@ -156,56 +149,30 @@ void AddMeasureCommand(CLI::App& app, CommandFn* run) {
         throw InputError("measure: give --left, --right and --rig (one capture), or --manifest (several captures with poses)");
       }
       const pipeline::Registry& registry = pipeline::Registry::Global();
-      const stereo::ConvertOptions o = a->capture.Resolve(registry);
-      const std::vector<std::string> methods = fitting::ParseMethodList(a->methods, "--method");
-      std::vector<std::string> fit_stages;
-      for (const std::string& name : methods) fit_stages.push_back(fitting::FindFitMethod(name, "--method").stage);
-      const json stages =
-          json::parse(measure::MeasurePipelineJson(o, fit_stages, !a->no_clean, a->left, a->right, a->rig, a->overlay));
+      measure::MeasureRequest request;
+      request.capture = a->capture.Resolve(registry);
+      request.methods = fitting::ParseMethodList(a->methods, "--method");
+      request.clean = !a->no_clean;
+      request.overlay = a->overlay;
       if (a->print_pipeline) {
+        const json stages = json::parse(measure::MeasureRecipe(request, registry, a->left, a->right, a->rig));
         std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
         return kExitOk;
       }
-      stereo::ReadRig(a->rig);
-      stereo::CheckCaptureImages(a->left, a->right);
-      if (!a->overlay.empty()) pipeline::CheckImageOutput("--overlay", a->overlay, {".png", ".jpg", ".jpeg"}, {a->left, a->right, a->rig});
-      pipeline::Pipeline p = pipeline::Pipeline::FromJson(stages.dump(), "measure", registry);
-      pipeline::Context ctx;
-      ctx.quiet = true;
-      pipeline::RunReport report;
-      try {
-        report = p.Run(ctx);
-      } catch (const InputError&) {
-        throw;  // a damaged image: bad input, and its message names the file
-      } catch (const Error& e) {
-        const std::string what = e.what();
-        // An output that could not be written after the fits: the measurements are printed all
-        // the same, and the error says that no overlay was kept.
-        if (!a->overlay.empty() && what.find(a->overlay) != std::string::npos &&
-            ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
-          for (const auto& j : CollectMeasureLines(ctx, report).lines) std::printf("%s\n", j.dump().c_str());
-          std::fflush(stdout);
-          throw ProcessingError("--overlay " + what + "; the measurements were printed, no overlay was kept");
-        }
-        // Name the capture, unless the message already names the file it is about.
-        const bool named = what.rfind(a->left + ":", 0) == 0 || what.rfind(a->right + ":", 0) == 0;
-        throw ProcessingError(named ? what : a->left + ": " + what);
-      }
-      const MeasureLines m = CollectMeasureLines(ctx, report);
-      if (const std::string hint = measure::CaptureHint(ctx); !hint.empty()) {
-        std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), hint.c_str());
-      }
+      const measure::MeasureResult m = measure::MeasureCapture(a->left, a->right, a->rig, request, registry);
+      if (!m.hint.empty()) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), m.hint.c_str());
       for (const auto& j : m.lines) std::printf("%s\n", a->pretty ? j.dump(2).c_str() : j.dump().c_str());
-      const int converged = m.converged;
-      const std::string failure = m.first_failure;
       std::fflush(stdout);
-      if (converged == 0) throw ProcessingError(a->left + ": no fit converged (" + failure + ")");
-      if (!failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", failure.c_str());
+      if (!m.output_error.empty()) {
+        throw ProcessingError("--overlay " + m.output_error + "; the measurements were printed, no overlay was kept");
+      }
+      if (m.converged == 0) throw ProcessingError(a->left + ": no fit converged (" + m.first_failure + ")");
+      if (!m.first_failure.empty()) std::fprintf(stderr, "hedgefit: warning: %s\n", m.first_failure.c_str());
       for (const std::string& why : m.not_balls) std::fprintf(stderr, "hedgefit: warning: %s: %s\n", a->left.c_str(), why.c_str());
-      if (measure::CaptureUnusable(ctx)) return kExitUnusable;
+      if (m.unusable) return kExitUnusable;
       // Without --strict the capture's hint above has said it already.
-      if (const std::string unchecked = measure::CaptureUnchecked(ctx); a->strict && !unchecked.empty()) {
-        std::fprintf(stderr, "hedgefit: error: %s: %s (--strict)\n", a->left.c_str(), unchecked.c_str());
+      if (a->strict && !m.unchecked.empty()) {
+        std::fprintf(stderr, "hedgefit: error: %s: %s (--strict)\n", a->left.c_str(), m.unchecked.c_str());
         return kExitUnusable;
       }
       return kExitOk;

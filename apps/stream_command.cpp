@@ -12,20 +12,15 @@
 #include <map>
 #include <string>
 
-#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
+#include "cli/capture_flags.hpp"
 #include "cli/parse.hpp"
-#include "cli/measure_lines.hpp"
-#include "measure/capture_batch.hpp"
-#include "io/frame_source.hpp"
-#include "pipeline/pipeline.hpp"
-#include "pipeline/registry.hpp"
 #include "fitting/methods.hpp"
-#include "stereo/capture.hpp"
-#include "stereo/rig.hpp"
-#include "stereo/stereo_stages.hpp"
+#include "io/frame_source.hpp"
+#include "measure/measure_capture.hpp"
+#include "pipeline/registry.hpp"
 #include "stereo/overlap.hpp"
-#include "measure/recipes.hpp"
+#include "stereo/rig.hpp"
 
 namespace hedgefit::apps {
 
@@ -60,11 +55,10 @@ static void PrintStreamSummary(long frames, long dropped_total, double total_ms,
 static int RunStream(const StreamArgs& a) {
   PrepareRegistry(true);
   const pipeline::Registry& registry = pipeline::Registry::Global();
-  const stereo::ConvertOptions o = a.capture.Resolve(registry);
-  std::vector<std::string> fit_stages;
-  for (const auto& name : fitting::ParseMethodList(a.methods, "--method")) {
-    fit_stages.push_back(fitting::FindFitMethod(name, "--method").stage);
-  }
+  measure::MeasureRequest request;
+  request.capture = a.capture.Resolve(registry);
+  request.methods = fitting::ParseMethodList(a.methods, "--method");
+  request.clean = !a.no_clean;
   const int given = int(!a.left.empty() || !a.right.empty()) + int(!a.side_by_side.empty()) + int(!a.watch.empty());
   if (given != 1) throw Error("give one source: --left and --right, --side-by-side, or --watch");
   if (a.watch.empty() && a.side_by_side.empty() && (a.left.empty() || a.right.empty())) {
@@ -72,7 +66,7 @@ static int RunStream(const StreamArgs& a) {
   }
   // Built once: the rig, the pipeline and its stages.
   const stereo::StereoRig rig = stereo::ReadRig(a.rig);
-  stereo::OverlappedRunner runner(measure::MeasurePipelineJson(o, fit_stages, !a.no_clean), "stream", registry);
+  stereo::OverlappedRunner runner(measure::MeasureRecipe(request, registry), "stream", registry);
   std::unique_ptr<io::Source> src;
   if (!a.watch.empty()) {
     src = io::WatchDirectory(a.watch, a.idle_s);
@@ -95,7 +89,7 @@ static int RunStream(const StreamArgs& a) {
     if (!grabber.Take(&f, &dropped)) return false;
     json head;
     head["frame"] = taken++;
-    head["time"] = Rounded(f.time_s);
+    head["time"] = measure::Rounded(f.time_s);
     if (!f.name.empty()) head["name"] = f.name;
     if (dropped) head["dropped"] = dropped;
     ctx->Put("stream_head", head);
@@ -112,15 +106,14 @@ static int RunStream(const StreamArgs& a) {
     std::string why = error;
     if (why.empty()) {
       try {
-        const MeasureLines m = CollectMeasureLines(ctx, report);
-        const std::string hint = measure::CaptureHint(ctx);
-        for (const auto& st : report.stages) stage_ms[st.type] += st.wall_ms;
-        unusable_frames += measure::CaptureUnusable(ctx);
-        unchecked_frames += !measure::CaptureUnchecked(ctx).empty();
+        const measure::MeasureResult m = measure::ReadMeasureResult(ctx, report);
+        for (const auto& [type, ms] : m.stage_ms) stage_ms[type] += ms;
+        unusable_frames += m.unusable;
+        unchecked_frames += !m.unchecked.empty();
         for (const auto& line : m.lines) {
           json j = head;
           for (const auto& [k, v] : line.items()) j[k] = v;
-          if (!hint.empty()) j["warning"] = hint;
+          if (!m.hint.empty()) j["warning"] = m.hint;
           std::printf("%s\n", j.dump().c_str());
         }
       } catch (const Error& e) {

@@ -34,11 +34,10 @@
 #include "scene/finder.hpp"
 #include "cloud/describe.hpp"
 #include "stereo/capture.hpp"
-#include "measure/capture_batch.hpp"
 #include "stereo/rig.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "stereo/rig_check.hpp"
-#include "measure/recipes.hpp"
+#include "measure/measure_capture.hpp"
 #include "measure/modules.hpp"
 
 namespace py = pybind11;
@@ -229,37 +228,31 @@ void AddCaptureFunctions(py::module_& m) {
       "measure",
       [](const py::array& left, const py::array& right, const std::string& rig_path,
          const std::string& method, bool garden, bool clean, const py::kwargs& options) {
-        const pipeline::Registry& registry = Stages();
-        stereo::ConvertOptions o;
-        if (garden) o.mode = stereo::SegmentMode::kGarden;
-        nlohmann::json stages = nlohmann::json::parse(
-            measure::MeasurePipelineJson(o, {fitting::FindFitMethod(method, "method").stage}, clean));
+        measure::MeasureRequest request;
+        if (garden) request.capture.mode = stereo::SegmentMode::kGarden;
+        request.methods = {method};
+        request.clean = clean;
         // Each keyword sets that option in every capture stage that declares it (as a
         // `hedgefit measure` flag does); one no stage declares is an error.
         for (const auto& [key, value] : options) {
           const std::string name = key.cast<std::string>();
-          bool used = false;
-          for (auto& s : stages) {
-            if (s["type"].get<std::string>().rfind("stereo.", 0) != 0) continue;  // capture stages only
-            const auto& info = registry.Get(s["type"].get<std::string>(), "").info;
-            if (info.FindOption(name) == nullptr) continue;
-            s[name] = std::visit([](const auto& x) { return nlohmann::json(x); }, FromPython(name, value));
-            used = true;
-          }
-          if (!used) throw Error("measure: no capture stage has an option '" + name + "'; see `hedgefit measure --help`");
+          request.capture_options[name] = FromPython(name, value);
         }
-        pipeline::Pipeline p = pipeline::Pipeline::FromJson(stages.dump(), "measure", registry, {},
-                                                      {"left_image", "right_image", "rig"});
-        pipeline::Context ctx;
-        ctx.quiet = true;
-        stereo::PutCapture(ImageFrom(left, "left"), ImageFrom(right, "right"), stereo::ReadRig(rig_path), &ctx);
-        py::dict run = RunAndCollect(p, ctx);
+        const cv::Mat l = ImageFrom(left, "left"), r = ImageFrom(right, "right");
+        const stereo::StereoRig rig = stereo::ReadRig(rig_path);
+        measure::MeasureResult result;
+        {
+          py::gil_scoped_release release;
+          result = measure::MeasureCapture(l, r, rig, request, Stages());
+        }
         // What `hedgefit measure` prints as warnings (the rig check's, the colour mask's) as a
         // Python warning; an unusable hedge's dict also says why under "unusable".
-        if (const std::string hint = measure::CaptureHint(ctx); !hint.empty()) {
-          if (PyErr_WarnEx(PyExc_RuntimeWarning, ("hedgefit.measure: " + hint).c_str(), 1) != 0) throw py::error_already_set();
+        if (!result.hint.empty()) {
+          if (PyErr_WarnEx(PyExc_RuntimeWarning, ("hedgefit.measure: " + result.hint).c_str(), 1) != 0) throw py::error_already_set();
         }
-        return py::list(run["fits"]);
+        py::list fits;
+        for (const auto& f : result.fits) fits.append(FitDict(f));
+        return fits;
       },
       py::arg("left"), py::arg("right"), py::arg("rig"), py::arg("method") = "ransac_ray",
       py::arg("garden") = false, py::arg("clean") = true,

@@ -25,6 +25,7 @@
 #include "fitting/fitting_stages.hpp"
 #include "fitting/methods.hpp"
 #include "measure/modules.hpp"
+#include "measure/measure_capture.hpp"
 #include "measure/recipes.hpp"
 #include "tests/test_data.hpp"
 
@@ -535,6 +536,46 @@ TEST(StereoStages, CaptureToFitInOnePipeline) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), "stage 'stereo.sgbm': the images are not rectified; add stereo.rectify before it");
+  }
+}
+
+// The measuring layer's typed call (measure/measure_capture.hpp), which `measure`, `stream` and
+// Python make: from files and from images in memory it is one measurement, its printed lines are
+// its fits, and an option no capture stage has is refused by name before anything runs.
+TEST(MeasureCapture, FromFilesAndFromMemoryIsOneMeasurement) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const SimRig sim = PaperRig(0.5);
+  WriteSimulatedCapture(dir, sim);
+  pipeline::Registry registry;
+  measure::AddStageModules(registry);
+  const std::string l = (dir / "l.png").string(), r = (dir / "r.png").string(), rig = (dir / "rig.yaml").string();
+  measure::MeasureRequest request;
+  request.methods = {"ransac_ray", "geometric"};
+  const measure::MeasureResult files = measure::MeasureCapture(l, r, rig, request, registry);
+  const measure::MeasureResult memory = measure::MeasureCapture(cv::imread(l, cv::IMREAD_COLOR), cv::imread(r, cv::IMREAD_COLOR),
+                                                                ReadRig(rig), request, registry);
+  ASSERT_EQ(files.fits.size(), 2u);
+  ASSERT_EQ(memory.fits.size(), 2u);
+  EXPECT_EQ(files.converged, 2);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(files.fits[k].method, request.methods[k]);
+    // The same images, rig and stages: the very same numbers.
+    EXPECT_EQ(files.fits[k].sphere.center_mm, memory.fits[k].sphere.center_mm);
+    EXPECT_EQ(files.fits[k].sphere.radius_mm, memory.fits[k].sphere.radius_mm);
+    // Same bounds as SimulatedSphereConvertsAndFits (half-size rig, silhouette bias).
+    EXPECT_NEAR(files.fits[k].sphere.radius_mm, 300.0, 5.0);
+    // The printed line is the fit, to the micrometre.
+    EXPECT_EQ(files.lines[k]["method"], request.methods[k]);
+    EXPECT_NEAR(files.lines[k]["radius_mm"].get<double>(), files.fits[k].sphere.radius_mm, 0.0005);
+  }
+  EXPECT_TRUE(files.unchecked.empty() || !files.hint.empty()) << "an unchecked rig is said in the hint";
+  EXPECT_GT(files.stage_ms.count("stereo.sgbm"), 0u);
+  request.capture_options["no_such_option"] = 3.0;
+  try {
+    measure::MeasureCapture(l, r, rig, request, registry);
+    FAIL() << "an unknown capture option was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_option"), std::string::npos) << e.what();
   }
 }
 
