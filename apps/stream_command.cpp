@@ -1,15 +1,12 @@
-// hedgefit stream: a warm process that measures every hedge of every frame of a stereo source
-// (two cameras or videos, one side-by-side camera or video, or a directory that captures keep
-// arriving in) and prints one JSON line per hedge and frame. The pipeline, its stages (and so
-// the rectification maps) are built once; a grabber thread reads the next frame, and the next
-// frame is rectified and segmented on the second core while the current one is measured
-// (stereo::OverlappedRunner); a live source drops frames rather than falling behind, and says so.
+// hedgefit stream: every hedge of every frame of a stereo source (two cameras or videos, one
+// side-by-side camera or video, or a directory that captures keep arriving in), one JSON line per
+// hedge and frame: the source from the flags, measure::MeasureStream, the lines and a summary.
 
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "apps/commands.hpp"
@@ -17,9 +14,8 @@
 #include "cli/parse.hpp"
 #include "fitting/methods.hpp"
 #include "io/frame_source.hpp"
-#include "measure/measure_capture.hpp"
+#include "measure/measure_stream.hpp"
 #include "pipeline/registry.hpp"
-#include "stereo/overlap.hpp"
 #include "stereo/rig.hpp"
 
 namespace hedgefit::apps {
@@ -27,7 +23,6 @@ namespace hedgefit::apps {
 namespace {
 
 using json = nlohmann::ordered_json;
-using io::Frame;
 
 struct StreamArgs {
   std::string rig, left, right, side_by_side, watch, methods = "ransac_ray";
@@ -64,9 +59,7 @@ static int RunStream(const StreamArgs& a) {
   if (a.watch.empty() && a.side_by_side.empty() && (a.left.empty() || a.right.empty())) {
     throw Error("--left and --right: give both (video files or camera numbers)");
   }
-  // Built once: the rig, the pipeline and its stages.
   const stereo::StereoRig rig = stereo::ReadRig(a.rig);
-  stereo::OverlappedRunner runner(measure::MeasureRecipe(request, registry), "stream", registry);
   std::unique_ptr<io::Source> src;
   if (!a.watch.empty()) {
     src = io::WatchDirectory(a.watch, a.idle_s);
@@ -75,67 +68,26 @@ static int RunStream(const StreamArgs& a) {
   } else {
     src = io::OpenVideoPair(a.left, a.right);
   }
-  io::Grabber grabber(std::move(src), !a.no_drop);
-  long frames = 0, taken = 0, dropped_total = 0, unusable_frames = 0, unchecked_frames = 0;
-  double total_ms = 0;
-  std::map<std::string, double> stage_ms;
-  using Clock = std::chrono::steady_clock;
-  Clock::time_point last_out = Clock::now();
-  // On the runner's second thread: the next frame, and what its lines will say about it.
-  auto next = [&](cv::Mat* left, cv::Mat* right, pipeline::Context* ctx, std::string* error) {
-    if (a.max_frames != 0 && taken >= a.max_frames) return false;
-    Frame f;
-    long dropped = 0;
-    if (!grabber.Take(&f, &dropped)) return false;
-    json head;
-    head["frame"] = taken++;
-    head["time"] = measure::Rounded(f.time_s);
-    if (!f.name.empty()) head["name"] = f.name;
-    if (dropped) head["dropped"] = dropped;
-    ctx->Put("stream_head", head);
-    ctx->Put("stream_dropped", dropped);
-    ctx->Put("stream_arrived", Clock::now());
-    *error = f.error;
-    *left = f.left, *right = f.right;
-    return true;
-  };
-  // On this thread, in order: the frame's lines.
-  auto done = [&](pipeline::Context& ctx, const pipeline::RunReport& report, const std::string& error) {
-    const json head = ctx.Get<json>("stream_head");
-    dropped_total += ctx.Get<long>("stream_dropped");
-    std::string why = error;
-    if (why.empty()) {
-      try {
-        const measure::MeasureResult m = measure::ReadMeasureResult(ctx, report);
-        for (const auto& [type, ms] : m.stage_ms) stage_ms[type] += ms;
-        unusable_frames += m.unusable;
-        unchecked_frames += !m.unchecked.empty();
-        for (const auto& line : m.lines) {
-          json j = head;
-          for (const auto& [k, v] : line.items()) j[k] = v;
-          if (!m.hint.empty()) j["warning"] = m.hint;
-          std::printf("%s\n", j.dump().c_str());
-        }
-      } catch (const Error& e) {
-        why = e.what();
-      }
+  // A frame's lines: measure's, each with the frame's head (and the capture's warning), or one
+  // line with "hedges": 0 and why.
+  auto print = [](const measure::StreamFrame& f) {
+    for (const auto& line : f.result.lines) {
+      json j = f.head;
+      for (const auto& [k, v] : line.items()) j[k] = v;
+      if (!f.result.hint.empty()) j["warning"] = f.result.hint;
+      std::printf("%s\n", j.dump().c_str());
     }
-    if (!why.empty()) {
-      json j = head;
+    if (!f.error.empty()) {
+      json j = f.head;
       j["hedges"] = 0;
-      j["message"] = why;
+      j["message"] = f.error;
       std::printf("%s\n", j.dump().c_str());
     }
     std::fflush(stdout);
-    // The time per frame at the output: since the previous frame's lines, or since this frame
-    // arrived when the stream was waiting for it.
-    const Clock::time_point now = Clock::now();
-    total_ms += std::chrono::duration<double, std::milli>(now - std::max(last_out, ctx.Get<Clock::time_point>("stream_arrived"))).count();
-    last_out = now;
-    ++frames;
   };
-  runner.Run(rig, next, done);
-  if (frames == 0) {
+  const measure::StreamSummary s =
+      measure::MeasureStream(std::move(src), !a.no_drop, rig, request, a.max_frames, registry, print);
+  if (s.frames == 0) {
     char idle[32];
     std::snprintf(idle, sizeof(idle), "%g", a.idle_s);
     const std::string source = !a.watch.empty() ? "--watch " + a.watch + ": no capture arrived within " + idle +
@@ -144,19 +96,19 @@ static int RunStream(const StreamArgs& a) {
                                                         : "--left " + a.left + ": no frame pair could be read";
     throw ProcessingError(source);
   }
-  PrintStreamSummary(frames, dropped_total, total_ms, stage_ms);
-  if (unusable_frames > 0) {
+  PrintStreamSummary(s.frames, s.dropped, s.total_ms, s.stage_ms);
+  if (s.unusable_frames > 0) {
     std::fprintf(stderr, "hedgefit: warning: stream: %ld of %ld frames gave unusable results (their lines say why)\n",
-                 unusable_frames, frames);
+                 s.unusable_frames, s.frames);
     return kExitUnusable;
   }
-  if (unchecked_frames > 0) {
+  if (s.unchecked_frames > 0) {
     std::fprintf(stderr, "hedgefit: %s: stream: %ld of %ld frames could not check the rig against the frame "
                  "(rig_check unchecked; their lines' rig_check_reason says why)%s\n",
-                 a.strict ? "error" : "warning", unchecked_frames, frames, a.strict ? "; --no-strict accepts them" : "");
+                 a.strict ? "error" : "warning", s.unchecked_frames, s.frames, a.strict ? "; --no-strict accepts them" : "");
     if (a.strict) return kExitUnusable;
   }
-  return frames > 0 ? kExitOk : kExitProcessing;
+  return kExitOk;
 }
 
 void AddStreamCommand(CLI::App& app, CommandFn* run) {
