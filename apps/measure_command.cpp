@@ -43,25 +43,9 @@ struct MeasureArgs {
 
 // `measure --manifest` / `--trajectory`: every capture measured alone, then fused.
 int RunMeasureAround(const MeasureArgs& a) {
-  std::vector<around::PosedCapture> captures;
-  std::string source;
-  if (!a.manifest.empty()) {
-    captures = around::ReadManifest(a.manifest);
-    source = a.manifest;
-  } else {
-    if (a.captures.empty()) throw InputError("--trajectory: give --captures DIR, the folder of TIME_left.png / TIME_right.png");
-    captures = around::ReadTumCaptures(a.trajectory, a.captures);
-    source = a.trajectory;
-  }
-  std::vector<std::string> inputs = {source};
-  for (const auto& c : captures) {
-    if (c.rig.empty() && a.rig.empty()) {
-      throw InputError(source + ": capture " + c.name + " has no rig: give --rig or a \"rig\" in the manifest");
-    }
-    stereo::ReadRig(c.rig.empty() ? a.rig : c.rig);
-    stereo::CheckCaptureImages(c.left, c.right);
-    inputs.push_back(c.left), inputs.push_back(c.right);
-  }
+  std::vector<std::string> inputs;
+  const std::vector<around::PosedCapture> captures = around::ReadPosedCaptures(a.manifest, a.trajectory, a.captures, a.rig, &inputs);
+  const std::string& source = inputs.front();
   if (!a.fused.empty()) cloud::CheckCloudOutput("--fused", a.fused, inputs);
   if (!a.plot.empty()) pipeline::CheckImageOutput("--plot", a.plot, {".png"}, inputs);
   around::FuseOptions fo;

@@ -7,9 +7,33 @@
 #include "stereo/image_io.hpp"
 #include "stereo/outline.hpp"
 #include "stereo/rig.hpp"
+#include "stereo/stereo_stages.hpp"
 #include "measure/outline_start.hpp"
 
 namespace hedgefit::around {
+
+std::vector<PosedCapture> ReadPosedCaptures(const std::string& manifest, const std::string& trajectory,
+                                            const std::string& captures_dir, const std::string& rig,
+                                            std::vector<std::string>* inputs) {
+  std::vector<PosedCapture> captures;
+  if (!manifest.empty()) {
+    captures = ReadManifest(manifest);
+  } else {
+    if (captures_dir.empty()) throw InputError("--trajectory: give --captures DIR, the folder of TIME_left.png / TIME_right.png");
+    captures = ReadTumCaptures(trajectory, captures_dir);
+  }
+  const std::string source = manifest.empty() ? trajectory : manifest;
+  inputs->push_back(source);
+  for (const auto& c : captures) {
+    if (c.rig.empty() && rig.empty()) {
+      throw InputError(source + ": capture " + c.name + " has no rig: give --rig or a \"rig\" in the manifest");
+    }
+    stereo::ReadRig(c.rig.empty() ? rig : c.rig);
+    stereo::CheckCaptureImages(c.left, c.right);
+    inputs->push_back(c.left), inputs->push_back(c.right);
+  }
+  return captures;
+}
 
 View MeasureView(const PosedCapture& capture, const std::string& rig_path, const stereo::ConvertOptions& options) {
   View view;
