@@ -2,19 +2,14 @@
 // cloud (a LiDAR scan, a photogrammetry model, a robot's map, a stereo capture). The work is
 // scene::FindHedges; the reports are scene/find_report.hpp's.
 
-#include <cmath>
-#include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include "apps/commands.hpp"
 #include "cli/parse.hpp"
 #include "cli/stage_flags.hpp"
 #include "cloud/cloud_io.hpp"
-#include "cloud/describe.hpp"
 #include "fitting/methods.hpp"
 #include "pipeline/output_check.hpp"
-#include "pipeline/print.hpp"
 #include "render/top_view.hpp"
 #include "scene/find_report.hpp"
 
@@ -32,26 +27,6 @@ struct FindArgs {
   StageFlags flags;
 };
 
-// The marks for --plot: one "x y" (or "x,y") per line in the cloud's units; # starts a comment.
-std::vector<Eigen::Vector2d> ReadMarks(const std::string& path, double scale) {
-  std::ifstream in(path);
-  if (!in) throw Error("--plot-marks " + path + ": cannot read it (a text file of 'x y' per line, in the cloud's units)");
-  std::vector<Eigen::Vector2d> marks;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    line = line.substr(0, line.find('#'));
-    for (char& ch : line) if (ch == ',') ch = ' ';
-    std::istringstream fields(line);
-    double x = 0, y = 0;
-    if (!(fields >> x)) continue;
-    if (!(fields >> y) || !std::isfinite(x) || !std::isfinite(y)) {
-      throw Error(pipeline::Format("--plot-marks %s line %d: expected two numbers 'x y'", path.c_str(), n));
-    }
-    marks.emplace_back(x * scale, y * scale);
-  }
-  return marks;
-}
-
 int RunFind(const FindArgs& a) {
   fitting::QuietSolverWarnings();
   scene::FindOptions o;
@@ -68,30 +43,16 @@ int RunFind(const FindArgs& a) {
   if (!a.labelled.empty()) cloud::CheckCloudOutput("--labelled", a.labelled, a.clouds);
   if (!a.plot.empty()) pipeline::CheckImageOutput("--plot", a.plot, {".png"}, a.clouds);
   if (!a.plot_marks.empty() && a.plot.empty()) throw Error("--plot-marks draws on --plot's picture: give --plot PNG too");
-  if (!a.plot_marks.empty()) ReadMarks(a.plot_marks, 1.0);  // a bad file fails before any work
+  if (!a.plot_marks.empty()) render::ReadTopViewMarks(a.plot_marks, 1.0);  // a bad file fails before any work
   std::vector<scene::FindReport> reports;
   int failed = 0;
   for (const std::string& file : a.clouds) {
     try {
-      scene::FindReport rep;
-      cloud::PointCloud cloud = cloud::ReadCloud(file);
-      if (a.scale > 0) {
-        rep.scale = a.scale, rep.scale_source = pipeline::Format("scale %g given", a.scale);
-      } else {
-        const double extent = cloud::LargestExtent(cloud), spacing = cloud::MedianSpacing(cloud);
-        rep.scale = cloud::GuessUnits(extent, spacing) == "m" ? 1000.0 : 1.0;
-        rep.scale_source = rep.scale == 1000.0
-                               ? pipeline::Format("metres, guessed from its span %.3g and spacing %.3g; --scale overrides", extent, spacing)
-                               : "mm, guessed; --scale overrides";
-      }
-      if (rep.scale != 1.0) {
-        for (auto& p : cloud.points_mm) p *= float(rep.scale);
-      }
-      rep.result = scene::FindHedges(cloud, o);
-      rep.result.file = file;
+      cloud::PointCloud cloud;
+      scene::FindReport rep = scene::FindInCloudFile(file, a.scale, o, &cloud);
       if (!a.labelled.empty()) cloud::WriteCloud(a.labelled, scene::LabelCloud(cloud, rep.result));
       if (!a.plot.empty()) {
-        render::WriteTopView(cloud, rep.result, a.plot, 1200, a.plot_marks.empty() ? std::vector<Eigen::Vector2d>{} : ReadMarks(a.plot_marks, rep.scale));
+        render::WriteTopView(cloud, rep.result, a.plot, 1200, a.plot_marks.empty() ? std::vector<Eigen::Vector2d>{} : render::ReadTopViewMarks(a.plot_marks, rep.scale));
       }
       reports.push_back(std::move(rep));
     } catch (const Error& e) {

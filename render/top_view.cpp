@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
+#include "pipeline/error.hpp"
 #include "pipeline/print.hpp"
 #include "stereo/image_io.hpp"
 
@@ -101,6 +104,25 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
                                     marks.empty() ? "" : pipeline::Format(", %zu marks (black +)", marks.size()).c_str()),
               cv::Point(int(margin), int(margin / 2)), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   stereo::WriteImageAtomic(path, img);
+}
+
+std::vector<Eigen::Vector2d> ReadTopViewMarks(const std::string& path, double scale) {
+  std::ifstream in(path);
+  if (!in) throw InputError("--plot-marks " + path + ": cannot read it (a text file of 'x y' per line, in the cloud's units)");
+  std::vector<Eigen::Vector2d> marks;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    line = line.substr(0, line.find('#'));
+    for (char& ch : line) if (ch == ',') ch = ' ';
+    std::istringstream fields(line);
+    double x = 0, y = 0;
+    if (!(fields >> x)) continue;
+    if (!(fields >> y) || !std::isfinite(x) || !std::isfinite(y)) {
+      throw InputError(pipeline::Format("--plot-marks %s line %d: expected two numbers 'x y'", path.c_str(), n));
+    }
+    marks.emplace_back(x * scale, y * scale);
+  }
+  return marks;
 }
 
 }  // namespace hedgefit::render

@@ -19,4 +19,8 @@ namespace hedgefit::render {
 void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& result, const std::string& path,
                   int size = 1200, const std::vector<Eigen::Vector2d>& marks = {});
 
+/// Marks for WriteTopView from a text file: one "x y" (or "x,y") per line in the cloud's units,
+/// times `scale` (to mm); # starts a comment. A line that is not two numbers is an error naming it.
+std::vector<Eigen::Vector2d> ReadTopViewMarks(const std::string& path, double scale);
+
 }  // namespace hedgefit::render

@@ -5,11 +5,34 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cloud/cloud_io.hpp"
+#include "cloud/describe.hpp"
 #include "fitting/fit_fields.hpp"
 #include "fitting/uncertainty.hpp"
 #include "pipeline/print.hpp"
 
 namespace hedgefit::scene {
+
+FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options, cloud::PointCloud* cloud) {
+  FindReport rep;
+  cloud::PointCloud c = cloud::ReadCloud(file);
+  if (scale > 0) {
+    rep.scale = scale, rep.scale_source = pipeline::Format("scale %g given", scale);
+  } else {
+    const double extent = cloud::LargestExtent(c), spacing = cloud::MedianSpacing(c);
+    rep.scale = cloud::GuessUnits(extent, spacing) == "m" ? 1000.0 : 1.0;
+    rep.scale_source = rep.scale == 1000.0
+                           ? pipeline::Format("metres, guessed from its span %.3g and spacing %.3g; --scale overrides", extent, spacing)
+                           : "mm, guessed; --scale overrides";
+  }
+  if (rep.scale != 1.0) {
+    for (auto& p : c.points_mm) p *= float(rep.scale);
+  }
+  rep.result = FindHedges(c, options);
+  rep.result.file = file;
+  if (cloud) *cloud = std::move(c);
+  return rep;
+}
 
 namespace {
 

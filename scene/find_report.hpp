@@ -19,6 +19,12 @@ struct FindReport {
   std::string scale_source;   ///< "given", "guessed: metres (...)", "guessed: mm"
 };
 
+/// `find` on one cloud file: read (cloud/cloud_io.hpp), scaled to mm by `scale` (0: guessed from
+/// its span and spacing, as `info` guesses), and searched with `options`. `cloud`, when given,
+/// gets the cloud as searched (in mm), for the outputs drawn or written from it.
+FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options,
+                           cloud::PointCloud* cloud = nullptr);
+
 void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports);
 void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports);
 void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports);
