@@ -8,15 +8,12 @@
 #include <memory>
 #include <string>
 
-#include "cli/capture_flags.hpp"
 #include "apps/commands.hpp"
 #include "pipeline/output_check.hpp"
 #include "cli/parse.hpp"
 #include "cloud/cloud_io.hpp"
-#include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
-#include "fitting/methods.hpp"
-#include "fitting/trim.hpp"
+#include "measure/trim_plan.hpp"
 #include "render/render.hpp"
 
 namespace hedgefit::apps {
@@ -31,22 +28,6 @@ struct TrimArgs {
   double radius = 0, tolerance = 5, scale = 1;
   bool no_clean = false, print_pipeline = false;
 };
-
-json Stages(const TrimArgs& a, const std::vector<double>& center) {
-  json reader = {{"filename", a.cloud}};  // the reader chosen by extension
-  if (a.scale != 1) reader["scale"] = a.scale;
-  json p = json::array({reader});
-  if (!a.no_clean) {
-    for (const auto& stage : DefaultCleaning()) p.push_back(json(stage));
-  }
-  if (center.empty()) p.push_back({{"type", fitting::FindFitMethod(a.method, "--method").stage}});
-  json trim = {{"type", "filters.trim_depth"}, {"radius", a.radius}, {"tolerance", a.tolerance}, {"up", a.up}};
-  if (!a.axes.empty()) trim["axes"] = ParseNumbers(a.axes, 3, "--axes"), trim["heading"] = a.heading;
-  if (!center.empty()) trim["center"] = center;
-  p.push_back(trim);
-  if (!a.output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", a.output}, {"encoding", "binary_compressed"}});
-  return p;
-}
 
 }  // namespace
 
@@ -92,35 +73,20 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
-      if (!(a->radius > 0) && a->axes.empty()) throw Error("trim: give the target's --radius R (mm), or a clipped shape's --axes A,B,C");
-      std::vector<double> center;
-      if (!a->center.empty()) center = ParseNumbers(a->center, 3, "--center");
-      const json stages = Stages(*a, center);
+      measure::TrimRequest r;
+      r.cloud = a->cloud, r.scale = a->scale, r.clean = !a->no_clean, r.method = a->method;
+      if (!a->center.empty()) r.center = ParseNumbers(a->center, 3, "--center");
+      r.radius = a->radius, r.tolerance = a->tolerance, r.up = a->up, r.heading = a->heading, r.output = a->output;
+      if (!a->axes.empty()) r.axes = ParseNumbers(a->axes, 3, "--axes");
       if (a->print_pipeline) {
-        std::printf("%s\n", json{{"pipeline", stages}}.dump(2).c_str());
+        std::printf("%s\n", json{{"pipeline", json::parse(measure::TrimRecipe(r))}}.dump(2).c_str());
         return kExitOk;
       }
       if (!a->output.empty()) cloud::CheckCloudOutput("-o", a->output, {a->cloud});
       if (!a->render.empty()) pipeline::CheckImageOutput("--render", a->render, {".png"}, {a->cloud});
-      pipeline::Pipeline p = pipeline::Pipeline::FromJson(stages.dump(), "trim", pipeline::Registry::Global());
-      pipeline::Context ctx;
-      ctx.quiet = true;
-      p.Run(ctx);
-      const auto& plans = ctx.Get<std::vector<fitting::TrimPlan>>("trim_plans");
-      if (!a->render.empty()) {
-        render::RenderOptions ro;
-        ro.color = render::ColorMode::kField;
-        ro.field = "cut_depth";
-        ro.views = {render::View::kFront, render::View::kSide};
-        ro.wireframe = true;
-        std::vector<render::SphereOverlay> spheres;
-        for (const auto& t : plans) {
-          render::SphereOverlay target{"target" + (t.hedge_id ? " hedge " + std::to_string(t.hedge_id) : std::string()),
-                                       t.target, false, false, t.target_axes_mm, t.target_heading_deg, t.pole};
-          spheres.push_back(target);
-        }
-        render::RenderToPng(ctx.Get<cloud::PointCloud>("cloud"), spheres, ro, a->render);
-      }
+      const measure::TrimResult t = measure::PlanTrim(r, pipeline::Registry::Global());
+      const auto& plans = t.plans;
+      if (!a->render.empty()) render::RenderTrimPlan(t.cloud, plans, a->render);
       if (a->format == "json") {
         std::cout << fitting::TrimPlansJson(a->cloud, plans) << "\n";
         return kExitOk;

@@ -550,4 +550,18 @@ SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& 
   return o;
 }
 
+void RenderTrimPlan(const cloud::PointCloud& cloud, const std::vector<fitting::TrimPlan>& plans, const std::string& png_path) {
+  RenderOptions ro;
+  ro.color = ColorMode::kField;
+  ro.field = "cut_depth";
+  ro.views = {View::kFront, View::kSide};
+  ro.wireframe = true;
+  std::vector<SphereOverlay> spheres;
+  for (const auto& t : plans) {
+    spheres.push_back({"target" + (t.hedge_id ? " hedge " + std::to_string(t.hedge_id) : std::string()), t.target, false, false,
+                       t.target_axes_mm, t.target_heading_deg, t.pole});
+  }
+  RenderToPng(cloud, spheres, ro, png_path);
+}
+
 }  // namespace hedgefit::render

@@ -9,6 +9,7 @@
 
 #include "pipeline/option_table.hpp"
 #include "cloud/point_cloud.hpp"
+#include "fitting/trim.hpp"
 #include "fitting/sphere_fit.hpp"
 
 namespace hedgefit::render {
@@ -66,6 +67,10 @@ std::optional<fitting::Sphere> MostTrustedSphere(const std::vector<SphereOverlay
 
 void RenderToPng(const cloud::PointCloud& cloud, const std::vector<SphereOverlay>& spheres,
                  const RenderOptions& options, const std::string& png_path);
+
+/// A trim plan's picture (`hedgefit trim --render`): the cloud coloured by its cut_depth field,
+/// from the front and the side, with each plan's target drawn as a wireframe.
+void RenderTrimPlan(const cloud::PointCloud& cloud, const std::vector<fitting::TrimPlan>& plans, const std::string& png_path);
 
 /// Camera of a view preset for a scene: position, focal point, view-up, view angle (deg).
 /// Exposed so tests can project known points exactly as the renderer does.
