@@ -260,7 +260,7 @@ FitMethod SpheroidRow() {
 // cut at it).
 FitMethod ShapeRow() {
   return {"shape", "fitters.shape",
-          "Clipped topiary shape with a vertical axis: a ball, a dome, a spheroid or an ellipsoid with its heading, "
+          "Clipped topiary shape with a vertical axis: a ball, a dome, a spheroid, an ellipsoid with its heading, a cylinder or a cuboid, "
           "chosen by BIC (as find's topiary); axes_mm along the heading, across it and vertical: the envelope's, where "
           "the outer leaves end, unless envelope is false",
           {pipeline::StringOption("up", "z", "the vertical: z for most maps and scans, -y for a camera's cloud")

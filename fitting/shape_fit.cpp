@@ -22,6 +22,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // photogrammetry): the worst semi-axis error 3.2 % untrimmed, 2.9 % at 4, 2.4 % at 3, 1.8 % at 2.5,
 // 1.9 % at 2; reported on the held-back seeds in docs/accuracy.md.
 constexpr double kTrimDeviations = 2.5;
+// A prism's robust spread over the chosen quadric's, at most, for the prism to be chosen
+// (ChooseFamily).
+constexpr double kPrismSpreadShare = 0.6;
 
 double MedianOf(std::vector<double> v) {
   if (v.empty()) return kNaN;
@@ -37,21 +40,38 @@ double RobustSpread(const std::vector<double>& e) {
 }
 
 
-// The shape family: which of the seven parameters (cx, cy, cz, a, b, c, heading) are free.
-enum class Family { kBall = 0, kSpheroid = 1, kEllipsoid = 2 };
-int FreeCount(Family f) { return f == Family::kBall ? 4 : f == Family::kSpheroid ? 5 : 7; }
+// The shape family: which of the seven parameters (cx, cy, cz, a, b, c, heading) are free. The
+// quadrics' are their own; a prism (a drum, a box) stands on the ground, so its free parameters are
+// its top's height in place of cz and c: cz = (top + ground) / 2, c = (top - ground) / 2.
+enum class Family { kBall = 0, kSpheroid = 1, kEllipsoid = 2, kCylinder = 3, kCuboid = 4 };
+int FreeCount(Family f) {
+  switch (f) {
+    case Family::kBall: return 4;
+    case Family::kSpheroid: return 5;
+    case Family::kCylinder: return 4;
+    case Family::kCuboid: return 6;
+    default: return 7;
+  }
+}
+bool Prism(Family f) { return f == Family::kCylinder || f == Family::kCuboid; }
+// The free parameter that is a heading (radians), or -1.
+int HeadingIndex(Family f) { return f == Family::kEllipsoid ? 6 : f == Family::kCuboid ? 5 : -1; }
 
 using Full = Eigen::Matrix<double, 7, 1>;
 
-Full Expand(const Eigen::VectorXd& x, Family f, double heading) {
+Full Expand(const Eigen::VectorXd& x, Family f, double heading, double ground) {
   Full q;
   q.head<3>() = x.head<3>();
   if (f == Family::kBall) {
     q(3) = q(4) = q(5) = x(3), q(6) = heading;
   } else if (f == Family::kSpheroid) {
     q(3) = q(4) = x(3), q(5) = x(4), q(6) = heading;
-  } else {
+  } else if (f == Family::kEllipsoid) {
     q.tail<4>() = x.tail<4>();
+  } else {
+    const double top = x(2);
+    q(2) = 0.5 * (top + ground), q(5) = std::max(1.0, 0.5 * (top - ground));
+    q(3) = x(3), q(4) = f == Family::kCuboid ? x(4) : x(3), q(6) = f == Family::kCuboid ? x(5) : heading;
   }
   return q;
 }
@@ -63,8 +83,15 @@ Eigen::VectorXd Reduce(const Full& q, Family f) {
     x(3) = std::cbrt(q(3) * q(4) * q(5));
   } else if (f == Family::kSpheroid) {
     x(3) = std::sqrt(q(3) * q(4)), x(4) = q(5);
-  } else {
+  } else if (f == Family::kEllipsoid) {
     x.tail<4>() = q.tail<4>();
+  } else {
+    x(2) = q(2) + q(5);
+    if (f == Family::kCylinder) {
+      x(3) = std::sqrt(q(3) * q(4));
+    } else {
+      x(3) = q(3), x(4) = q(4), x(5) = q(6);
+    }
   }
   return x;
 }
@@ -79,13 +106,15 @@ class Surface {
  public:
   // The heading's sine and cosine and the axes' inverse squares once per shape, not per point: a
   // fit's numerical Jacobian asks for every point's distance eight times an iteration.
-  explicit Surface(const Full& q)
+  explicit Surface(const Full& q, Family f = Family::kEllipsoid)
       : c_(q.head<3>()), cs_(std::cos(q(6))), sn_(std::sin(q(6))),
-        inv2_(1 / (q(3) * q(3)), 1 / (q(4) * q(4)), 1 / (q(5) * q(5))), smallest_(std::min({q(3), q(4), q(5)})) {}
+        inv2_(1 / (q(3) * q(3)), 1 / (q(4) * q(4)), 1 / (q(5) * q(5))), smallest_(std::min({q(3), q(4), q(5)})),
+        axes_(q.segment<3>(3)), family_(f) {}
 
   double Radial(const Eigen::Vector3d& p, bool orthogonal = false) const {
     const Eigen::Vector3d d = p - c_;
     const Eigen::Vector3d uvw(d.x() * cs_ + d.y() * sn_, -d.x() * sn_ + d.y() * cs_, d.z());
+    if (Prism(family_)) return Signed(uvw);
     const double s = std::sqrt(uvw.cwiseAbs2().dot(inv2_));
     const double n = d.norm();
     if (s < 1e-12) return -smallest_;
@@ -95,10 +124,26 @@ class Surface {
   }
 
  private:
+  // A prism's signed distance (exact: the distance to its nearest face, edge or corner outside,
+  // to its nearest face inside): a drum's side is round, a box's flat.
+  double Signed(const Eigen::Vector3d& uvw) const {
+    Eigen::Vector3d e;
+    if (family_ == Family::kCylinder) {
+      const double r = std::hypot(uvw.x(), uvw.y()) - axes_.x();
+      e << r, -1e300, std::abs(uvw.z()) - axes_.z();
+    } else {
+      e = uvw.cwiseAbs() - axes_;
+    }
+    return e.cwiseMax(0.0).norm() + std::min(e.maxCoeff(), 0.0);
+  }
+
+ private:
   Eigen::Vector3d c_;
   double cs_, sn_;
   Eigen::Vector3d inv2_;
   double smallest_;
+  Eigen::Vector3d axes_;
+  Family family_;
 };
 
 struct Bounds {
@@ -129,15 +174,14 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
   const double heading = start(6);
   Eigen::VectorXd x = Reduce(start, f);
   auto residuals = [&](const Eigen::VectorXd& xv, Eigen::VectorXd* e) {
-    const Surface surface(Expand(xv, f, heading));
+    const Surface surface(Expand(xv, f, heading, bounds.ground), f);
     e->resize(Eigen::Index(p.size()));
     for (std::size_t i = 0; i < p.size(); ++i) (*e)(Eigen::Index(i)) = surface.Radial(p[i]);
   };
   auto clamp = [&](Eigen::VectorXd* xv) {
-    Full q = Expand(*xv, f, heading);
+    Full q = Expand(*xv, f, heading, bounds.ground);
     bounds.Apply(&q);
     *xv = Reduce(q, f);
-    if (f == Family::kEllipsoid) (*xv)(6) = q(6);
   };
   clamp(&x);
   Eigen::VectorXd e, e_try;
@@ -153,7 +197,7 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
     for (Eigen::Index i = 0; i < n; ++i) w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
     // Forward differences: steps of 0.05 mm (1e-4 rad) on residuals of millimetres.
     for (int j = 0; j < m; ++j) {
-      const double h = (f == Family::kEllipsoid && j == 6) ? 1e-4 : 0.05;
+      const double h = j == HeadingIndex(f) ? 1e-4 : 0.05;
       Eigen::VectorXd xp = x, ep;
       xp(j) += h;
       residuals(xp, &ep);
@@ -181,7 +225,7 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
     if (!stepped) break;
   }
   out.x = x;
-  out.q = Expand(x, f, heading);
+  out.q = Expand(x, f, heading, bounds.ground);
   out.residuals.assign(e.data(), e.data() + n);
   // The sandwich covariance: robust to residuals that are not all alike (a leaf layer on top,
   // clutter at the foot).
@@ -301,11 +345,14 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
     if (layer) {
       std::vector<double> r;  // 300 residuals: the offset to a millimetre or two, 16 times over
       const std::size_t every = kept.size() / 300 + 1;
-      const Surface surface(f.q);
+      const Surface surface(f.q, family);
       for (std::size_t i = 0; i < kept.size(); i += every) r.push_back(surface.Radial(kept[i], true));
       const double offset = std::max(0.0, FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, layer)(0));
-      const int axes = family == Family::kBall ? 1 : family == Family::kSpheroid ? 2 : 3;
-      f.x.segment(3, axes).array() += offset;
+      // The semi-axes among the free parameters (and a prism's top) move out by the offset.
+      const int first = Prism(family) ? 2 : 3;
+      const int axes = family == Family::kBall ? 1 : family == Family::kSpheroid ? 2 : family == Family::kEllipsoid ? 3
+                       : family == Family::kCylinder ? 2 : 3;
+      f.x.segment(first, axes).array() += offset;
     }
     refits.push_back(f.x);
   }
@@ -320,9 +367,11 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
 }
 
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
-const FamilyFit* ChooseFamily(const FamilyFit& ball, const FamilyFit& spheroid, const FamilyFit& ellipsoid, double noise_mm,
-                              ClippedShape* s, Family* family) {
-  // One scale for all three: the most flexible family's robust spread; residuals beyond 2.5 of it
+// `cylinder` and `cuboid` may be absent (not fitted, or not converged).
+const FamilyFit* ChooseFamily(const FamilyFit& ball, const FamilyFit& spheroid, const FamilyFit& ellipsoid,
+                              const FamilyFit* cylinder, const FamilyFit* cuboid, double noise_mm, ClippedShape* s,
+                              Family* family) {
+  // One scale for all: the most flexible quadric's robust spread; residuals beyond 2.5 of it
   // (strays, a neighbour's leaves) count as 2.5.
   const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
   const double clip = 2.5 * sigma;
@@ -345,7 +394,23 @@ const FamilyFit* ChooseFamily(const FamilyFit& ball, const FamilyFit& spheroid, 
   }
   const Full& e = ellipsoid.q;
   if (s->bic_ellipsoid < best_bic && (differ(e(3), e(4)) || (*family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))) {
-    best = &ellipsoid, *family = Family::kEllipsoid;
+    best = &ellipsoid, *family = Family::kEllipsoid, best_bic = s->bic_ellipsoid;
+  }
+  // A drum or a box is another shape, not a refinement of a quadric: it wins when the criterion
+  // says so and its points lie clearly closer to it, within kPrismSpreadShare of their spread
+  // about the quadric. On a rough real top (leaf clumps, a reconstruction's relief: residuals
+  // that are not independent) the criterion takes a box's extra parameters for significant;
+  // clipped domes of the real garden lie 0.8-1.1 times as far from a box as from their quadric,
+  // a drum's or a box's simulated points 0.1-0.2 times.
+  const double quadric_spread = RobustSpread(best->residuals);
+  auto clearly_closer = [&](const FamilyFit& prism) { return RobustSpread(prism.residuals) <= kPrismSpreadShare * quadric_spread; };
+  if (cylinder && cylinder->ok) {
+    s->bic_cylinder = bic(*cylinder, 4);
+    if (s->bic_cylinder < best_bic && clearly_closer(*cylinder)) best = cylinder, *family = Family::kCylinder, best_bic = s->bic_cylinder;
+  }
+  if (cuboid && cuboid->ok) {
+    s->bic_cuboid = bic(*cuboid, 6);
+    if (s->bic_cuboid < best_bic && clearly_closer(*cuboid)) best = cuboid, *family = Family::kCuboid, best_bic = s->bic_cuboid;
   }
   return best;
 }
@@ -374,7 +439,7 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
   // 600 residuals settle three parameters to about a millimetre under 6 mm noise.
   std::vector<double> r;
   const std::size_t every = p.size() / 600 + 1;
-  const Surface surface(q);
+  const Surface surface(q, family);
   for (std::size_t i = 0; i < p.size(); i += every) r.push_back(surface.Radial(p[i], true));
   m.layer = FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, nullptr);
   m.offset_mm = std::max(0.0, (*m.layer)(0));
@@ -436,8 +501,36 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   ell_start(6) = start(6);
   const FamilyFit ellipsoid = FitFamily(p, Family::kEllipsoid, ell_start, bounds);
   if (!ball.ok || !spheroid.ok || !ellipsoid.ok) return s;
+  // The prisms from the quadrics: a drum about the spheroid, a box about the ellipsoid, each with
+  // its top where theirs is and its sides a little inside (a prism's corners reach past an
+  // inscribed quadric's).
+  Full cyl_start = spheroid.q, box_start = ellipsoid.q;
+  cyl_start(3) = cyl_start(4) = 0.9 * spheroid.q(3);
+  box_start(3) *= 0.85, box_start(4) *= 0.85;
+  const double cyl_top = spheroid.q(2) + spheroid.q(5), box_top = ellipsoid.q(2) + ellipsoid.q(5);
+  cyl_start(2) = 0.5 * (cyl_top + ground_mm), cyl_start(5) = 0.5 * (cyl_top - ground_mm);
+  box_start(2) = 0.5 * (box_top + ground_mm), box_start(5) = 0.5 * (box_top - ground_mm);
+  // A prism can only win where its points lie clearly closer to it than to the quadric
+  // (ChooseFamily), and none lies closer than the sensor's noise: where the ellipsoid's spread is
+  // within that, they are not fitted.
+  // Each is tried on at most 300 of the points first, and fitted to all of them only where it
+  // lies clearly closer to those than the ellipsoid does (most shapes are quadrics).
+  const bool prisms = RobustSpread(ellipsoid.residuals) > std::max(1.0, noise_mm) / kPrismSpreadShare;
+  std::vector<Eigen::Vector3d> few;
+  std::vector<double> few_ellipsoid;
+  for (std::size_t i = 0, every = p.size() / 300 + 1; i < p.size(); i += every) {
+    few.push_back(p[i]), few_ellipsoid.push_back(ellipsoid.residuals[i]);
+  }
+  auto try_prism = [&](Family f, const Full& from) {
+    if (!prisms) return FamilyFit{};
+    const FamilyFit trial = FitFamily(few, f, from, bounds);
+    if (!trial.ok || RobustSpread(trial.residuals) > kPrismSpreadShare * RobustSpread(few_ellipsoid)) return FamilyFit{};
+    return FitFamily(p, f, trial.q, bounds);
+  };
+  const FamilyFit cylinder = try_prism(Family::kCylinder, cyl_start);
+  const FamilyFit cuboid = try_prism(Family::kCuboid, box_start);
   Family family = Family::kBall;
-  const FamilyFit* best = ChooseFamily(ball, spheroid, ellipsoid, noise_mm, &s, &family);
+  const FamilyFit* best = ChooseFamily(ball, spheroid, ellipsoid, &cylinder, &cuboid, noise_mm, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
   Measured measured;
   if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm);
@@ -451,10 +544,11 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   double heading = std::fmod(q(6), M_PI);
   if (heading < 0) heading += M_PI;
   s.converged = true;
-  s.family = family == Family::kBall ? "ball" : family == Family::kSpheroid ? "spheroid" : "ellipsoid";
+  static const char* const kFamilyNames[] = {"ball", "spheroid", "ellipsoid", "cylinder", "cuboid"};
+  s.family = kFamilyNames[int(family)];
   s.center_mm = q.head<3>();
   s.axes_mm = q.segment<3>(3);
-  s.heading_deg = family == Family::kEllipsoid ? heading * 180 / M_PI : 0;
+  s.heading_deg = HeadingIndex(family) >= 0 ? heading * 180 / M_PI : 0;
   // The sandwich covariance of the subsample, scaled to all the points (independent residuals).
   Eigen::VectorXd sd = best->cov.diagonal().cwiseMax(0).cwiseSqrt() * 1.96 *
                        std::sqrt(double(p.size()) / double(all.size()));
@@ -467,20 +561,27 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
     s.axes_ci95_mm.setConstant(sd(3));
   } else if (family == Family::kSpheroid) {
     s.axes_ci95_mm << sd(3), sd(3), sd(4);
-  } else {
+  } else if (family == Family::kEllipsoid) {
     s.axes_ci95_mm = sd.segment<3>(3);
     if (best->q(4) > best->q(3)) std::swap(s.axes_ci95_mm(0), s.axes_ci95_mm(1));
+  } else {
+    // A prism's free parameter is its top: its centre's height and half-height are half of it.
+    s.center_ci95_mm(2) = 0.5 * sd(2);
+    s.axes_ci95_mm << sd(3), family == Family::kCuboid ? sd(4) : sd(3), 0.5 * sd(2);
+    if (family == Family::kCuboid && best->q(4) > best->q(3)) std::swap(s.axes_ci95_mm(0), s.axes_ci95_mm(1));
   }
   const double above = s.center_mm.z() - ground_mm, c = s.axes_mm.z();
   const bool cut = above < 0.8 * c;
   if (family == Family::kBall) {
     s.shape = cut ? "dome" : "ball";
+  } else if (Prism(family)) {
+    s.shape = s.family;
   } else {
     s.shape = family == Family::kSpheroid ? (cut ? "dome" : "spheroid") : "ellipsoid";
     s.form = c < 0.5 * (s.axes_mm.x() + s.axes_mm.y()) ? "oblate" : "prolate";
   }
   // Seen from above, the widest section above the ground.
-  const double t = above >= 0 ? 0.0 : std::min(1.0, -above / c);
+  const double t = above >= 0 || Prism(family) ? 0.0 : std::min(1.0, -above / c);
   s.footprint_mm = s.axes_mm.head<2>() * std::sqrt(1 - t * t);
   s.top_mm = above + c;
   return s;
@@ -490,7 +591,8 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
 double DistanceOutside(const ClippedShape& s, const Eigen::Vector3d& p) {
   Full q;
   q << s.center_mm, s.axes_mm.cwiseMax(1e-6), s.heading_deg * M_PI / 180;
-  return Surface(q).Radial(p, true);
+  const Family f = s.family == "cylinder" ? Family::kCylinder : s.family == "cuboid" ? Family::kCuboid : Family::kEllipsoid;
+  return Surface(q, f).Radial(p, true);
 }
 
 Eigen::Matrix3d ShapeAxes(const Eigen::Vector3d& up, double heading_deg) {

@@ -73,7 +73,14 @@ void WriteTopView(const cloud::PointCloud& cloud, const scene::FindResult& resul
       const auto& s = *o.shape;
       const cv::Point c = at(s.center_mm.head<2>());
       const cv::Size axes(std::max(2, int(std::lround(s.footprint_mm.x() * px))), std::max(2, int(std::lround(s.footprint_mm.y() * px))));
-      cv::ellipse(img, c, axes, -s.heading_deg, 0, 360, green, 2, cv::LINE_AA);
+      if (s.shape == "cuboid") {
+        // A box's footprint is its rectangle (the image's y runs down: the heading turns clockwise).
+        cv::Point2f corners[4];
+        cv::RotatedRect(cv::Point2f(c), cv::Size2f(2.f * float(axes.width), 2.f * float(axes.height)), float(-s.heading_deg)).points(corners);
+        for (int k = 0; k < 4; ++k) cv::line(img, corners[k], corners[(k + 1) % 4], green, 2, cv::LINE_AA);
+      } else {
+        cv::ellipse(img, c, axes, -s.heading_deg, 0, 360, green, 2, cv::LINE_AA);
+      }
       cv::putText(img, std::to_string(o.id) + " " + s.shape, c + cv::Point(axes.width / 2 + 4, -axes.height / 2 - 4),
                   cv::FONT_HERSHEY_SIMPLEX, 0.6, green, 2, cv::LINE_AA);
     } else if (o.ball && o.fit.converged) {

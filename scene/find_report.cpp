@@ -89,7 +89,10 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
                   {"top_mm", s.top_mm},
                   {"roughness_mm", s.roughness_mm},
                   {"envelope_offset_mm", s.envelope_offset_mm},
-                  {"bic", {{"ball", s.bic_ball}, {"spheroid", s.bic_spheroid}, {"ellipsoid", s.bic_ellipsoid}}},
+                  {"bic", {{"ball", s.bic_ball}, {"spheroid", s.bic_spheroid}, {"ellipsoid", s.bic_ellipsoid},
+                           // a prism is fitted to all points only where it lies clearly closer than the quadric
+                           {"cylinder", s.bic_cylinder != 0 ? json(s.bic_cylinder) : json(nullptr)},
+                           {"cuboid", s.bic_cuboid != 0 ? json(s.bic_cuboid) : json(nullptr)}}},
                   {"covered", o.covered},
                   {"covered_lower", o.covered_lower},
                   {"roughness_noise", o.roughness},

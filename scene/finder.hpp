@@ -24,7 +24,7 @@
 ///     outer surface where the leaves end) and mean-leaf radii.
 ///  6. What no ball takes is searched for clipped topiary by height (topiary.hpp): a watershed of
 ///     the height above the ground parts touching shapes in a bed, and each is fitted as a ball, a
-///     dome, a spheroid or an ellipsoid with a vertical axis and judged against the cloud's own
+///     dome, a spheroid, an ellipsoid, a cylinder or a cuboid with a vertical axis and judged against the cloud's own
 ///     noise and spacing (a squat dome seen from above is judged on its footprint, not as a
 ///     sphere).
 ///     What is left of each object is an object of its own: "not a ball", with the reason.

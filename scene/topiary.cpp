@@ -27,7 +27,7 @@ const pipeline::OptionTable<TopiaryOptions>& TopiaryOptions::Table() {
   using O = TopiaryOptions;
   static const auto table =
       pipeline::OptionTable<O>()
-          .Add("topiary", &O::enabled, "look for clipped shapes (ball, dome, spheroid, ellipsoid) among the objects no ball takes")
+          .Add("topiary", &O::enabled, "look for clipped shapes (ball, dome, spheroid, ellipsoid, cylinder, cuboid) among the objects no ball takes")
           .Add("min_height", &O::min_height_mm, "a topiary's top stands at least this far above the ground", "mm").Min(0)
           .Add("max_size", &O::max_size_mm, "a topiary's largest horizontal semi-axis", "mm").Min(1)
           .Add("merge_saddle", &O::merge_saddle,
@@ -42,6 +42,9 @@ const pipeline::OptionTable<TopiaryOptions>& TopiaryOptions::Table() {
                "")
           .Min(0)
           .Add("min_density", &O::min_density, "points on a topiary's footprint over the lawn's beside it (per mm^2), at least", "")
+          .Min(0)
+          .Add("max_axis_uncertainty", &O::max_axis_uncertainty,
+               "a topiary's semi-axes are pinned down to this share of each (95 % interval)", "")
           .Min(0)
           .Add("min_noise", &O::min_noise_mm, "the noise roughness is judged against is at least this", "mm")
           .Min(0.1);
@@ -266,6 +269,18 @@ double LawnDensity::PerMm2Around(const Eigen::Vector2d& center, double radius_mm
   return double(n) / (double(cells) * kCell * kCell);
 }
 
+namespace {
+
+// The semi-axis with the widest interval for its length (a slice of a bench's seat: its cut ends
+// leave a box's length free).
+Eigen::Index AxisLeastPinned(const TopiaryShape& s) {
+  Eigen::Index k = 0;
+  s.axes_ci95_mm.cwiseQuotient(s.axes_mm.cwiseMax(1e-9)).maxCoeff(&k);
+  return k;
+}
+
+}  // namespace
+
 TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vector<std::size_t> points, const GroundModel& ground,
                               const LawnDensity& lawn, double cell, const TopiaryOptions& o, double widest_mm,
                               const std::vector<float>* cell_height_mm, double peak_mm) {
@@ -358,6 +373,9 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     c.reason = pipeline::Format("its points cover %.0f %% of the %zu cells of its footprint seen from above (at least %.0f %%, 95 %%); "
                                 "a clipped shape's cover at least %.0f %%",
                                 100 * c.covered, inside, 100 * c.covered_lower, 100 * o.min_covered);
+  } else if (const Eigen::Index k = AxisLeastPinned(s); s.axes_ci95_mm(k) > o.max_axis_uncertainty * s.axes_mm(k)) {
+    c.reason = pipeline::Format("its points do not pin its %s down: a semi-axis of %.0f mm +- %.0f mm (95 %%); a clipped shape's "
+                                "within %.0f %%", s.shape.c_str(), s.axes_mm(k), s.axes_ci95_mm(k), 100 * o.max_axis_uncertainty);
   } else if (c.roughness > o.max_roughness) {
     c.reason = pipeline::Format("its points lie %.0f mm about its %s (%.1f times the ground's noise of %.0f mm): not clipped",
                                 s.roughness_mm, s.shape.c_str(), c.roughness, noise);
@@ -368,6 +386,14 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     // to its envelope: where its outer leaves end (fitting/shape_fit.hpp).
     const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true, true);
     if (fine.converged) c.shape = fine;
+    // Measured with the block jackknife, a shape the judging fit's own interval let pass may
+    // still not be pinned down.
+    if (const Eigen::Index m = AxisLeastPinned(c.shape); c.shape.axes_ci95_mm(m) > o.max_axis_uncertainty * c.shape.axes_mm(m)) {
+      c.topiary = false;
+      c.reason = pipeline::Format("its points do not pin its %s down: a semi-axis of %.0f mm +- %.0f mm (95 %%); a clipped shape's "
+                                  "within %.0f %%", c.shape.shape.c_str(), c.shape.axes_mm(m), c.shape.axes_ci95_mm(m),
+                                  100 * o.max_axis_uncertainty);
+    }
   }
   return c;
 }

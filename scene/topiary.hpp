@@ -7,7 +7,7 @@
 ///     between them stands above `merge_saddle` of the lower peak's height (a hedge row's ridge, a
 ///     rose's lumps), and two objects when it falls below (topiary in a bed, touching or not).
 ///  3. Each object's upper three quarters are fitted with three families with a vertical axis
-///     (fitting/shape_fit.hpp: a ball, a spheroid, an ellipsoid with its heading; the class by BIC;
+///     (fitting/shape_fit.hpp: a ball, a spheroid, an ellipsoid with its heading, a drum or a box; the class by BIC;
 ///     a shape cut by the ground is a dome), the horizontal semi-axes bounded by the footprint of
 ///     the object's upper half in the height model.
 ///  4. Verdict: topiary when the shape's top stands `min_height_mm` above the ground, its
@@ -53,6 +53,9 @@ struct TopiaryOptions {
   /// vegetation, canes and a reconstruction's strays do not.
   double min_density = 0.8;
   double max_roughness = 3.5;    ///< robust spread of the points about the shape, in the ground's noise
+  /// each semi-axis' 95 % half-width over the semi-axis, at most: the real garden's topiary are
+  /// pinned to 0.07-0.34 of each, a box fitted to a slice of a bench's seat not at all
+  double max_axis_uncertainty = 0.5;
   double min_noise_mm = 5;
   double min_width_mm = 150;     ///< smallest horizontal semi-axis, mm (set from FindOptions::min_radius_mm by FindHedges)       ///< the noise roughness is judged against is at least this, mm
   void Check() const;
