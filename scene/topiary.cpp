@@ -271,12 +271,15 @@ double LawnDensity::PerMm2Around(const Eigen::Vector2d& center, double radius_mm
 
 namespace {
 
-// The semi-axis with the widest interval for its length (a slice of a bench's seat: its cut ends
-// leave a box's length free).
-Eigen::Index AxisLeastPinned(const TopiaryShape& s) {
+// Why `s`'s points do not pin it down (its semi-axis with the widest interval for its length
+// beyond max_axis_uncertainty: a slice of a bench's seat, whose cut ends leave a box's length
+// free), or "".
+std::string Unpinned(const TopiaryShape& s, const TopiaryOptions& o) {
   Eigen::Index k = 0;
   s.axes_ci95_mm.cwiseQuotient(s.axes_mm.cwiseMax(1e-9)).maxCoeff(&k);
-  return k;
+  if (!(s.axes_ci95_mm(k) > o.max_axis_uncertainty * s.axes_mm(k))) return "";
+  return pipeline::Format("its points do not pin its %s down: a semi-axis of %.0f mm +- %.0f mm (95 %%); a clipped shape's "
+                          "within %.0f %%", s.shape.c_str(), s.axes_mm(k), s.axes_ci95_mm(k), 100 * o.max_axis_uncertainty);
 }
 
 }  // namespace
@@ -373,9 +376,8 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     c.reason = pipeline::Format("its points cover %.0f %% of the %zu cells of its footprint seen from above (at least %.0f %%, 95 %%); "
                                 "a clipped shape's cover at least %.0f %%",
                                 100 * c.covered, inside, 100 * c.covered_lower, 100 * o.min_covered);
-  } else if (const Eigen::Index k = AxisLeastPinned(s); s.axes_ci95_mm(k) > o.max_axis_uncertainty * s.axes_mm(k)) {
-    c.reason = pipeline::Format("its points do not pin its %s down: a semi-axis of %.0f mm +- %.0f mm (95 %%); a clipped shape's "
-                                "within %.0f %%", s.shape.c_str(), s.axes_mm(k), s.axes_ci95_mm(k), 100 * o.max_axis_uncertainty);
+  } else if (const std::string unpinned = Unpinned(s, o); !unpinned.empty()) {
+    c.reason = unpinned;
   } else if (c.roughness > o.max_roughness) {
     c.reason = pipeline::Format("its points lie %.0f mm about its %s (%.1f times the ground's noise of %.0f mm): not clipped",
                                 s.roughness_mm, s.shape.c_str(), c.roughness, noise);
@@ -388,12 +390,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     if (fine.converged) c.shape = fine;
     // Measured with the block jackknife, a shape the judging fit's own interval let pass may
     // still not be pinned down.
-    if (const Eigen::Index m = AxisLeastPinned(c.shape); c.shape.axes_ci95_mm(m) > o.max_axis_uncertainty * c.shape.axes_mm(m)) {
-      c.topiary = false;
-      c.reason = pipeline::Format("its points do not pin its %s down: a semi-axis of %.0f mm +- %.0f mm (95 %%); a clipped shape's "
-                                  "within %.0f %%", c.shape.shape.c_str(), c.shape.axes_mm(m), c.shape.axes_ci95_mm(m),
-                                  100 * o.max_axis_uncertainty);
-    }
+    if (std::string loose = Unpinned(c.shape, o); !loose.empty()) c.topiary = false, c.reason = std::move(loose);
   }
   return c;
 }

@@ -152,7 +152,7 @@ TEST(FindHedges, EveryBallOfAFusedModelInMetres) {
 // The seat of a bench (1.5 x 0.45 m, 60 mm thick, on legs) in a fused model: the watershed can
 // leave a slice of it that fits a box (cuboid) closely, with nothing pinning the box's length,
 // whose jackknifed interval then runs to kilometres. A clipped shape's semi-axes are pinned to
-// max_axis_uncertainty of each (0.5; the real garden's topiary to 0.07-0.34): the bench is no
+// max_axis_uncertainty of each (1; the real garden's topiary to 0.07-0.62): the bench is no
 // topiary (seed 3, a tuning seed, where the slice arises); with the rule off it is one.
 TEST(FindHedges, ABenchSeatIsNoClippedBox) {
   const sim::ScanScene scene = sim::RandomScanGarden(3);
