@@ -446,6 +446,36 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
   return m;
 }
 
+// The prisms (FitClippedShape): a drum about the spheroid, a box about the ellipsoid, each with
+// its top where theirs is and its sides a little inside (a prism's corners reach past an
+// inscribed quadric's). A prism can only win where its points lie clearly closer to it than to
+// the quadric (ChooseFamily), and none lies closer than the sensor's noise: where the
+// ellipsoid's spread is within that, none is fitted. Each is tried on at most 300 of the points
+// first, and fitted to all of them only where it lies clearly closer to those than the ellipsoid
+// does (most shapes are quadrics); else it is left not ok.
+void FitPrisms(const std::vector<Eigen::Vector3d>& p, const FamilyFit& spheroid, const FamilyFit& ellipsoid, const Bounds& bounds,
+               double ground_mm, double noise_mm, FamilyFit* cylinder, FamilyFit* cuboid) {
+  if (!(RobustSpread(ellipsoid.residuals) > std::max(1.0, noise_mm) / kPrismSpreadShare)) return;
+  Full cyl_start = spheroid.q, box_start = ellipsoid.q;
+  cyl_start(3) = cyl_start(4) = 0.9 * spheroid.q(3);
+  box_start(3) *= 0.85, box_start(4) *= 0.85;
+  const double cyl_top = spheroid.q(2) + spheroid.q(5), box_top = ellipsoid.q(2) + ellipsoid.q(5);
+  cyl_start(2) = 0.5 * (cyl_top + ground_mm), cyl_start(5) = 0.5 * (cyl_top - ground_mm);
+  box_start(2) = 0.5 * (box_top + ground_mm), box_start(5) = 0.5 * (box_top - ground_mm);
+  std::vector<Eigen::Vector3d> few;
+  std::vector<double> few_ellipsoid;
+  for (std::size_t i = 0, every = p.size() / 300 + 1; i < p.size(); i += every) {
+    few.push_back(p[i]), few_ellipsoid.push_back(ellipsoid.residuals[i]);
+  }
+  auto try_prism = [&](Family f, const Full& from) {
+    const FamilyFit trial = FitFamily(few, f, from, bounds);
+    if (!trial.ok || RobustSpread(trial.residuals) > kPrismSpreadShare * RobustSpread(few_ellipsoid)) return FamilyFit{};
+    return FitFamily(p, f, trial.q, bounds);
+  };
+  *cylinder = try_prism(Family::kCylinder, cyl_start);
+  *cuboid = try_prism(Family::kCuboid, box_start);
+}
+
 }  // namespace
 
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
@@ -501,34 +531,8 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   ell_start(6) = start(6);
   const FamilyFit ellipsoid = FitFamily(p, Family::kEllipsoid, ell_start, bounds);
   if (!ball.ok || !spheroid.ok || !ellipsoid.ok) return s;
-  // The prisms from the quadrics: a drum about the spheroid, a box about the ellipsoid, each with
-  // its top where theirs is and its sides a little inside (a prism's corners reach past an
-  // inscribed quadric's).
-  Full cyl_start = spheroid.q, box_start = ellipsoid.q;
-  cyl_start(3) = cyl_start(4) = 0.9 * spheroid.q(3);
-  box_start(3) *= 0.85, box_start(4) *= 0.85;
-  const double cyl_top = spheroid.q(2) + spheroid.q(5), box_top = ellipsoid.q(2) + ellipsoid.q(5);
-  cyl_start(2) = 0.5 * (cyl_top + ground_mm), cyl_start(5) = 0.5 * (cyl_top - ground_mm);
-  box_start(2) = 0.5 * (box_top + ground_mm), box_start(5) = 0.5 * (box_top - ground_mm);
-  // A prism can only win where its points lie clearly closer to it than to the quadric
-  // (ChooseFamily), and none lies closer than the sensor's noise: where the ellipsoid's spread is
-  // within that, they are not fitted.
-  // Each is tried on at most 300 of the points first, and fitted to all of them only where it
-  // lies clearly closer to those than the ellipsoid does (most shapes are quadrics).
-  const bool prisms = RobustSpread(ellipsoid.residuals) > std::max(1.0, noise_mm) / kPrismSpreadShare;
-  std::vector<Eigen::Vector3d> few;
-  std::vector<double> few_ellipsoid;
-  for (std::size_t i = 0, every = p.size() / 300 + 1; i < p.size(); i += every) {
-    few.push_back(p[i]), few_ellipsoid.push_back(ellipsoid.residuals[i]);
-  }
-  auto try_prism = [&](Family f, const Full& from) {
-    if (!prisms) return FamilyFit{};
-    const FamilyFit trial = FitFamily(few, f, from, bounds);
-    if (!trial.ok || RobustSpread(trial.residuals) > kPrismSpreadShare * RobustSpread(few_ellipsoid)) return FamilyFit{};
-    return FitFamily(p, f, trial.q, bounds);
-  };
-  const FamilyFit cylinder = try_prism(Family::kCylinder, cyl_start);
-  const FamilyFit cuboid = try_prism(Family::kCuboid, box_start);
+  FamilyFit cylinder, cuboid;
+  FitPrisms(p, spheroid, ellipsoid, bounds, ground_mm, noise_mm, &cylinder, &cuboid);
   Family family = Family::kBall;
   const FamilyFit* best = ChooseFamily(ball, spheroid, ellipsoid, &cylinder, &cuboid, noise_mm, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
