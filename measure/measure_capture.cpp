@@ -86,7 +86,7 @@ MeasureResult ReadMeasureResult(pipeline::Context& ctx, const pipeline::RunRepor
 namespace {
 
 // Runs `p` on `ctx`: an input error stays one (its message names the file); any other failure
-// names `capture`, unless it names a file already; an overlay that could not be written after
+// names `capture` (none given: as thrown), unless it names a file already; an overlay that could not be written after
 // the fits leaves the measurements, with the reason in output_error.
 MeasureResult RunRecipe(pipeline::Pipeline& p, pipeline::Context& ctx, const MeasureRequest& request,
                         const std::string& capture, const std::vector<std::string>& named) {
