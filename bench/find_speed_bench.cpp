@@ -8,7 +8,9 @@
 // For topiary, a PCL user would then fit a sphere to each cluster by sample consensus
 // (SACSegmentation, SACMODEL_SPHERE, with find's radius limits): timed too.
 // Usage: bench_find [--sensor photogrammetry|terrestrial|lidar16|lidar32|aerial] [--garden N] [--repeats N]
-//        bench_find --cloud FILE [--repeats N]   (a real cloud; units guessed as find guesses them)
+//        bench_find --cloud FILE [--copies N] [--repeats N]   (a real cloud; units guessed as find guesses
+//        them; --copies: the cloud N times side by side along x, every other copy turned half a turn
+//        about the vertical, a stand-in for a larger garden of the same kind)
 
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/segmentation/approximate_progressive_morphological_filter.h>
@@ -26,6 +28,7 @@
 #include "cloud/describe.hpp"
 #include "cloud/pcl_adapter.hpp"
 #include "fitting/methods.hpp"
+#include "pipeline/print.hpp"
 #include "scene/finder.hpp"
 #include "scene/ground.hpp"
 #include "sim/scan.hpp"
@@ -33,14 +36,33 @@
 namespace {
 
 // The cloud the bench runs on: a file (units guessed), or a simulated scan.
-hedgefit::cloud::PointCloud BenchCloud(const std::string& file, const std::string& sensor, int garden) {
+hedgefit::cloud::PointCloud BenchCloud(const std::string& file, int copies, const std::string& sensor, int garden) {
   using namespace hedgefit;
   if (!file.empty()) {
     cloud::PointCloud c = cloud::ReadCloud(file);
     const double scale = cloud::GuessScale(c);
     for (auto& p : c.points_mm) p *= float(scale);
-    std::printf("cloud: %s, %zu points (scale %g, guessed); %u hardware threads, used where a step can\n", file.c_str(),
-                c.size(), scale, std::thread::hardware_concurrency());
+    const std::size_t n = c.size();
+    if (copies > 1) {
+      // Up is z here (a map's cloud); each copy a metre beyond the last's far edge.
+      Eigen::Vector3f lo = c.points_mm.front(), hi = lo;
+      for (const auto& p : c.points_mm) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+      const Eigen::Vector3f mid = 0.5f * (lo + hi);
+      const float step = hi.x() - lo.x() + 1000.f;
+      c.points_mm.reserve(n * std::size_t(copies));
+      for (int k = 1; k < copies; ++k) {
+        for (std::size_t i = 0; i < n; ++i) {
+          Eigen::Vector3f p = c.points_mm[i] - mid;
+          if (k % 2 == 1) p.head<2>() = -p.head<2>();
+          c.points_mm.push_back(p + mid + Eigen::Vector3f(step * float(k), 0, 0));
+        }
+      }
+      c.colors.clear(), c.fields.clear();
+      c.Flatten();
+    }
+    std::printf("cloud: %s%s, %zu points (scale %g, guessed); %u hardware threads, used where a step can\n", file.c_str(),
+                copies > 1 ? pipeline::Format(" %d times side by side", copies).c_str() : "", c.size(), scale,
+                std::thread::hardware_concurrency());
     return c;
   }
   sim::ScanOptions so;
@@ -61,17 +83,18 @@ hedgefit::cloud::PointCloud BenchCloud(const std::string& file, const std::strin
 int main(int argc, char** argv) {
   using namespace hedgefit;
   std::string sensor = "photogrammetry", file;
-  int garden = 1, repeats = 3;
+  int garden = 1, repeats = 3, copies = 1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--sensor" && i + 1 < argc) sensor = argv[++i];
     else if (a == "--cloud" && i + 1 < argc) file = argv[++i];
+    else if (a == "--copies" && i + 1 < argc) copies = std::max(1, std::atoi(argv[++i]));
     else if (a == "--garden" && i + 1 < argc) garden = std::atoi(argv[++i]);
     else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
   }
   cloud::QuietPcl();
   fitting::QuietSolverWarnings();
-  const cloud::PointCloud c = BenchCloud(file, sensor, garden);
+  const cloud::PointCloud c = BenchCloud(file, copies, sensor, garden);
 
   // hedgefit: the ground alone, and the whole of find.
   const scene::GroundOptions go;

@@ -25,6 +25,9 @@ constexpr double kTrimDeviations = 2.5;
 // A prism's robust spread over the chosen quadric's, at most, for the prism to be chosen
 // (ChooseFamily).
 constexpr double kPrismSpreadShare = 0.6;
+// The share of a prism's walls that must hold points (WallCover), at least: half of its sides. A
+// box in a bed may hide a side or two behind its neighbours; a slab hides all of them.
+constexpr double kMinWallCover = 0.5;
 
 double MedianOf(std::vector<double> v) {
   if (v.empty()) return kNaN;
@@ -123,7 +126,74 @@ class Surface {
     return n * (1 - 1 / s) * uvw.dot(g) / (n * g.norm());
   }
 
+  // Radial(p) and its derivatives by the seven parameters (cx, cy, cz, a, b, c, heading), in
+  // closed form: the fit's Jacobian in one pass over the points, not one per parameter.
+  double RadialWithGradient(const Eigen::Vector3d& p, Eigen::Matrix<double, 1, 7>* g) const {
+    const Eigen::Vector3d d = p - c_;
+    const Eigen::Vector3d uvw(d.x() * cs_ + d.y() * sn_, -d.x() * sn_ + d.y() * cs_, d.z());
+    // d(uvw)/d(heading); d(uvw)/d(centre) is minus the rotation.
+    const Eigen::Vector3d uvw_heading(uvw.y(), -uvw.x(), 0);
+    Eigen::Vector3d by_uvw, by_axes;  // the distance's derivatives by uvw and by the semi-axes
+    double r = 0;
+    if (Prism(family_)) {
+      r = SignedWithGradient(uvw, &by_uvw, &by_axes);
+    } else {
+      const double s = std::sqrt(uvw.cwiseAbs2().dot(inv2_)), n = d.norm();
+      if (s < 1e-12 || n < 1e-12) {
+        g->setZero();
+        return -smallest_;
+      }
+      r = n * (1 - 1 / s);
+      // r = n - n / s: by d through n (d / n) and by uvw through s (D uvw / s), n / s^2 the latter.
+      const double k = n / (s * s);
+      const Eigen::Vector3d s_by_uvw = uvw.cwiseProduct(inv2_) / s;
+      by_uvw = k * s_by_uvw;
+      by_axes = -k * uvw.cwiseAbs2().cwiseProduct(inv2_).cwiseProduct(axes_.cwiseInverse()) / s;
+      // n's own part, by d: carried into uvw's frame so one rotation serves both.
+      by_uvw += (1 - 1 / s) * uvw / n;
+    }
+    // by d = R^T by_uvw; by centre = -by d.
+    const Eigen::Vector3d by_d(by_uvw.x() * cs_ - by_uvw.y() * sn_, by_uvw.x() * sn_ + by_uvw.y() * cs_, by_uvw.z());
+    g->segment<3>(0) = -by_d.transpose();
+    g->segment<3>(3) = by_axes.transpose();
+    (*g)(6) = by_uvw.dot(uvw_heading);
+    return r;
+  }
+
  private:
+  // Signed(uvw) and its derivatives by uvw and by the semi-axes.
+  double SignedWithGradient(const Eigen::Vector3d& uvw, Eigen::Vector3d* by_uvw, Eigen::Vector3d* by_axes) const {
+    Eigen::Vector3d e, de_duvw_sign = uvw.cwiseSign();
+    by_uvw->setZero(), by_axes->setZero();
+    double rho = 0;
+    if (family_ == Family::kCylinder) {
+      rho = std::hypot(uvw.x(), uvw.y());
+      e << rho - axes_.x(), -1e300, std::abs(uvw.z()) - axes_.z();
+    } else {
+      e = uvw.cwiseAbs() - axes_;
+    }
+    Eigen::Vector3d by_e = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d out = e.cwiseMax(0.0);
+    const double outside = out.norm();
+    if (outside > 0) {
+      by_e = out / outside;
+    } else {
+      Eigen::Index k = 0;
+      e.maxCoeff(&k);
+      by_e(k) = 1;
+    }
+    if (family_ == Family::kCylinder) {
+      if (rho > 1e-12) by_uvw->head<2>() = by_e.x() * uvw.head<2>() / rho;
+      (*by_uvw)(2) = by_e.z() * de_duvw_sign.z();
+      // The drum's radius is both a and b (the family ties them); its derivative goes to a.
+      (*by_axes)(0) = -by_e.x(), (*by_axes)(2) = -by_e.z();
+    } else {
+      *by_uvw = by_e.cwiseProduct(de_duvw_sign);
+      *by_axes = -by_e;
+    }
+    return outside + std::min(e.maxCoeff(), 0.0);
+  }
+
   // A prism's signed distance (exact: the distance to its nearest face, edge or corner outside,
   // to its nearest face inside): a drum's side is round, a box's flat.
   double Signed(const Eigen::Vector3d& uvw) const {
@@ -178,6 +248,25 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
     e->resize(Eigen::Index(p.size()));
     for (std::size_t i = 0; i < p.size(); ++i) (*e)(Eigen::Index(i)) = surface.Radial(p[i]);
   };
+  // The Jacobian by the free parameters: each point's closed-form derivatives by the seven, times
+  // Expand's (linear but for a prism's least height; by differences, as it reads no point).
+  auto jacobian = [&](const Eigen::VectorXd& xv, Eigen::MatrixXd* jac) {
+    const Full q0 = Expand(xv, f, heading, bounds.ground);
+    Eigen::Matrix<double, 7, Eigen::Dynamic> dq(7, m);
+    for (int j = 0; j < m; ++j) {
+      Eigen::VectorXd xp = xv;
+      xp(j) += 1e-3;
+      dq.col(j) = (Expand(xp, f, heading, bounds.ground) - q0) / 1e-3;
+    }
+    const Surface surface(q0, f);
+    Eigen::Matrix<double, Eigen::Dynamic, 7, Eigen::RowMajor> by_q(Eigen::Index(p.size()), 7);
+    Eigen::Matrix<double, 1, 7> g;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      surface.RadialWithGradient(p[i], &g);
+      by_q.row(Eigen::Index(i)) = g;
+    }
+    jac->noalias() = by_q * dq;
+  };
   auto clamp = [&](Eigen::VectorXd* xv) {
     Full q = Expand(*xv, f, heading, bounds.ground);
     bounds.Apply(&q);
@@ -195,14 +284,7 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
     const double sigma = std::max(1.0, RobustSpread(ev));
     const double k = 1.5 * sigma;
     for (Eigen::Index i = 0; i < n; ++i) w(i) = std::abs(e(i)) <= k ? 1.0 : k / std::abs(e(i));
-    // Forward differences: steps of 0.05 mm (1e-4 rad) on residuals of millimetres.
-    for (int j = 0; j < m; ++j) {
-      const double h = j == HeadingIndex(f) ? 1e-4 : 0.05;
-      Eigen::VectorXd xp = x, ep;
-      xp(j) += h;
-      residuals(xp, &ep);
-      J.col(j) = (ep - e) / h;
-    }
+    jacobian(x, &J);
     const Eigen::MatrixXd JtW = J.transpose() * w.asDiagonal();
     const Eigen::MatrixXd A = JtW * J;
     const Eigen::VectorXd g = JtW * e;
@@ -366,11 +448,35 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
   return (var * (n - 1) / n).cwiseSqrt() * 1.96;
 }
 
+// How much of a prism's walls its points show: the share of 16 sectors about its axis whose wall
+// holds a point between a quarter and three quarters of its height (within 2.5 robust spreads of
+// the wall, at least 10 mm). A clipped drum or box is leafy to the ground, and a sensor above or
+// beside it sees its sides; a bench's seat or a table's top shows a flat top and an edge a few
+// centimetres deep, with nothing on the walls a prism standing on the ground would have.
+double WallCover(const std::vector<Eigen::Vector3d>& p, const FamilyFit& prism, Family f) {
+  const Full& q = prism.q;
+  const double band = std::max(10.0, 2.5 * RobustSpread(prism.residuals));
+  const double cs = std::cos(q(6)), sn = std::sin(q(6));
+  constexpr int kSectors = 16;
+  std::vector<char> seen(kSectors, 0);
+  for (const auto& v : p) {
+    const Eigen::Vector3d d = v - q.head<3>();
+    const double u = d.x() * cs + d.y() * sn, w = -d.x() * sn + d.y() * cs;
+    const double height = (d.z() + q(5)) / (2 * q(5));  // 0 at the ground, 1 at the top
+    if (height < 0.25 || height > 0.75) continue;
+    const double side = f == Family::kCylinder ? std::hypot(u, w) - q(3) : std::max(std::abs(u) - q(3), std::abs(w) - q(4));
+    if (std::abs(side) > band) continue;
+    const int sector = std::clamp(int((std::atan2(w, u) + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1);
+    seen[std::size_t(sector)] = 1;
+  }
+  return double(std::count(seen.begin(), seen.end(), 1)) / kSectors;
+}
+
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
 // `cylinder` and `cuboid` may be absent (not fitted, or not converged).
-const FamilyFit* ChooseFamily(const FamilyFit& ball, const FamilyFit& spheroid, const FamilyFit& ellipsoid,
-                              const FamilyFit* cylinder, const FamilyFit* cuboid, double noise_mm, ClippedShape* s,
-                              Family* family) {
+const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const FamilyFit& ball, const FamilyFit& spheroid,
+                              const FamilyFit& ellipsoid, const FamilyFit* cylinder, const FamilyFit* cuboid, double noise_mm,
+                              ClippedShape* s, Family* family) {
   // One scale for all: the most flexible quadric's robust spread; residuals beyond 2.5 of it
   // (strays, a neighbour's leaves) count as 2.5.
   const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
@@ -402,15 +508,20 @@ const FamilyFit* ChooseFamily(const FamilyFit& ball, const FamilyFit& spheroid, 
   // that are not independent) the criterion takes a box's extra parameters for significant;
   // clipped domes of the real garden lie 0.8-1.1 times as far from a box as from their quadric,
   // a drum's or a box's simulated points 0.1-0.2 times.
+  // And its walls must show (WallCover): a slab's top fits a box as closely as a box's does.
   const double quadric_spread = RobustSpread(best->residuals);
   auto clearly_closer = [&](const FamilyFit& prism) { return RobustSpread(prism.residuals) <= kPrismSpreadShare * quadric_spread; };
   if (cylinder && cylinder->ok) {
-    s->bic_cylinder = bic(*cylinder, 4);
-    if (s->bic_cylinder < best_bic && clearly_closer(*cylinder)) best = cylinder, *family = Family::kCylinder, best_bic = s->bic_cylinder;
+    s->bic_cylinder = bic(*cylinder, 4), s->walls_cylinder = WallCover(p, *cylinder, Family::kCylinder);
+    if (s->bic_cylinder < best_bic && clearly_closer(*cylinder) && s->walls_cylinder >= kMinWallCover) {
+      best = cylinder, *family = Family::kCylinder, best_bic = s->bic_cylinder;
+    }
   }
   if (cuboid && cuboid->ok) {
-    s->bic_cuboid = bic(*cuboid, 6);
-    if (s->bic_cuboid < best_bic && clearly_closer(*cuboid)) best = cuboid, *family = Family::kCuboid, best_bic = s->bic_cuboid;
+    s->bic_cuboid = bic(*cuboid, 6), s->walls_cuboid = WallCover(p, *cuboid, Family::kCuboid);
+    if (s->bic_cuboid < best_bic && clearly_closer(*cuboid) && s->walls_cuboid >= kMinWallCover) {
+      best = cuboid, *family = Family::kCuboid, best_bic = s->bic_cuboid;
+    }
   }
   return best;
 }
@@ -534,7 +645,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   FamilyFit cylinder, cuboid;
   FitPrisms(p, spheroid, ellipsoid, bounds, ground_mm, noise_mm, &cylinder, &cuboid);
   Family family = Family::kBall;
-  const FamilyFit* best = ChooseFamily(ball, spheroid, ellipsoid, &cylinder, &cuboid, noise_mm, &s, &family);
+  const FamilyFit* best = ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, noise_mm, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
   Measured measured;
   if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm);

@@ -49,6 +49,9 @@ struct ClippedShape {
   double roughness_mm = 0;       ///< robust spread (1.4826 MAD) of the radial residuals, mm
   double bic_ball = 0, bic_spheroid = 0, bic_ellipsoid = 0;  ///< the criterion per family (lower is better)
   double bic_cylinder = 0, bic_cuboid = 0;                    ///< the prisms' (0: not fitted)
+  /// The share of each prism's walls that holds points half-way up (16 sectors about its axis; a
+  /// prism is chosen only from 0.5); 0 when not fitted.
+  double walls_cylinder = 0, walls_cuboid = 0;
   std::size_t points = 0;
   bool jackknifed = false;       ///< the intervals include the block jackknife
   /// The footprint on the ground: the horizontal semi-axes where the shape meets the ground

@@ -93,6 +93,8 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
                            // a prism is fitted to all points only where it lies clearly closer than the quadric
                            {"cylinder", s.bic_cylinder != 0 ? json(s.bic_cylinder) : json(nullptr)},
                            {"cuboid", s.bic_cuboid != 0 ? json(s.bic_cuboid) : json(nullptr)}}},
+                  {"walls_seen", {{"cylinder", s.bic_cylinder != 0 ? json(s.walls_cylinder) : json(nullptr)},
+                                  {"cuboid", s.bic_cuboid != 0 ? json(s.walls_cuboid) : json(nullptr)}}},
                   {"covered", o.covered},
                   {"covered_lower", o.covered_lower},
                   {"roughness_noise", o.roughness},

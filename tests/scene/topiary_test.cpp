@@ -97,10 +97,10 @@ TEST(FitTopiaryShape, ABallStandingFreeIsABall) {
 }
 
 // A prism standing on the lawn as a sensor above sees it: its flat top and its sides down to the
-// lawn, every `step` mm, with Gaussian noise; a drum (radius a) or, with b > 0, a box of
-// half-sides a x b turned by `heading_deg`.
+// lawn (or down to `sides_from` above it: a slab), every `step` mm, with Gaussian noise; a drum
+// (radius a) or, with b > 0, a box of half-sides a x b turned by `heading_deg`.
 std::vector<Eigen::Vector3d> PrismSeenFromAbove(const Eigen::Vector2d& c, double a, double b, double top, double heading_deg,
-                                                double noise_mm, double step, std::mt19937* rng) {
+                                                double noise_mm, double step, std::mt19937* rng, double sides_from = 0) {
   std::normal_distribution<double> noise(0, noise_mm);
   const double th = heading_deg * M_PI / 180;
   auto at = [&](double u, double v, double z) {
@@ -114,7 +114,7 @@ std::vector<Eigen::Vector3d> PrismSeenFromAbove(const Eigen::Vector2d& c, double
       if (b > 0 || u * u + v * v <= a * a) out.push_back(at(u, v, top));
     }
   }
-  for (double z = step; z < top; z += step) {
+  for (double z = sides_from + step; z < top; z += step) {
     if (b > 0) {
       for (double u = -a; u <= a; u += step) out.push_back(at(u, -b, z)), out.push_back(at(u, b, z));
       for (double v = -b; v <= b; v += step) out.push_back(at(-a, v, z)), out.push_back(at(a, v, z));
@@ -145,6 +145,24 @@ TEST(FitTopiaryShape, ADrumAndABoxAreTheirOwnShapes) {
   EXPECT_NEAR(box.top_mm, 450, 0.02 * 450);
   EXPECT_NEAR(box.heading_deg, 30, 2.0);
   EXPECT_LT(box.roughness_mm, 2 * 5.0) << "a box's points lie on it within the noise";
+}
+
+// A bench's seat, a table's top: a slab 800 x 450 mm, 60 mm deep, its top 460 mm above the lawn,
+// its points on its top and its edges as densely as the box's above. Its points lie on a box
+// standing on the lawn as closely as a box's do, but that box's walls hold none of them half-way
+// up (its top and edge fill 1 of 16 sectors' bands at most: none), and a clipped box is leafy
+// to the ground. It may be a quadric (the finder's other tests judge those); it is no prism.
+TEST(FitTopiaryShape, ASlabIsNoBox) {
+  std::mt19937 rng(23);
+  const TopiaryShape slab = FitTopiaryShape(PrismSeenFromAbove({0, 0}, 400, 225, 460, 20, 5, 20, &rng, 400), 0, 5);
+  ASSERT_TRUE(slab.converged);
+  EXPECT_NE(slab.shape, "cuboid");
+  EXPECT_NE(slab.shape, "cylinder");
+  EXPECT_LT(slab.walls_cuboid, 0.5);
+  // The same box with its walls down to the lawn is one.
+  const TopiaryShape box = FitTopiaryShape(PrismSeenFromAbove({0, 0}, 400, 225, 460, 20, 5, 20, &rng), 0, 5);
+  EXPECT_EQ(box.shape, "cuboid");
+  EXPECT_GT(box.walls_cuboid, 0.9);
 }
 
 // Each point pushed inward along the ellipsoid's normal by a leaf's depth below the clipped
