@@ -969,7 +969,8 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
     obj.fit.sphere = fitting::Sphere{sc.turn.transpose() * s.center_mm, std::cbrt(s.axes_mm.prod())};
     obj.fit.points_used = s.points;
     obj.fit.rms_mm = s.roughness_mm;
-    obj.fit.message = "a " + (s.form.empty() ? "" : s.form + " ") + s.shape + " with a vertical axis";
+    const std::string named = (s.form.empty() ? "" : s.form + " ") + s.shape;
+    obj.fit.message = (std::string("aeiou").find(named.front()) != std::string::npos ? "an " : "a ") + named + " with a vertical axis";
   } else if (obj.ball || obj.verdict == "ellipsoid") {
     MeasureFound(c, sc, cloud, o, &obj);
   } else {
