@@ -25,7 +25,7 @@ namespace {
 std::vector<render::SphereOverlay> ReadFits(const std::string& path, const std::string& cloud_path) {
   std::vector<render::SphereOverlay> out;
   for (const auto& f : eval::ReadCompareFits(path, cloud_path)) {
-    out.push_back({f.label, f.sphere, f.truth, false, f.axes_mm, f.heading_deg, f.up});
+    out.push_back({f.label, f.sphere, f.truth, false, f.axes_mm, f.heading_deg, f.up, f.form});
   }
   return out;
 }

@@ -23,7 +23,7 @@ namespace {
 using json = nlohmann::ordered_json;
 
 struct TrimArgs {
-  std::string cloud, center, method = "ransac_geometric", output, render, format = "table", up = "-y", axes;
+  std::string cloud, center, method = "ransac_geometric", output, render, format = "table", up = "-y", axes, shape = "ellipsoid";
   double heading = 0;
   double radius = 0, tolerance = 5, scale = 1;
   bool no_clean = false, print_pipeline = false;
@@ -40,6 +40,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       "  hedgefit trim row_2.pcd --radius 480 --method envelope --format json\n"
       "  hedgefit trim row_2.pcd --radius 480 --center 80,252,2557   # a given target, no fit\n"
       "  hedgefit trim bed.ply --scale 1000 --up z --axes 300,300,180 --center 4815,-2126,-372   # a clipped spheroid\n"
+      "  hedgefit trim box.ply --up z --axes 400,250,300 --heading 30 --shape cuboid --center 0,0,300   # a clipped box\n"
       "The target is a sphere of --radius, or a shape of --axes with a vertical axis (--up), about each hedge's\n"
       "fitted centre (--method), or about --center.\n"
       "Cut depth = distance to the target's centre minus its radius: + sticks out (cut), - lies inside.\n"
@@ -52,6 +53,11 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
                   "a clipped shape as the target: semi-axes A,B,C in mm along the heading, across it and along --up "
                   "(a spheroid: A,A,C), e.g. from find's shape");
   cmd->add_option("--heading", a->heading, "the shape's first semi-axis, degrees counter-clockwise about --up from x")
+      ->capture_default_str();
+  cmd->add_option("--shape", a->shape,
+                  "what --axes are of: an ellipsoid, a cylinder (a drum: R,R,half-height) or a cuboid (a box: "
+                  "half-sides), as find's shape names them")
+      ->check(CLI::IsMember({"ellipsoid", "cylinder", "cuboid"}))
       ->capture_default_str();
   cmd->add_option("--center", a->center, "target centre X,Y,Z in mm (default: each hedge's fitted centre)");
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();
@@ -69,7 +75,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--format", a->format, "table or json")->check(CLI::IsMember({"table", "json"}))->capture_default_str();
   cmd->add_flag("--no-clean", a->no_clean, "no NaN removal and outlier removal (filters.hedge_outlier) before the fit");
   cmd->add_flag("--print-pipeline", a->print_pipeline, "print the pipeline JSON this runs and exit");
-  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--axes", "--heading", "--center", "--method", "--tolerance", "--up"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
+  GroupFlags(cmd, {{"Inputs", {"cloud", "--scale", "--no-clean"}}, {"Target", {"--radius", "--axes", "--heading", "--shape", "--center", "--method", "--tolerance", "--up"}}, {"Outputs", {"--output", "--render", "--print-pipeline"}}, {"Output format", {"--format"}}});
   cmd->callback([=]() {
     *run = [=]() {
       PrepareRegistry(true);
@@ -78,6 +84,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       if (!a->center.empty()) r.center = ParseNumbers(a->center, 3, "--center");
       r.radius = a->radius, r.tolerance = a->tolerance, r.up = a->up, r.heading = a->heading, r.output = a->output;
       if (!a->axes.empty()) r.axes = ParseNumbers(a->axes, 3, "--axes");
+      r.shape = a->shape;
       if (a->print_pipeline) {
         std::printf("%s\n", json{{"pipeline", json::parse(measure::TrimRecipe(r))}}.dump(2).c_str());
         return kExitOk;

@@ -53,14 +53,19 @@ nlohmann::json UnseenDirections(const TrimPlan& t) {
 namespace {
 
 // The target's radius along a unit direction: the sphere's, or the shape's (its semi-axes along
-// the heading, across it and the pole).
+// the heading, across it and the pole). Each shape is the unit ball of a gauge of (a, b, c), the
+// direction's components over the semi-axes: the ellipsoid's Euclidean, the box's largest, the
+// drum's the larger of its radial and its vertical share.
 struct TargetRadius {
   bool shaped;
   double radius_mm;
   Eigen::Vector3d axes_mm, along, across, pole;
+  std::string shape;
   double operator()(const Eigen::Vector3d& u) const {
     if (!shaped) return radius_mm;
     const double a = u.dot(along) / axes_mm.x(), b = u.dot(across) / axes_mm.y(), c = u.dot(pole) / axes_mm.z();
+    if (shape == "cuboid") return 1 / std::max({std::abs(a), std::abs(b), std::abs(c)});
+    if (shape == "cylinder") return 1 / std::max(std::hypot(a, b), std::abs(c));
     return 1 / std::sqrt(a * a + b * b + c * c);
   }
 };
@@ -102,6 +107,12 @@ void CheckTrim(const Sphere& target, const TrimOptions& o, const Eigen::Vector3d
     throw Error("trim: option 'axes' needs three semi-axes > 0 mm (along the heading, across it, vertical)");
   }
   if (!std::isfinite(o.heading_deg)) throw Error("trim: option 'heading' must be finite");
+  if (o.shape != "ellipsoid" && o.shape != "cylinder" && o.shape != "cuboid") {
+    throw Error("trim: option 'shape' is '" + o.shape + "'; give ellipsoid, cylinder or cuboid");
+  }
+  if (o.shape == "cylinder" && o.axes_mm.x() != o.axes_mm.y()) {
+    throw Error("trim: a cylinder's 'axes' are its radius twice and its half-height (R, R, H/2)");
+  }
 }
 
 }  // namespace
@@ -121,9 +132,14 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
   if (shaped) {
     plan.target_axes_mm = o.axes_mm;
     plan.target_heading_deg = o.heading_deg;
-    plan.target.radius_mm = std::cbrt(o.axes_mm.prod());
+    plan.target_shape = o.shape;
+    // The radius of the shape's volume: an ellipsoid's (4/3 pi abc), a drum's (2 pi R^2 h), a box's (8 abc).
+    const double volume = o.shape == "cuboid" ? 8 * o.axes_mm.prod()
+                          : o.shape == "cylinder" ? 2 * M_PI * o.axes_mm.prod()
+                                                  : 4 * M_PI / 3 * o.axes_mm.prod();
+    plan.target.radius_mm = std::cbrt(volume * 3 / (4 * M_PI));
   }
-  const TargetRadius radius_along{shaped, target.radius_mm, o.axes_mm, along, across, z};
+  const TargetRadius radius_along{shaped, target.radius_mm, o.axes_mm, along, across, z, o.shape};
   std::vector<Direction> dirs;
   dirs.reserve(points_mm.size());
   std::vector<double> cut;
@@ -234,6 +250,7 @@ std::string TrimPlansJson(const std::string& cloud, const std::vector<TrimPlan>&
     if (t.target_axes_mm != Eigen::Vector3d::Zero()) {
       out["hedges"].back()["target_axes_mm"] = {r3(t.target_axes_mm.x()), r3(t.target_axes_mm.y()), r3(t.target_axes_mm.z())};
       out["hedges"].back()["target_heading_deg"] = r3(t.target_heading_deg);
+      out["hedges"].back()["target_shape"] = t.target_shape;
     }
   }
   return out.dump(2);

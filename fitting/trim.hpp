@@ -51,6 +51,10 @@ struct TrimOptions {
   /// The first semi-axis' direction: degrees counter-clockwise about the pole from the cloud's x
   /// axis laid flat (its y axis when x is the pole).
   double heading_deg = 0;
+  /// What `axes_mm` are the semi-axes of: "ellipsoid" (a ball or spheroid when they are equal),
+  /// "cylinder" (a drum: radius axes x = y, half-height z, its axis along the pole) or "cuboid" (a
+  /// box: half-sides along the heading, across it and the pole), each about the target's centre.
+  std::string shape = "ellipsoid";
 };
 
 /// One volume bin of a plan: a direction from the target centre and the cell about it.
@@ -68,6 +72,7 @@ struct TrimPlan {
   Sphere target;     ///< its centre; its radius, or for a shape the radius of its volume
   Eigen::Vector3d target_axes_mm = Eigen::Vector3d::Zero();  ///< a shape's semi-axes (zero for a sphere)
   double target_heading_deg = 0;
+  std::string target_shape;      ///< TrimOptions::shape for a shaped target, "" for a sphere
   std::vector<float> depth_mm;   ///< per input point, signed (NaN for non-finite points)
   std::size_t points = 0;        ///< finite points
   std::size_t points_to_cut = 0; ///< depth > tolerance

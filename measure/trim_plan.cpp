@@ -20,7 +20,7 @@ std::string TrimRecipe(const TrimRequest& r) {
   }
   if (r.center.empty()) p.push_back({{"type", fitting::FindFitMethod(r.method, "--method").stage}});
   json trim = {{"type", "filters.trim_depth"}, {"radius", r.radius}, {"tolerance", r.tolerance}, {"up", r.up}};
-  if (!r.axes.empty()) trim["axes"] = r.axes, trim["heading"] = r.heading;
+  if (!r.axes.empty()) trim["axes"] = r.axes, trim["heading"] = r.heading, trim["shape"] = r.shape;
   if (!r.center.empty()) trim["center"] = r.center;
   p.push_back(trim);
   if (!r.output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", r.output}, {"encoding", "binary_compressed"}});

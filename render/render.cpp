@@ -6,6 +6,8 @@
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
 #include <vtkColorTransferFunction.h>
+#include <vtkCubeSource.h>
+#include <vtkCylinderSource.h>
 #include <vtkFloatArray.h>
 #include <vtkLegendBoxActor.h>
 #include <vtkNew.h>
@@ -343,12 +345,20 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     const auto& s = spheres[i];
     const bool shaped = s.axes_mm != Eigen::Vector3d::Zero();
-    vtkNew<vtkSphereSource> src;
-    src->SetCenter(shaped ? 0 : s.sphere.center_mm.x(), shaped ? 0 : s.sphere.center_mm.y(), shaped ? 0 : s.sphere.center_mm.z());
-    src->SetRadius(shaped ? 1 : s.sphere.radius_mm);
+    vtkNew<vtkSphereSource> sphere_src;
+    sphere_src->SetCenter(shaped ? 0 : s.sphere.center_mm.x(), shaped ? 0 : s.sphere.center_mm.y(), shaped ? 0 : s.sphere.center_mm.z());
+    sphere_src->SetRadius(shaped ? 1 : s.sphere.radius_mm);
     const bool lines = s.truth || options.wireframe;
-    src->SetThetaResolution(lines ? 24 : 64);  // wireframes: few enough lines to see through
-    src->SetPhiResolution(lines ? 12 : 48);
+    sphere_src->SetThetaResolution(lines ? 24 : 64);  // wireframes: few enough lines to see through
+    sphere_src->SetPhiResolution(lines ? 12 : 48);
+    // A drum or a box: the unit cylinder (radius 1, height 2, about VTK's y, turned to z) or cube.
+    vtkNew<vtkCylinderSource> drum;
+    drum->SetRadius(1), drum->SetHeight(2), drum->SetResolution(lines ? 24 : 64);
+    vtkNew<vtkCubeSource> box;
+    box->SetXLength(2), box->SetYLength(2), box->SetZLength(2);
+    vtkPolyDataAlgorithm* src = !shaped || (s.form != "cylinder" && s.form != "cuboid") ? static_cast<vtkPolyDataAlgorithm*>(sphere_src)
+                                : s.form == "cylinder" ? static_cast<vtkPolyDataAlgorithm*>(drum)
+                                                       : static_cast<vtkPolyDataAlgorithm*>(box);
     src->Update();
     vtkNew<vtkPolyDataMapper> m;
     // A clipped shape: the unit sphere scaled by its semi-axes, turned to its heading about its up.
@@ -356,7 +366,13 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
     vtkNew<vtkTransformPolyDataFilter> shaped_src;
     if (shaped) {
       // VTK's matrices are row-major.
-      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> t = ShapeFromUnit(s);
+      Eigen::Matrix4d unit_to_shape = ShapeFromUnit(s);
+      if (s.form == "cylinder") {
+        Eigen::Matrix4d y_to_z = Eigen::Matrix4d::Identity();
+        y_to_z.block<3, 3>(0, 0) << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+        unit_to_shape = unit_to_shape * y_to_z;
+      }
+      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> t = unit_to_shape;
       shape_from_unit->SetMatrix(t.data());
       shaped_src->SetTransform(shape_from_unit);
       shaped_src->SetInputConnection(src->GetOutputPort());
@@ -536,7 +552,8 @@ std::optional<fitting::Sphere> MostTrustedSphere(const std::vector<SphereOverlay
 }
 
 SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& label) {
-  SphereOverlay o{label, fit.sphere, false, fit.not_a_ball.has_value()};
+  SphereOverlay o;
+  o.label = label, o.sphere = fit.sphere, o.dashed = fit.not_a_ball.has_value();
   if (fit.method != "shape") return o;
   auto extra = [&](const std::string& name) -> const std::vector<double>* {
     for (const auto& [key, values] : fit.extras) {
@@ -547,6 +564,7 @@ SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& 
   if (const auto* axes = extra("axes_mm")) o.axes_mm = Eigen::Vector3d((*axes)[0], (*axes)[1], (*axes)[2]);
   if (const auto* up = extra("up")) o.up = Eigen::Vector3d((*up)[0], (*up)[1], (*up)[2]);
   o.heading_deg = fit.Extra("heading_deg").value_or(0);
+  if (fit.message == "cylinder" || fit.message == "cuboid") o.form = fit.message;
   return o;
 }
 
@@ -559,7 +577,7 @@ void RenderTrimPlan(const cloud::PointCloud& cloud, const std::vector<fitting::T
   std::vector<SphereOverlay> spheres;
   for (const auto& t : plans) {
     spheres.push_back({"target" + (t.hedge_id ? " hedge " + std::to_string(t.hedge_id) : std::string()), t.target, false, false,
-                       t.target_axes_mm, t.target_heading_deg, t.pole});
+                       t.target_axes_mm, t.target_heading_deg, t.pole, t.target_shape});
   }
   RenderToPng(cloud, spheres, ro, png_path);
 }

@@ -32,6 +32,8 @@ struct SphereOverlay {
   Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();
   double heading_deg = 0;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  /// What the semi-axes are of: "" or "ellipsoid", "cylinder" (a drum about `up`) or "cuboid" (a box).
+  std::string form = "";
 };
 
 /// The overlay of a fit: its sphere, or the `shape` method's clipped shape (from its extras

@@ -224,5 +224,61 @@ TEST(Trim, AClippedSpheroidTargetGivesDepthsAlongItsRays) {
   EXPECT_THROW(PlanTrim(pts, Sphere{c, 1}, o, Eigen::Vector3d::UnitZ()), Error);
 }
 
+// A clipped box (half-sides 400 x 250 x 300 mm, turned 30 degrees) and a drum (radius 350 mm,
+// half-height 300 mm) as targets, each with a hedge grown 10 % past it along every ray from its
+// centre, as above: the cut depth is exactly 0.1 of the target's radius along the ray, and the
+// volume (1.1^3 - 1) of the box's 8abc or the drum's 2 pi R^2 h. A box's or drum's radius has
+// kinks at its edges, where a bin's centre reads its cell less well than on a smooth shape; over
+// 3-degree bins the sum is still within 2 %.
+TEST(Trim, ABoxAndADrumAsTargetsGiveDepthsAlongTheirRays) {
+  const Eigen::Vector3d c(-500, 800, 300);
+  const double heading = 30 * M_PI / 180;
+  const Eigen::Vector3d along(std::cos(heading), std::sin(heading), 0), across(-std::sin(heading), std::cos(heading), 0);
+  struct Case {
+    std::string shape;
+    Eigen::Vector3d axes;
+    double volume_mm3;
+  };
+  const std::vector<Case> cases = {{"cuboid", {400, 250, 300}, 8 * 400.0 * 250 * 300},
+                                   {"cylinder", {350, 350, 300}, 2 * M_PI * 350.0 * 350 * 300}};
+  for (const auto& k : cases) {
+    auto radius = [&](const Eigen::Vector3d& u) {
+      const double a = u.dot(along) / k.axes.x(), b = u.dot(across) / k.axes.y(), z = u.z() / k.axes.z();
+      return k.shape == "cuboid" ? 1 / std::max({std::abs(a), std::abs(b), std::abs(z)}) : 1 / std::max(std::hypot(a, b), std::abs(z));
+    };
+    std::mt19937 rng(7);
+    std::normal_distribution<double> n(0, 1);
+    std::vector<Eigen::Vector3d> pts;
+    std::vector<double> truth;
+    for (int i = 0; i < 60000; ++i) {
+      Eigen::Vector3d u(n(rng), n(rng), n(rng));
+      u.normalize();
+      pts.push_back(c + 1.1 * radius(u) * u);
+      truth.push_back(0.1 * radius(u));
+    }
+    TrimOptions o;
+    o.axes_mm = k.axes;
+    o.heading_deg = 30;
+    o.shape = k.shape;
+    o.bin_deg = 3;
+    const TrimPlan plan = PlanTrim(pts, Sphere{c, 1}, o, Eigen::Vector3d::UnitZ());
+    double worst = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) worst = std::max(worst, std::abs(plan.depth_mm[i] - truth[i]));
+    EXPECT_LT(worst, 1e-3) << k.shape;  // exact along the ray, float storage aside
+    const double volume_l = (std::pow(1.1, 3) - 1) * k.volume_mm3 * 1e-6;
+    EXPECT_NEAR(plan.volume_seen_l, volume_l, 0.02 * volume_l) << k.shape;
+    EXPECT_NEAR(4 * M_PI / 3 * std::pow(plan.target.radius_mm, 3), k.volume_mm3, 1e-6 * k.volume_mm3) << k.shape;
+    EXPECT_EQ(plan.target_shape, k.shape);
+  }
+  // A drum whose two radii differ, or a shape nobody clips, is refused, naming the option.
+  TrimOptions o;
+  o.axes_mm = Eigen::Vector3d(350, 300, 300);
+  o.shape = "cylinder";
+  EXPECT_THROW(PlanTrim({c + Eigen::Vector3d(400, 0, 0)}, Sphere{c, 1}, o, Eigen::Vector3d::UnitZ()), Error);
+  o.shape = "cone";
+  o.axes_mm = Eigen::Vector3d(350, 350, 300);
+  EXPECT_THROW(PlanTrim({c + Eigen::Vector3d(400, 0, 0)}, Sphere{c, 1}, o, Eigen::Vector3d::UnitZ()), Error);
+}
+
 }  // namespace
 }  // namespace hedgefit::fitting
