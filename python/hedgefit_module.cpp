@@ -291,12 +291,20 @@ void AddPlanFunctions(py::module_& m) {
   m.def(
       "trim",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::vector<double>& center,
-         double radius, double tolerance) {
+         double radius, double tolerance, const std::vector<double>& axes, double heading, const std::string& shape,
+         const std::vector<double>& up) {
         if (center.size() != 3) throw Error("trim: center: give [x, y, z] in mm");
+        if (!axes.empty() && axes.size() != 3) throw Error("trim: axes: give [a, b, c] semi-axes in mm, or none for a sphere");
+        if (up.size() != 3) throw Error("trim: up: give the vertical as [x, y, z]");
+        if (axes.empty() && !(radius > 0)) throw Error("trim: give the target's radius (mm), or a clipped shape's axes");
         fitting::TrimOptions to;
         to.tolerance_mm = tolerance;
+        if (!axes.empty()) to.axes_mm = Eigen::Vector3d(axes[0], axes[1], axes[2]);
+        to.heading_deg = heading;
+        to.shape = shape;
         const fitting::TrimPlan t =
-            fitting::PlanTrim(Points(xyz), fitting::Sphere{Eigen::Vector3d(center[0], center[1], center[2]), radius}, to);
+            fitting::PlanTrim(Points(xyz), fitting::Sphere{Eigen::Vector3d(center[0], center[1], center[2]), axes.empty() ? radius : 1},
+                              to, Eigen::Vector3d(up[0], up[1], up[2]));
         py::dict d;
         d["cut_depth"] = py::array_t<float>(py::ssize_t(t.depth_mm.size()), t.depth_mm.data());
         d["points_to_cut"] = t.points_to_cut;
@@ -310,9 +318,14 @@ void AddPlanFunctions(py::module_& m) {
         d["volume_all_round_l"] = t.volume_all_round_l;
         return d;
       },
-      py::arg("xyz"), py::arg("center"), py::arg("radius"), py::arg("tolerance") = 5.0,
-      "The trim plan of (N, 3) points against a target sphere: per-point cut depth (mm, + = cut), share to cut, "
-      "depth percentiles, volume to remove (litres), as `hedgefit trim`.");
+      py::arg("xyz"), py::arg("center"), py::arg("radius") = 0.0, py::arg("tolerance") = 5.0,
+      py::arg("axes") = std::vector<double>{}, py::arg("heading") = 0.0, py::arg("shape") = "ellipsoid",
+      py::arg("up") = std::vector<double>{0, -1, 0},
+      "The trim plan of (N, 3) points against a target sphere of `radius`, or a clipped shape of semi-axes `axes` "
+      "(along `heading`, degrees about `up` from x; across it; along `up`) that is an 'ellipsoid', a 'cylinder' (R, R, "
+      "half-height) or a 'cuboid' (half-sides): per-point cut depth (mm, + = cut, along the ray from the centre), share "
+      "to cut, depth percentiles, volume to remove (litres), as `hedgefit trim`. `up` is the vertical (a camera's "
+      "cloud: [0, -1, 0]).");
   m.def(
       "run_pipeline",
       [](const std::string& pipeline, std::uint64_t seed) {
