@@ -647,12 +647,15 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
     if (out.std_error_mm) {
       *out.std_error_mm = (out.std_error_mm->cwiseAbs2().array() + ragged_mm * ragged_mm).sqrt().matrix();
       // The leaves' relief along the view ray (kLeafReliefShare): the centre's coordinates take
-      // their share of it, the radius none (its error is a fifth of the depth's on those gardens,
-      // inside the term above).
-      const Eigen::Vector3d ray = (Eigen::Vector3d(p[0], p[1], p[2]) - model.view).normalized();
+      // their share of it, and the radius what moves with it where the silhouette holds: a sphere
+      // seen under the same angle whose centre is dD farther has a radius sin(alpha) dD larger,
+      // sin(alpha) = R / D (0.3-0.4 at the paper's 0.9 m and 2-3 m).
+      const Eigen::Vector3d to_centre = Eigen::Vector3d(p[0], p[1], p[2]) - model.view;
+      const Eigen::Vector3d ray = to_centre.normalized();
       const double relief_mm = kLeafReliefShare * (kMinScaleMm + std::exp(p[9])) * footprint;
-      for (int k = 0; k < 3; ++k) {
-        const double a = relief_mm * ray[k];
+      const double sin_alpha = std::clamp(p[3] / to_centre.norm(), 0.0, 1.0);
+      for (int k = 0; k < 4; ++k) {
+        const double a = relief_mm * (k < 3 ? ray[k] : sin_alpha);
         (*out.std_error_mm)[k] = std::sqrt((*out.std_error_mm)[k] * (*out.std_error_mm)[k] + a * a);
       }
     }
