@@ -312,14 +312,18 @@ def depth():
     """Where the centre's depth error comes from: the envelope with its inputs swapped for the truth."""
     names = [("as measured", None), ("true points", "true_points"), ("true outline", "true_outline"),
              ("both true", "both"), ("left outline only", "left_outline"), ("right outline only", "right_outline")]
-    print("| data (simulated) | balls | " + " | ".join(n for n, _ in names) + " |")
-    print("|---|---|" + "---|" * len(names))
+    # The top bias (how many pixel footprints below the envelope stereo reads the outermost leaves)
+    # as the fit finds it with the measured outline, and with the true one.
+    print("| data (simulated) | balls | " + " | ".join(n for n, _ in names) +
+          " | top bias as fitted, mean / max px | top bias with the true outline, mean / max px |")
+    print("|---|---|" + "---|" * (len(names) + 2))
     for k, (label, directory, flags) in enumerate(GARDENS["paper"]):
         j = bench("garden", f"paper{k}", directory, flags)
         if j is None:
-            print(f"| {label} | not rendered here |" + " |" * len(names))
+            print(f"| {label} | not rendered here |" + " |" * (len(names) + 2))
             continue
         cells = {n: [] for n, _ in names}
+        bias = {"fitted": [], "true outline": []}
         for s in j["scenes"]:
             for h in s["hedges"]:
                 fit = envelope_fit(h)
@@ -329,10 +333,17 @@ def depth():
                     f = fit if key is None else h.get("oracle", {}).get(key)
                     if f is not None:
                         cells[n].append(along_ray(h, f))
+                if "top_bias_px" in fit:
+                    bias["fitted"].append(fit["top_bias_px"])
+                true_outline = h.get("oracle", {}).get("true_outline")
+                if true_outline is not None and "top_bias_px" in true_outline:
+                    bias["true outline"].append(true_outline["top_bias_px"])
         row = []
         for n, _ in names:
             v = cells[n]
             row.append(f"{sum(v) / len(v):+.2f} / {max(v, key=abs):+.2f}" if v else "-")
+        for v in bias.values():
+            row.append(f"{sum(v) / len(v):.2f} / {max(v):.2f}" if v else "-")
         print(f"| {label} | {len(cells['as measured'])} | " + " | ".join(row) + " |")
 
 
