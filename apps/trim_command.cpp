@@ -55,9 +55,9 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--heading", a->heading, "the shape's first semi-axis, degrees counter-clockwise about --up from x")
       ->capture_default_str();
   cmd->add_option("--shape", a->shape,
-                  "what --axes are of: an ellipsoid, a cylinder (a drum: R,R,half-height) or a cuboid (a box: "
-                  "half-sides), as find's shape names them")
-      ->check(CLI::IsMember({"ellipsoid", "cylinder", "cuboid"}))
+                  "what --axes are of: an ellipsoid, a cylinder (a drum: R,R,half-height), a cuboid (a box: "
+                  "half-sides) or a cone (base R,R,half-height), as find's shape names them")
+      ->check(CLI::IsMember({"ellipsoid", "cylinder", "cuboid", "cone"}))
       ->capture_default_str();
   cmd->add_option("--center", a->center, "target centre X,Y,Z in mm (default: each hedge's fitted centre)");
   cmd->add_option("--scale", a->scale, "multiply coordinates on read (1000 for metre files)")->capture_default_str();

@@ -359,7 +359,7 @@ std::vector<FitRecord> ReadCompareFits(const std::string& path, const std::strin
         o.heading_deg = f.value("heading_deg", 0.0);
         if (f.contains("up") && f["up"].is_array() && f["up"].size() == 3) o.up = Eigen::Vector3d(f["up"][0], f["up"][1], f["up"][2]);
         const std::string message = f.value("message", std::string());
-        if (message == "cylinder" || message == "cuboid") o.form = message;
+        if (message == "cylinder" || message == "cuboid" || message == "cone") o.form = message;
       }
       out.push_back(o);
     }

@@ -91,7 +91,7 @@ struct FitRecord {
   Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();
   double heading_deg = 0;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  std::string form = "";  ///< "cylinder" or "cuboid" for a prism (the fit's message), else ""
+  std::string form = "";  ///< "cylinder", "cuboid" or "cone" for a shape standing on the ground (the fit's message), else ""
 };
 
 /// The converged fits and the truth `compare --format json` wrote for `cloud_path` (matched by

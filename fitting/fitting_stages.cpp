@@ -179,9 +179,9 @@ void AddTrimDepth(pipeline::Registry& r) {
                               "mm"),
                    DoubleOption("heading", 0, "the shape's first semi-axis, counter-clockwise about 'up' from the x axis", "deg"),
                    StringOption("shape", "ellipsoid",
-                                "what 'axes' are the semi-axes of: an ellipsoid, a cylinder (a drum: R, R, half-height) or "
-                                "a cuboid (a box: half-sides), about the centre")
-                       .Choices({"ellipsoid", "cylinder", "cuboid"}),
+                                "what 'axes' are the semi-axes of: an ellipsoid, a cylinder (a drum: R, R, half-height), "
+                                "a cuboid (a box: half-sides) or a cone (base radius twice, half-height), about the centre")
+                       .Choices({"ellipsoid", "cylinder", "cuboid", "cone"}),
                    StringOption("up", "-y",
                                 "the vertical the bins' rings are taken about: -y for a camera's cloud (y is down), "
                                 "+z for most maps and scans; x, y, z, -x, -y or -z")
@@ -208,8 +208,8 @@ void AddTrimDepth(pipeline::Registry& r) {
           if (!axes.empty()) to.axes_mm = Eigen::Vector3d(axes[0], axes[1], axes[2]);
           to.heading_deg = o.GetDouble("heading");
           to.shape = o.GetString("shape");
-          if (to.shape == "cylinder" && !axes.empty() && axes[0] != axes[1]) {
-            throw Error("stage '" + trim + "', option 'axes': a cylinder's are [R, R, half-height]");
+          if ((to.shape == "cylinder" || to.shape == "cone") && !axes.empty() && axes[0] != axes[1]) {
+            throw Error("stage '" + trim + "', option 'axes': a " + to.shape + "'s are [R, R, half-height]");
           }
           const std::string up_name = o.GetString("up");
           Eigen::Vector3d up = Eigen::Vector3d::Zero();

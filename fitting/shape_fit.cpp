@@ -46,17 +46,21 @@ double RobustSpread(const std::vector<double>& e) {
 // The shape family: which of the seven parameters (cx, cy, cz, a, b, c, heading) are free. The
 // quadrics' are their own; a prism (a drum, a box) stands on the ground, so its free parameters are
 // its top's height in place of cz and c: cz = (top + ground) / 2, c = (top - ground) / 2.
-enum class Family { kBall = 0, kSpheroid = 1, kEllipsoid = 2, kCylinder = 3, kCuboid = 4 };
+// A cone stands on the ground as a drum does (centre, base radius, apex height), its side slanting
+// from the base's rim to the apex on the axis.
+enum class Family { kBall = 0, kSpheroid = 1, kEllipsoid = 2, kCylinder = 3, kCuboid = 4, kCone = 5 };
 int FreeCount(Family f) {
   switch (f) {
     case Family::kBall: return 4;
     case Family::kSpheroid: return 5;
     case Family::kCylinder: return 4;
+    case Family::kCone: return 4;
     case Family::kCuboid: return 6;
     default: return 7;
   }
 }
-bool Prism(Family f) { return f == Family::kCylinder || f == Family::kCuboid; }
+// A shape standing on the ground, fitted on its signed distance: a drum, a box or a cone.
+bool Prism(Family f) { return f == Family::kCylinder || f == Family::kCuboid || f == Family::kCone; }
 // The free parameter that is a heading (radians), or -1.
 int HeadingIndex(Family f) { return f == Family::kEllipsoid ? 6 : f == Family::kCuboid ? 5 : -1; }
 
@@ -90,7 +94,7 @@ Eigen::VectorXd Reduce(const Full& q, Family f) {
     x.tail<4>() = q.tail<4>();
   } else {
     x(2) = q(2) + q(5);
-    if (f == Family::kCylinder) {
+    if (f != Family::kCuboid) {
       x(3) = std::sqrt(q(3) * q(4));
     } else {
       x(3) = q(3), x(4) = q(4), x(5) = q(6);
@@ -166,6 +170,7 @@ class Surface {
     Eigen::Vector3d e, de_duvw_sign = uvw.cwiseSign();
     by_uvw->setZero(), by_axes->setZero();
     double rho = 0;
+    if (family_ == Family::kCone) return ConeWithGradient(uvw, by_uvw, by_axes);
     if (family_ == Family::kCylinder) {
       rho = std::hypot(uvw.x(), uvw.y());
       e << rho - axes_.x(), -1e300, std::abs(uvw.z()) - axes_.z();
@@ -194,10 +199,47 @@ class Surface {
     return outside + std::min(e.maxCoeff(), 0.0);
   }
 
+  // A cone's two faces in its meridian plane (rho from the axis, w up from mid-height; base radius
+  // a at w = -c, the apex at w = +c): the slanted side's signed distance, and the base's.
+  Eigen::Vector2d ConeFaces(const Eigen::Vector3d& uvw, double* rho, double* slant) const {
+    const double a = axes_.x(), c = axes_.z();
+    *rho = std::hypot(uvw.x(), uvw.y());
+    *slant = std::sqrt(4 * c * c + a * a);
+    return Eigen::Vector2d((2 * c * *rho + a * (uvw.z() - c)) / *slant, -c - uvw.z());
+  }
+
+  // Signed() for a cone, and its derivatives by uvw and by the semi-axes (a, c).
+  double ConeWithGradient(const Eigen::Vector3d& uvw, Eigen::Vector3d* by_uvw, Eigen::Vector3d* by_axes) const {
+    double rho = 0, L = 1;
+    const Eigen::Vector2d e = ConeFaces(uvw, &rho, &L);
+    const double a = axes_.x(), c = axes_.z(), w = uvw.z();
+    const Eigen::Vector2d out = e.cwiseMax(0.0);
+    const double outside = out.norm();
+    Eigen::Vector2d by_e = Eigen::Vector2d::Zero();
+    if (outside > 0) {
+      by_e = out / outside;
+    } else {
+      by_e(e(0) >= e(1) ? 0 : 1) = 1;
+    }
+    // The side: d = (2 c rho + a (w - c)) / L, L = sqrt(4 c^2 + a^2); the base: -c - w.
+    const double side_rho = 2 * c / L, side_w = a / L;
+    const double side_a = (w - c) / L - e(0) * a / (L * L), side_c = (2 * rho - a) / L - e(0) * 4 * c / (L * L);
+    if (rho > 1e-12) by_uvw->head<2>() = by_e(0) * side_rho * uvw.head<2>() / rho;
+    (*by_uvw)(2) = by_e(0) * side_w - by_e(1);
+    (*by_axes)(0) = by_e(0) * side_a, (*by_axes)(2) = by_e(0) * side_c - by_e(1);
+    return outside + std::min(e.maxCoeff(), 0.0);
+  }
+
   // A prism's signed distance (exact: the distance to its nearest face, edge or corner outside,
-  // to its nearest face inside): a drum's side is round, a box's flat.
+  // to its nearest face inside): a drum's side is round, a box's flat; a cone's, to first order
+  // about its apex and its base's rim.
   double Signed(const Eigen::Vector3d& uvw) const {
     Eigen::Vector3d e;
+    if (family_ == Family::kCone) {
+      double rho = 0, L = 1;
+      const Eigen::Vector2d f = ConeFaces(uvw, &rho, &L);
+      return f.cwiseMax(0.0).norm() + std::min(f.maxCoeff(), 0.0);
+    }
     if (family_ == Family::kCylinder) {
       const double r = std::hypot(uvw.x(), uvw.y()) - axes_.x();
       e << r, -1e300, std::abs(uvw.z()) - axes_.z();
@@ -433,7 +475,7 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
       // The semi-axes among the free parameters (and a prism's top) move out by the offset.
       const int first = Prism(family) ? 2 : 3;
       const int axes = family == Family::kBall ? 1 : family == Family::kSpheroid ? 2 : family == Family::kEllipsoid ? 3
-                       : family == Family::kCylinder ? 2 : 3;
+                       : family == Family::kCylinder || family == Family::kCone ? 2 : 3;
       f.x.segment(first, axes).array() += offset;
     }
     refits.push_back(f.x);
@@ -464,7 +506,9 @@ double WallCover(const std::vector<Eigen::Vector3d>& p, const FamilyFit& prism, 
     const double u = d.x() * cs + d.y() * sn, w = -d.x() * sn + d.y() * cs;
     const double height = (d.z() + q(5)) / (2 * q(5));  // 0 at the ground, 1 at the top
     if (height < 0.25 || height > 0.75) continue;
-    const double side = f == Family::kCylinder ? std::hypot(u, w) - q(3) : std::max(std::abs(u) - q(3), std::abs(w) - q(4));
+    const double side = f == Family::kCylinder ? std::hypot(u, w) - q(3)
+                         : f == Family::kCone   ? std::hypot(u, w) - q(3) * (1 - height)
+                                                : std::max(std::abs(u) - q(3), std::abs(w) - q(4));
     if (std::abs(side) > band) continue;
     const int sector = std::clamp(int((std::atan2(w, u) + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1);
     seen[std::size_t(sector)] = 1;
@@ -475,8 +519,8 @@ double WallCover(const std::vector<Eigen::Vector3d>& p, const FamilyFit& prism, 
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
 // `cylinder` and `cuboid` may be absent (not fitted, or not converged).
 const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const FamilyFit& ball, const FamilyFit& spheroid,
-                              const FamilyFit& ellipsoid, const FamilyFit* cylinder, const FamilyFit* cuboid, double noise_mm,
-                              ClippedShape* s, Family* family) {
+                              const FamilyFit& ellipsoid, const FamilyFit* cylinder, const FamilyFit* cuboid,
+                              const FamilyFit* cone, double noise_mm, ClippedShape* s, Family* family) {
   // One scale for all: the most flexible quadric's robust spread; residuals beyond 2.5 of it
   // (strays, a neighbour's leaves) count as 2.5.
   const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
@@ -523,6 +567,12 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
       best = cuboid, *family = Family::kCuboid, best_bic = s->bic_cuboid;
     }
   }
+  if (cone && cone->ok) {
+    s->bic_cone = bic(*cone, 4), s->walls_cone = WallCover(p, *cone, Family::kCone);
+    if (s->bic_cone < best_bic && clearly_closer(*cone) && s->walls_cone >= kMinWallCover) {
+      best = cone, *family = Family::kCone, best_bic = s->bic_cone;
+    }
+  }
   return best;
 }
 
@@ -565,7 +615,7 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
 // first, and fitted to all of them only where it lies clearly closer to those than the ellipsoid
 // does (most shapes are quadrics); else it is left not ok.
 void FitPrisms(const std::vector<Eigen::Vector3d>& p, const FamilyFit& spheroid, const FamilyFit& ellipsoid, const Bounds& bounds,
-               double ground_mm, double noise_mm, FamilyFit* cylinder, FamilyFit* cuboid) {
+               double ground_mm, double noise_mm, FamilyFit* cylinder, FamilyFit* cuboid, FamilyFit* cone) {
   if (!(RobustSpread(ellipsoid.residuals) > std::max(1.0, noise_mm) / kPrismSpreadShare)) return;
   Full cyl_start = spheroid.q, box_start = ellipsoid.q;
   cyl_start(3) = cyl_start(4) = 0.9 * spheroid.q(3);
@@ -585,6 +635,11 @@ void FitPrisms(const std::vector<Eigen::Vector3d>& p, const FamilyFit& spheroid,
   };
   *cylinder = try_prism(Family::kCylinder, cyl_start);
   *cuboid = try_prism(Family::kCuboid, box_start);
+  // A cone: its base a little wider than the spheroid's widest section (a cone inscribed in
+  // the same points reaches past it at the foot), its apex at the spheroid's top.
+  Full cone_start = cyl_start;
+  cone_start(3) = cone_start(4) = 1.2 * spheroid.q(3);
+  *cone = try_prism(Family::kCone, cone_start);
 }
 
 }  // namespace
@@ -642,10 +697,10 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   ell_start(6) = start(6);
   const FamilyFit ellipsoid = FitFamily(p, Family::kEllipsoid, ell_start, bounds);
   if (!ball.ok || !spheroid.ok || !ellipsoid.ok) return s;
-  FamilyFit cylinder, cuboid;
-  FitPrisms(p, spheroid, ellipsoid, bounds, ground_mm, noise_mm, &cylinder, &cuboid);
+  FamilyFit cylinder, cuboid, cone;
+  FitPrisms(p, spheroid, ellipsoid, bounds, ground_mm, noise_mm, &cylinder, &cuboid, &cone);
   Family family = Family::kBall;
-  const FamilyFit* best = ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, noise_mm, &s, &family);
+  const FamilyFit* best = ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, &cone, noise_mm, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
   Measured measured;
   if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm);
@@ -659,7 +714,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   double heading = std::fmod(q(6), M_PI);
   if (heading < 0) heading += M_PI;
   s.converged = true;
-  static const char* const kFamilyNames[] = {"ball", "spheroid", "ellipsoid", "cylinder", "cuboid"};
+  static const char* const kFamilyNames[] = {"ball", "spheroid", "ellipsoid", "cylinder", "cuboid", "cone"};
   s.family = kFamilyNames[int(family)];
   s.center_mm = q.head<3>();
   s.axes_mm = q.segment<3>(3);
@@ -706,7 +761,10 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
 double DistanceOutside(const ClippedShape& s, const Eigen::Vector3d& p) {
   Full q;
   q << s.center_mm, s.axes_mm.cwiseMax(1e-6), s.heading_deg * M_PI / 180;
-  const Family f = s.family == "cylinder" ? Family::kCylinder : s.family == "cuboid" ? Family::kCuboid : Family::kEllipsoid;
+  const Family f = s.family == "cylinder" ? Family::kCylinder
+                   : s.family == "cuboid" ? Family::kCuboid
+                   : s.family == "cone"   ? Family::kCone
+                                          : Family::kEllipsoid;
   return Surface(q, f).Radial(p, true);
 }
 

@@ -36,9 +36,10 @@ namespace hedgefit::fitting {
 /// A clipped shape with a vertical axis, in the frame its points are given in (up +z).
 struct ClippedShape {
   bool converged = false;
-  std::string shape;             ///< "ball", "dome", "spheroid", "ellipsoid", "cylinder" or "cuboid"
+  std::string shape;             ///< "ball", "dome", "spheroid", "ellipsoid", "cylinder", "cuboid" or "cone"
   /// the family fitted: "ball" (4 parameters), "spheroid" (5), "ellipsoid" (7), or a prism standing
-  /// on the ground, "cylinder" (4: centre, radius, top) or "cuboid" (6: centre, half-sides, top, heading)
+  /// on the ground, "cylinder" (4: centre, radius, top), "cuboid" (6: centre, half-sides, top, heading) or
+  /// "cone" (4: centre, base radius, apex; axes_mm is then the base's radius twice and half the height)
   std::string family;
   std::string form;              ///< "oblate" or "prolate" for a spheroid or ellipsoid (vertical against horizontal), else ""
   Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
@@ -52,6 +53,7 @@ struct ClippedShape {
   /// The share of each prism's walls that holds points half-way up (16 sectors about its axis; a
   /// prism is chosen only from 0.5); 0 when not fitted.
   double walls_cylinder = 0, walls_cuboid = 0;
+  double bic_cone = 0, walls_cone = 0;                        ///< the same for a cone (apex up, standing on the ground)
   std::size_t points = 0;
   bool jackknifed = false;       ///< the intervals include the block jackknife
   /// The footprint on the ground: the horizontal semi-axes where the shape meets the ground

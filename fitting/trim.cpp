@@ -66,6 +66,10 @@ struct TargetRadius {
     const double a = u.dot(along) / axes_mm.x(), b = u.dot(across) / axes_mm.y(), c = u.dot(pole) / axes_mm.z();
     if (shape == "cuboid") return 1 / std::max({std::abs(a), std::abs(b), std::abs(c)});
     if (shape == "cylinder") return 1 / std::max(std::hypot(a, b), std::abs(c));
+    // A cone (base radius A at -C, apex at +C on the axis): in units of the semi-axes its side is
+    // rho + w / 2 = 1 / 2 and its base w = -1, so a ray meets them at the scale 1 / (2 rho + w)
+    // and 1 / -w, whichever comes first.
+    if (shape == "cone") return 1 / std::max(2 * std::hypot(a, b) + c, -c);
     return 1 / std::sqrt(a * a + b * b + c * c);
   }
 };
@@ -107,11 +111,11 @@ void CheckTrim(const Sphere& target, const TrimOptions& o, const Eigen::Vector3d
     throw Error("trim: option 'axes' needs three semi-axes > 0 mm (along the heading, across it, vertical)");
   }
   if (!std::isfinite(o.heading_deg)) throw Error("trim: option 'heading' must be finite");
-  if (o.shape != "ellipsoid" && o.shape != "cylinder" && o.shape != "cuboid") {
-    throw Error("trim: option 'shape' is '" + o.shape + "'; give ellipsoid, cylinder or cuboid");
+  if (o.shape != "ellipsoid" && o.shape != "cylinder" && o.shape != "cuboid" && o.shape != "cone") {
+    throw Error("trim: option 'shape' is '" + o.shape + "'; give ellipsoid, cylinder, cuboid or cone");
   }
-  if (o.shape == "cylinder" && o.axes_mm.x() != o.axes_mm.y()) {
-    throw Error("trim: a cylinder's 'axes' are its radius twice and its half-height (R, R, H/2)");
+  if ((o.shape == "cylinder" || o.shape == "cone") && o.axes_mm.x() != o.axes_mm.y()) {
+    throw Error("trim: a " + o.shape + "'s 'axes' are its (base) radius twice and its half-height (R, R, H/2)");
   }
 }
 
@@ -136,6 +140,7 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     // The radius of the shape's volume: an ellipsoid's (4/3 pi abc), a drum's (2 pi R^2 h), a box's (8 abc).
     const double volume = o.shape == "cuboid" ? 8 * o.axes_mm.prod()
                           : o.shape == "cylinder" ? 2 * M_PI * o.axes_mm.prod()
+                          : o.shape == "cone"     ? 2 * M_PI / 3 * o.axes_mm.prod()
                                                   : 4 * M_PI / 3 * o.axes_mm.prod();
     plan.target.radius_mm = std::cbrt(volume * 3 / (4 * M_PI));
   }

@@ -52,8 +52,11 @@ struct TrimOptions {
   /// axis laid flat (its y axis when x is the pole).
   double heading_deg = 0;
   /// What `axes_mm` are the semi-axes of: "ellipsoid" (a ball or spheroid when they are equal),
-  /// "cylinder" (a drum: radius axes x = y, half-height z, its axis along the pole) or "cuboid" (a
-  /// box: half-sides along the heading, across it and the pole), each about the target's centre.
+  /// "cylinder" (a drum: radius axes x = y, half-height z, its axis along the pole), "cuboid" (a
+  /// box: half-sides along the heading, across it and the pole) or "cone" (base radius x = y at
+  /// half-height z below the centre, apex as far above), each about the target's centre. A bin
+  /// reads the target's radius at its centre: across a shape's edge, rim or apex that is coarse
+  /// unless the bins are small (bin_deg; see tests/fitting/trim_test.cpp).
   std::string shape = "ellipsoid";
 };
 

@@ -22,7 +22,7 @@ struct TrimRequest {
   double radius = 0;            ///< the target sphere's radius, mm; or `axes`
   std::vector<double> axes;     ///< a clipped shape's semi-axes A, B, C, mm (empty: a sphere)
   double heading = 0;           ///< its first semi-axis, degrees about `up` from x
-  std::string shape = "ellipsoid";  ///< what `axes` are of: ellipsoid, cylinder or cuboid
+  std::string shape = "ellipsoid";  ///< what `axes` are of: ellipsoid, cylinder, cuboid or cone
   double tolerance = 5;         ///< cut depths up to this count as on target, mm
   std::string up = "-y";        ///< the vertical
   std::string output;           ///< also write the cloud with its cut_depth field (PCD), "" none

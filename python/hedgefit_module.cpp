@@ -323,7 +323,7 @@ void AddPlanFunctions(py::module_& m) {
       py::arg("up") = std::vector<double>{0, -1, 0},
       "The trim plan of (N, 3) points against a target sphere of `radius`, or a clipped shape of semi-axes `axes` "
       "(along `heading`, degrees about `up` from x; across it; along `up`) that is an 'ellipsoid', a 'cylinder' (R, R, "
-      "half-height) or a 'cuboid' (half-sides): per-point cut depth (mm, + = cut, along the ray from the centre), share "
+      "half-height), a 'cuboid' (half-sides) or a 'cone' (base R, R, half-height): per-point cut depth (mm, + = cut, along the ray from the centre), share "
       "to cut, depth percentiles, volume to remove (litres), as `hedgefit trim`. `up` is the vertical (a camera's "
       "cloud: [0, -1, 0]).");
   m.def(

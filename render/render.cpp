@@ -6,6 +6,7 @@
 #include <vtkCamera.h>
 #include <vtkCellArray.h>
 #include <vtkColorTransferFunction.h>
+#include <vtkConeSource.h>
 #include <vtkCubeSource.h>
 #include <vtkCylinderSource.h>
 #include <vtkFloatArray.h>
@@ -356,8 +357,12 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
     drum->SetRadius(1), drum->SetHeight(2), drum->SetResolution(lines ? 24 : 64);
     vtkNew<vtkCubeSource> box;
     box->SetXLength(2), box->SetYLength(2), box->SetZLength(2);
-    vtkPolyDataAlgorithm* src = !shaped || (s.form != "cylinder" && s.form != "cuboid") ? static_cast<vtkPolyDataAlgorithm*>(sphere_src)
+    vtkNew<vtkConeSource> cone;  // base radius 1 at z = -1, apex at z = +1
+    cone->SetRadius(1), cone->SetHeight(2), cone->SetDirection(0, 0, 1), cone->SetResolution(lines ? 24 : 64);
+    vtkPolyDataAlgorithm* src = !shaped || (s.form != "cylinder" && s.form != "cuboid" && s.form != "cone")
+                                    ? static_cast<vtkPolyDataAlgorithm*>(sphere_src)
                                 : s.form == "cylinder" ? static_cast<vtkPolyDataAlgorithm*>(drum)
+                                : s.form == "cone"     ? static_cast<vtkPolyDataAlgorithm*>(cone)
                                                        : static_cast<vtkPolyDataAlgorithm*>(box);
     src->Update();
     vtkNew<vtkPolyDataMapper> m;
@@ -564,7 +569,7 @@ SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& 
   if (const auto* axes = extra("axes_mm")) o.axes_mm = Eigen::Vector3d((*axes)[0], (*axes)[1], (*axes)[2]);
   if (const auto* up = extra("up")) o.up = Eigen::Vector3d((*up)[0], (*up)[1], (*up)[2]);
   o.heading_deg = fit.Extra("heading_deg").value_or(0);
-  if (fit.message == "cylinder" || fit.message == "cuboid") o.form = fit.message;
+  if (fit.message == "cylinder" || fit.message == "cuboid" || fit.message == "cone") o.form = fit.message;
   return o;
 }
 

@@ -32,7 +32,8 @@ struct SphereOverlay {
   Eigen::Vector3d axes_mm = Eigen::Vector3d::Zero();
   double heading_deg = 0;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  /// What the semi-axes are of: "" or "ellipsoid", "cylinder" (a drum about `up`) or "cuboid" (a box).
+  /// What the semi-axes are of: "" or "ellipsoid", "cylinder" (a drum about `up`), "cuboid" (a box) or
+  /// "cone" (base radius a at c below the centre, apex c above).
   std::string form = "";
 };
 

@@ -92,9 +92,11 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
                   {"bic", {{"ball", s.bic_ball}, {"spheroid", s.bic_spheroid}, {"ellipsoid", s.bic_ellipsoid},
                            // a prism is fitted to all points only where it lies clearly closer than the quadric
                            {"cylinder", s.bic_cylinder != 0 ? json(s.bic_cylinder) : json(nullptr)},
-                           {"cuboid", s.bic_cuboid != 0 ? json(s.bic_cuboid) : json(nullptr)}}},
+                           {"cuboid", s.bic_cuboid != 0 ? json(s.bic_cuboid) : json(nullptr)},
+                           {"cone", s.bic_cone != 0 ? json(s.bic_cone) : json(nullptr)}}},
                   {"walls_seen", {{"cylinder", s.bic_cylinder != 0 ? json(s.walls_cylinder) : json(nullptr)},
-                                  {"cuboid", s.bic_cuboid != 0 ? json(s.walls_cuboid) : json(nullptr)}}},
+                                  {"cuboid", s.bic_cuboid != 0 ? json(s.walls_cuboid) : json(nullptr)},
+                                  {"cone", s.bic_cone != 0 ? json(s.walls_cone) : json(nullptr)}}},
                   {"covered", o.covered},
                   {"covered_lower", o.covered_lower},
                   {"roughness_noise", o.roughness},

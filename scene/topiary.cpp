@@ -27,7 +27,7 @@ const pipeline::OptionTable<TopiaryOptions>& TopiaryOptions::Table() {
   using O = TopiaryOptions;
   static const auto table =
       pipeline::OptionTable<O>()
-          .Add("topiary", &O::enabled, "look for clipped shapes (ball, dome, spheroid, ellipsoid, cylinder, cuboid) among the objects no ball takes")
+          .Add("topiary", &O::enabled, "look for clipped shapes (ball, dome, spheroid, ellipsoid, cylinder, cuboid, cone) among the objects no ball takes")
           .Add("min_height", &O::min_height_mm, "a topiary's top stands at least this far above the ground", "mm").Min(0)
           .Add("max_size", &O::max_size_mm, "a topiary's largest horizontal semi-axis", "mm").Min(1)
           .Add("merge_saddle", &O::merge_saddle,

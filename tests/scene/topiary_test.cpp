@@ -147,6 +147,30 @@ TEST(FitTopiaryShape, ADrumAndABoxAreTheirOwnShapes) {
   EXPECT_LT(box.roughness_mm, 2 * 5.0) << "a box's points lie on it within the noise";
 }
 
+// A cone clipped from yew or box (base radius 350 mm on the lawn, apex 900 mm up) as a sensor
+// above and around sees it: its slanted side every 20 mm, with 5 mm of noise. As with the drum
+// and the box, thousands of points pin the base and the apex to well under a millimetre; 2 % is
+// the bar, and the spheroid through the same points lies several times farther from them.
+TEST(FitTopiaryShape, AConeIsItsOwnShape) {
+  std::mt19937 rng(29);
+  std::normal_distribution<double> noise(0, 5);
+  const double a = 350, height = 900;
+  std::vector<Eigen::Vector3d> pts;
+  for (double z = 20; z < height; z += 20) {
+    const double r = a * (1 - z / height);
+    for (double t = 0; t < 2 * M_PI; t += 20 / std::max(r, 20.0)) {
+      pts.emplace_back(-200 + r * std::cos(t) + noise(rng), 150 + r * std::sin(t) + noise(rng), z + noise(rng));
+    }
+  }
+  const TopiaryShape cone = FitTopiaryShape(pts, 0, 5);
+  ASSERT_TRUE(cone.converged);
+  EXPECT_EQ(cone.shape, "cone");
+  EXPECT_NEAR(cone.axes_mm.x(), a, 0.02 * a);
+  EXPECT_NEAR(cone.top_mm, height, 0.02 * height);
+  EXPECT_NEAR(cone.center_mm.x(), -200, 5.0);
+  EXPECT_GT(cone.walls_cone, 0.9);
+}
+
 // A bench's seat, a table's top: a slab 800 x 450 mm, 60 mm deep, its top 460 mm above the lawn,
 // its points on its top and its edges as densely as the box's above. Its points lie on a box
 // standing on the lawn as closely as a box's do, but that box's walls hold none of them half-way
