@@ -647,13 +647,14 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
     if (out.std_error_mm) {
       *out.std_error_mm = (out.std_error_mm->cwiseAbs2().array() + ragged_mm * ragged_mm).sqrt().matrix();
       // The leaves' relief along the view ray (kLeafReliefShare): the centre's coordinates take
-      // their share of it, and the radius what moves with it where the silhouette holds: a sphere
-      // seen under the same angle whose centre is dD farther has a radius sin(alpha) dD larger,
-      // sin(alpha) = R / D (0.3-0.4 at the paper's 0.9 m and 2-3 m).
+      // their share of it, and, from one viewpoint, the radius what moves with it where the
+      // silhouette holds: a sphere seen under the same angle whose centre is dD farther has a
+      // radius sin(alpha) dD larger, sin(alpha) = R / D (0.3-0.4 at the paper's 0.9 m and 2-3 m).
+      // Captures from around a hedge pin its centre's depth between them: no such trade.
       const Eigen::Vector3d to_centre = Eigen::Vector3d(p[0], p[1], p[2]) - model.view;
       const Eigen::Vector3d ray = to_centre.normalized();
       const double relief_mm = kLeafReliefShare * (kMinScaleMm + std::exp(p[9])) * footprint;
-      const double sin_alpha = std::clamp(p[3] / to_centre.norm(), 0.0, 1.0);
+      const double sin_alpha = model.views ? 0.0 : std::clamp(p[3] / to_centre.norm(), 0.0, 1.0);
       for (int k = 0; k < 4; ++k) {
         const double a = relief_mm * (k < 3 ? ray[k] : sin_alpha);
         (*out.std_error_mm)[k] = std::sqrt((*out.std_error_mm)[k] * (*out.std_error_mm)[k] + a * a);

@@ -44,7 +44,7 @@ double RobustSpread(const std::vector<double>& e) {
 
 
 // The shape family: which of the seven parameters (cx, cy, cz, a, b, c, heading) are free. The
-// quadrics' are their own; a prism (a drum, a box) stands on the ground, so its free parameters are
+// quadrics' are their own; a prism (a drum, a box, a cone) stands on the ground, so its free parameters are
 // its top's height in place of cz and c: cz = (top + ground) / 2, c = (top - ground) / 2.
 // A cone stands on the ground as a drum does (centre, base radius, apex height), its side slanting
 // from the base's rim to the apex on the axis.
