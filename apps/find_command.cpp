@@ -84,7 +84,8 @@ void AddFindCommand(CLI::App& app, CommandFn* run) {
       "camera's cloud (organised, or with hedgefit's pixel_mm field), refined to the ground it sees; --up overrides.\n"
       "Each object is a ball, a dome (a ball cut by the ground), an ellipsoid, or not a ball, with the reason; what\n"
       "no ball takes is searched for clipped topiary by height (a dome, a spheroid, an ellipsoid, a drum, a box or a cone with\n"
-      "a vertical axis: squat box seen from above), with its semi-axes and heading; --no-topiary turns that off.\n"
+      "a vertical axis: squat box seen from above), with its semi-axes and heading; --no-topiary turns that off. One too\n"
+      "sparse to show a solid top is undecided, with the spacing that would decide.\n"
       "--labelled writes the cloud with hedge_id (balls and topiary), object_id and ground fields: compare, trim\n"
       "and render then work on each.\n");
   auto a = std::make_shared<FindArgs>();

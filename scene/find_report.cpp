@@ -76,6 +76,7 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
   h["crowding"] = o.crowding;
   h["axis_ratio"] = o.axis_ratio;
   h["topiary"] = o.topiary;
+  h["undecided"] = o.undecided;
   if (o.shape) {
     const TopiaryShape& s = *o.shape;
     h["shape"] = {{"shape", s.shape},

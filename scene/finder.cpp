@@ -755,7 +755,9 @@ void TopiaryAmongOthers(const ScenePoints& s, const GroundModel& ground, double 
       if (2 * n >= keep.size() && (most < 0 || n > refused[most])) most = k;
     }
     if (most >= 0 && parts[std::size_t(most)].shape.converged) {
-      c.j.reason = "not clipped: " + parts[std::size_t(most)].reason;
+      const TopiaryCandidate& part = parts[std::size_t(most)];
+      c.j.reason = part.undecided ? part.reason : "not clipped: " + part.reason;
+      if (part.undecided) c.j.verdict = "undecided";
       c.topiary = parts[std::size_t(most)];  // refused: its measures go with it
     }
     c.points.swap(keep);
@@ -951,6 +953,7 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
     obj.shape = c.topiary->shape;
     obj.covered = c.topiary->covered;
     obj.covered_lower = c.topiary->covered_lower;
+    obj.undecided = c.topiary->undecided;
     obj.roughness = c.topiary->roughness;
     obj.density = c.topiary->density;
     obj.elongation = c.topiary->elongation;
@@ -1065,6 +1068,22 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
         "the ground's points scatter %.0f mm about the terrain model: it is rough, stepped or cluttered, and heights "
         "above it are less certain",
         sc.ground.noise_mm));
+  }
+  std::string undecided;
+  std::size_t n_undecided = 0;
+  for (const auto& obj : res.objects) {
+    if (obj.undecided) undecided += (n_undecided++ ? ", " : "") + std::to_string(obj.id);
+  }
+  double decides_at = std::numeric_limits<double>::infinity();
+  for (const auto& c : others) {
+    if (c.topiary && c.topiary->undecided) decides_at = std::min(decides_at, c.topiary->decides_at_spacing_mm);
+  }
+  if (n_undecided > 0) {
+    res.warnings.push_back(pipeline::Format(
+        "%zu object%s (%s) fit a clipped shape but hold too few points to show a solid top, so %s neither found nor "
+        "refused (verdict undecided): the cloud's points are %.0f mm apart, %.0f mm or closer would decide",
+        n_undecided, n_undecided == 1 ? "" : "s", undecided.c_str(), n_undecided == 1 ? "it is" : "they are", res.spacing_mm,
+        decides_at));
   }
   res.ground = std::move(sc.ground);
   lap("measure");

@@ -68,7 +68,8 @@ struct FindOptions {
 struct FoundObject {
   int id = 0;                   ///< 1, 2, ...: balls first (along the scene's x), then the rest
   /// "ball", "dome", "ellipsoid" or "not_a_ball" from the ball search; "ball", "dome", "spheroid"
-  /// or "ellipsoid" for topiary found by height (topiary = true, `shape` set)
+  /// or "ellipsoid" for topiary found by height (topiary = true, `shape` set); "undecided" for an
+  /// object too sparse to judge (`undecided`)
   std::string verdict;
   bool ball = false;            ///< a ball or dome from the ball search: a hedge measured as a sphere
   bool topiary = false;         ///< a clipped shape (every ball is one; so is a topiary found by height)
@@ -78,6 +79,9 @@ struct FoundObject {
   std::optional<TopiaryShape> shape;
   double covered = 0;           ///< share of its footprint's top-view cells holding points
   double covered_lower = 0;     ///< its lower 95 % bound
+  /// A clipped shape fits and every test passes but the cover's bound: too few points to show a
+  /// solid top (verdict "undecided", topiary false, `reason` says what spacing would decide).
+  bool undecided = false;
   double roughness = 0;         ///< robust spread about its shape over the ground's noise
   double density = 0;           ///< points on its footprint over the lawn's beside it (per mm^2)
   double elongation = 0;        ///< long over short horizontal semi-axis, or vertical over short (the larger)

@@ -282,6 +282,24 @@ std::string Unpinned(const TopiaryShape& s, const TopiaryOptions& o) {
                           "within %.0f %%", s.shape.c_str(), s.axes_mm(k), s.axes_ci95_mm(k), 100 * o.max_axis_uncertainty);
 }
 
+// The lower 95 % bound of a share `p_hat` seen in `n` trials (Wilson's score interval).
+double WilsonLower(double p_hat, double n) {
+  const double z = 1.96;
+  return (p_hat + z * z / (2 * n) - z * std::sqrt(p_hat * (1 - p_hat) / n + z * z / (4 * n * n))) / (1 + z * z / n);
+}
+
+// The fewest cells in which a cover of `p_hat` (above `bound`) has its lower 95 % bound at `bound`.
+std::size_t CellsToShow(double p_hat, double bound) {
+  std::size_t n = 1;
+  while (n < (std::size_t(1) << 30) && WilsonLower(p_hat, double(n)) < bound) n *= 2;
+  std::size_t lo = n / 2, hi = n;
+  while (hi - lo > 1) {
+    const std::size_t mid = (lo + hi) / 2;
+    (WilsonLower(p_hat, double(mid)) < bound ? lo : hi) = mid;
+  }
+  return hi;
+}
+
 }  // namespace
 
 TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vector<std::size_t> points, const GroundModel& ground,
@@ -356,10 +374,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   const std::size_t inside = std::size_t(std::lround(double(samples) * step * step / (cell * cell)));
   c.covered = samples > 0 ? double(hits) / double(samples) : 0;
   // The cover's lower 95 % bound (Wilson's score interval): a few cells cannot show a solid top.
-  if (inside > 0) {
-    const double n = double(inside), z = 1.96, p_hat = c.covered;
-    c.covered_lower = (p_hat + z * z / (2 * n) - z * std::sqrt(p_hat * (1 - p_hat) / n + z * z / (4 * n * n))) / (1 + z * z / n);
-  }
+  if (inside > 0) c.covered_lower = WilsonLower(c.covered, double(inside));
   if (s.top_mm < o.min_height_mm) {
     c.reason = pipeline::Format("its top stands %.0f mm above the ground; topiary stands at least %.0f mm", s.top_mm, o.min_height_mm);
   } else if (s.axes_mm.x() > o.max_size_mm) {
@@ -372,7 +387,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   } else if (c.density < o.min_density) {
     c.reason = pipeline::Format("%.0f %% as many points on its footprint as on the lawn beside it; a clipped shape's solid top holds "
                                 "at least %.0f %%", 100 * c.density, 100 * o.min_density);
-  } else if (c.covered_lower < o.min_covered) {
+  } else if (c.covered < o.min_covered) {
     c.reason = pipeline::Format("its points cover %.0f %% of the %zu cells of its footprint seen from above (at least %.0f %%, 95 %%); "
                                 "a clipped shape's cover at least %.0f %%",
                                 100 * c.covered, inside, 100 * c.covered_lower, 100 * o.min_covered);
@@ -381,6 +396,18 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   } else if (c.roughness > o.max_roughness) {
     c.reason = pipeline::Format("its points lie %.0f mm about its %s (%.1f times the ground's noise of %.0f mm): not clipped",
                                 s.roughness_mm, s.shape.c_str(), c.roughness, noise);
+  } else if (c.covered_lower < o.min_covered) {
+    // Every test passes but the cover's bound: its footprint holds too few cells to show a solid
+    // top, and the points say neither yes nor no. Cells shrink with the spacing (twice it), so a
+    // denser cloud has more of them, and its cover decides either way.
+    c.undecided = true;
+    c.decides_at_spacing_mm = cell / 2 * std::sqrt(double(inside) / double(CellsToShow(c.covered, o.min_covered)));
+    const std::string named = (s.form.empty() ? "" : s.form + " ") + s.shape;
+    c.reason = pipeline::Format("undecided: %s %s fits, but its points cover %.0f %% of only %zu cells of its footprint seen "
+                                "from above (at least %.0f %%, 95 %%; a clipped shape's at least %.0f %%): too few to show a solid "
+                                "top. Points %.0f mm apart or closer would decide",
+                                std::string("aeiou").find(named.front()) != std::string::npos ? "an" : "a", named.c_str(), 100 * c.covered, inside,
+                                100 * c.covered_lower, 100 * o.min_covered, c.decides_at_spacing_mm);
   } else {
     c.topiary = true;
     // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose

@@ -76,6 +76,10 @@ struct TopiaryCandidate {
   double density = 0;          ///< points on its footprint over the lawn's beside it (per mm^2)
   double roughness = 0;        ///< roughness over the noise it is judged against
   bool topiary = false;
+  /// Every test passed but the cover's bound: its footprint holds too few cells (too sparse a
+  /// cloud) to show a solid top, so it is neither found nor refused; `reason` says so.
+  bool undecided = false;
+  double decides_at_spacing_mm = 0;  ///< when undecided: the spacing at which its cover's cells would decide
   std::string reason;          ///< why not, when not
 };
 
