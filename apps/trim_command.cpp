@@ -25,7 +25,7 @@ using json = nlohmann::ordered_json;
 struct TrimArgs {
   std::string cloud, center, method = "ransac_geometric", output, render, format = "table", up = "-y", axes, shape = "ellipsoid";
   double heading = 0;
-  double radius = 0, tolerance = 5, scale = 1;
+  double radius = 0, tolerance = 5, scale = 1, bin_deg = 0;
   bool no_clean = false, print_pipeline = false;
 };
 
@@ -65,6 +65,10 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--tolerance", a->tolerance, "cut depths up to this count as on target, mm")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd->add_option("--bin-deg", a->bin_deg,
+                  "the volume bins' size at the equator, degrees (0: about 20 points per bin; small on a shape's rim or apex)")
+      ->check(CLI::Range(0.0, 90.0))
+      ->capture_default_str();
   cmd->add_option("-o,--output", a->output, "also write the cloud with a 'cut_depth' field (PCD)");
   cmd->add_option("--render", a->render, "also render the cloud coloured by cut depth with the target drawn (PNG)");
   cmd->add_option("--up", a->up,
@@ -82,7 +86,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       measure::TrimRequest r;
       r.cloud = a->cloud, r.scale = a->scale, r.clean = !a->no_clean, r.method = a->method;
       if (!a->center.empty()) r.center = ParseNumbers(a->center, 3, "--center");
-      r.radius = a->radius, r.tolerance = a->tolerance, r.up = a->up, r.heading = a->heading, r.output = a->output;
+      r.radius = a->radius, r.tolerance = a->tolerance, r.bin_deg = a->bin_deg, r.up = a->up, r.heading = a->heading, r.output = a->output;
       if (!a->axes.empty()) r.axes = ParseNumbers(a->axes, 3, "--axes");
       r.shape = a->shape;
       if (a->print_pipeline) {
@@ -93,6 +97,9 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       if (!a->render.empty()) pipeline::CheckImageOutput("--render", a->render, {".png"}, {a->cloud});
       const measure::TrimResult t = measure::PlanTrim(r, pipeline::Registry::Global());
       const auto& plans = t.plans;
+      for (const auto& p : plans) {
+        for (const auto& w : p.warnings) std::fprintf(stderr, "hedgefit: warning: trim: hedge %d: %s\n", p.hedge_id ? p.hedge_id : 1, w.c_str());
+      }
       if (!a->render.empty()) render::RenderTrimPlan(t.cloud, plans, a->render);
       if (a->format == "json") {
         std::cout << fitting::TrimPlansJson(a->cloud, plans) << "\n";

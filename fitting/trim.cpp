@@ -14,6 +14,7 @@
 #include <cstdio>
 
 #include "pipeline/error.hpp"
+#include "pipeline/print.hpp"
 
 namespace hedgefit::fitting {
 
@@ -95,6 +96,25 @@ struct Grid {
   }
 };
 
+// A direction within a cell of `grid`: at (ring + u, sector + v), u and v in [0, 1] (0.5, 0.5
+// its centre), in the frame whose z is the grid's pole.
+Eigen::Vector3d CellDirection(const Grid& grid, int ring, int sector, double u, double v, const Eigen::Vector3d& x,
+                              const Eigen::Vector3d& y, const Eigen::Vector3d& z) {
+  const double ct = -1 + (ring + u) * 2.0 / grid.rings, st = std::sqrt(std::max(0.0, 1 - ct * ct));
+  const double phi = (sector + v) * 2 * M_PI / grid.sectors - M_PI;
+  return ct * z + st * (std::cos(phi) * x + std::sin(phi) * y);
+}
+
+// The radius of a shaped target's volume: an ellipsoid's (4/3 pi abc), a drum's (2 pi R^2 h), a
+// box's (8 abc), a cone's (2/3 pi R^2 h).
+double VolumeRadius(const TrimOptions& o) {
+  const double volume = o.shape == "cuboid" ? 8 * o.axes_mm.prod()
+                        : o.shape == "cylinder" ? 2 * M_PI * o.axes_mm.prod()
+                        : o.shape == "cone"     ? 2 * M_PI / 3 * o.axes_mm.prod()
+                                                : 4 * M_PI / 3 * o.axes_mm.prod();
+  return std::cbrt(volume * 3 / (4 * M_PI));
+}
+
 // The options' checks, each naming the option and what would fix it.
 void CheckTrim(const Sphere& target, const TrimOptions& o, const Eigen::Vector3d& pole) {
   if (!(target.radius_mm > 0) || !std::isfinite(target.radius_mm) || !target.center_mm.allFinite()) {
@@ -137,12 +157,7 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     plan.target_axes_mm = o.axes_mm;
     plan.target_heading_deg = o.heading_deg;
     plan.target_shape = o.shape;
-    // The radius of the shape's volume: an ellipsoid's (4/3 pi abc), a drum's (2 pi R^2 h), a box's (8 abc).
-    const double volume = o.shape == "cuboid" ? 8 * o.axes_mm.prod()
-                          : o.shape == "cylinder" ? 2 * M_PI * o.axes_mm.prod()
-                          : o.shape == "cone"     ? 2 * M_PI / 3 * o.axes_mm.prod()
-                                                  : 4 * M_PI / 3 * o.axes_mm.prod();
-    plan.target.radius_mm = std::cbrt(volume * 3 / (4 * M_PI));
+    plan.target.radius_mm = VolumeRadius(o);
   }
   const TargetRadius radius_along{shaped, target.radius_mm, o.axes_mm, along, across, z, o.shape};
   std::vector<Direction> dirs;
@@ -177,15 +192,13 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     const auto it = bins.find(cell);
     return it != bins.end() && int(it->second.size()) >= o.min_bin_points;
   };
-  double seen = 0, cut_angle = 0, volume_mm3 = 0, r_max = 0;
+  double seen = 0, cut_angle = 0, volume_mm3 = 0, r_max = 0, binning_mm3 = 0;
   // Every cell, seen or not, with its centre's direction.
   plan.bins.resize(std::size_t(grid.rings) * std::size_t(grid.sectors));
   for (int ring = 0; ring < grid.rings; ++ring) {
-    const double ct = -1 + (ring + 0.5) * 2.0 / grid.rings, st = std::sqrt(std::max(0.0, 1 - ct * ct));
     for (int sector = 0; sector < grid.sectors; ++sector) {
-      const double phi = (sector + 0.5) * 2 * M_PI / grid.sectors - M_PI;
       TrimBin& b = plan.bins[std::size_t(ring) * std::size_t(grid.sectors) + std::size_t(sector)];
-      b.direction = ct * z + st * (std::cos(phi) * x + std::sin(phi) * y);
+      b.direction = CellDirection(grid, ring, sector, 0.5, 0.5, x, y, z);
       b.solid_angle_sr = grid.cell_sr;
     }
   }
@@ -210,11 +223,28 @@ TrimPlan PlanTrim(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& t
     r_max = std::max(r_max, r);
     // Only bins that need cutting: counting every r > R would add the noise of the bins on the
     // target (half of them read a little outside) as volume.
-    if (r - R > o.tolerance_mm) cut_angle += sr, volume_mm3 += sr * (r * r * r - R * R * R) / 3;
+    if (r - R > o.tolerance_mm) {
+      cut_angle += sr, volume_mm3 += sr * (r * r * r - R * R * R) / 3;
+      // The bin reads the target's radius at its centre. Across a shape's edge, rim or apex
+      // the target's cube averaged over the cell (3 x 3 directions) differs from it: that
+      // difference's volume is what the bin's size leaves unread.
+      double mean_cube = 0;
+      for (int k = 0; k < 9; ++k) {
+        mean_cube += std::pow(radius_along(CellDirection(grid, ring, sector, (2 * (k / 3) + 1) / 6.0, (2 * (k % 3) + 1) / 6.0, x, y, z)), 3) / 9;
+      }
+      binning_mm3 += sr * std::abs(mean_cube - R * R * R) / 3;
+    }
   }
   plan.seen_share = seen / (4 * M_PI);
   plan.cut_share = seen > 0 ? cut_angle / seen : 0;
   plan.volume_seen_l = volume_mm3 * 1e-6;
+  plan.volume_binning_l = binning_mm3 * 1e-6;
+  if (binning_mm3 > 0.1 * volume_mm3 && binning_mm3 * 1e-6 > 0.01) {
+    plan.warnings.push_back(pipeline::Format(
+        "bins of %.1f deg read the %s target's radius coarsely across its edges, rim or apex: the volume seen (%.2f L) may be off "
+        "by %.2f L; smaller bins (trim's --bin-deg, the stage's bin_deg) resolve it where the points are dense enough",
+        plan.bin_deg, o.shape.c_str(), plan.volume_seen_l, plan.volume_binning_l));
+  }
   plan.volume_all_round_l = plan.seen_share > 0 ? plan.volume_seen_l / plan.seen_share : 0;
   // Every unseen direction (and the uncounted half of the seen part's edge) as far out as the
   // farthest seen bin.
@@ -251,6 +281,8 @@ std::string TrimPlansJson(const std::string& cloud, const std::vector<TrimPlan>&
                              {"volume_seen_l", r3(t.volume_seen_l)},
                              {"volume_all_round_l", r3(t.volume_all_round_l)},
                              {"volume_unseen_max_l", r3(t.volume_unseen_max_l)},
+                             {"volume_binning_l", r3(t.volume_binning_l)},
+                             {"warnings", t.warnings},
                              {"unseen", UnseenDirections(t)}});
     if (t.target_axes_mm != Eigen::Vector3d::Zero()) {
       out["hedges"].back()["target_axes_mm"] = {r3(t.target_axes_mm.x()), r3(t.target_axes_mm.y()), r3(t.target_axes_mm.z())};

@@ -89,7 +89,13 @@ struct TrimPlan {
   /// The most the unseen rest could hold: every unseen direction as far out as the farthest seen
   /// bin (0 when no seen bin needs cutting).
   double volume_unseen_max_l = 0;
+  /// How much of the volume seen the bins' size leaves unread: each cut bin takes the target's
+  /// radius at its centre, and across a shape's edge, rim or apex the target differs within it
+  /// (0 for a sphere; small for a smooth ellipsoid).
+  double volume_binning_l = 0;
   double bin_deg = 0;             ///< the bin size used, degrees
+  /// What makes the plan doubtful, one sentence each (bins too coarse for the target's shape).
+  std::vector<std::string> warnings;
   std::vector<TrimBin> bins;      ///< every cell of the grid, seen or not
   Eigen::Vector3d pole = Eigen::Vector3d::UnitY();  ///< the grid's pole (the vertical)
 };

@@ -22,6 +22,7 @@ std::string TrimRecipe(const TrimRequest& r) {
   json trim = {{"type", "filters.trim_depth"}, {"radius", r.radius}, {"tolerance", r.tolerance}, {"up", r.up}};
   if (!r.axes.empty()) trim["axes"] = r.axes, trim["heading"] = r.heading, trim["shape"] = r.shape;
   if (!r.center.empty()) trim["center"] = r.center;
+  if (r.bin_deg > 0) trim["bin_deg"] = r.bin_deg;
   p.push_back(trim);
   if (!r.output.empty()) p.push_back({{"type", "writers.pcd"}, {"filename", r.output}, {"encoding", "binary_compressed"}});
   return p.dump(2);

@@ -24,6 +24,7 @@ struct TrimRequest {
   double heading = 0;           ///< its first semi-axis, degrees about `up` from x
   std::string shape = "ellipsoid";  ///< what `axes` are of: ellipsoid, cylinder, cuboid or cone
   double tolerance = 5;         ///< cut depths up to this count as on target, mm
+  double bin_deg = 0;           ///< the volume bins' size, degrees (0: automatic)
   std::string up = "-y";        ///< the vertical
   std::string output;           ///< also write the cloud with its cut_depth field (PCD), "" none
 };

@@ -316,6 +316,10 @@ void AddPlanFunctions(py::module_& m) {
         d["seen_share"] = t.seen_share;
         d["volume_seen_l"] = t.volume_seen_l;
         d["volume_all_round_l"] = t.volume_all_round_l;
+        d["volume_binning_l"] = t.volume_binning_l;
+        for (const std::string& w : t.warnings) {
+          if (PyErr_WarnEx(PyExc_UserWarning, ("hedgefit.trim: " + w).c_str(), 1) != 0) throw py::error_already_set();
+        }
         return d;
       },
       py::arg("xyz"), py::arg("center"), py::arg("radius") = 0.0, py::arg("tolerance") = 5.0,

@@ -310,6 +310,17 @@ TEST(Trim, AConeSeenOnItsSideReadsItsVolume) {
   const TrimPlan plan = PlanTrim(pts, Sphere{Eigen::Vector3d(0, 0, 450), 1}, o, Eigen::Vector3d::UnitZ());
   EXPECT_LT(plan.seen_share, 0.894);  // the side's share at most (the edge bins count half, the apex is sparse)
   EXPECT_NEAR(plan.volume_seen_l / plan.seen_share, 11.81 / 0.894, 0.10 * 11.81 / 0.894);
+  EXPECT_TRUE(plan.warnings.empty()) << plan.warnings.front();
+  // 15-degree bins straddle the rim and the apex: the volume reads far off (about 1.7 times),
+  // and the plan says so, its binning estimate the size of the error it makes (within 2 times).
+  o.bin_deg = 15;
+  const TrimPlan coarse = PlanTrim(pts, Sphere{Eigen::Vector3d(0, 0, 450), 1}, o, Eigen::Vector3d::UnitZ());
+  const double error_l = std::abs(coarse.volume_seen_l - 11.81 / 0.894 * coarse.seen_share);
+  EXPECT_GT(error_l, 0.3 * coarse.volume_seen_l);
+  ASSERT_EQ(coarse.warnings.size(), 1u);
+  EXPECT_NE(coarse.warnings[0].find("bin_deg"), std::string::npos) << coarse.warnings[0];
+  EXPECT_GT(coarse.volume_binning_l, 0.5 * error_l);
+  EXPECT_LT(coarse.volume_binning_l, 2 * error_l);
 }
 
 }  // namespace
