@@ -48,6 +48,7 @@ std::vector<std::string> FuseJsonLines(const FuseResult& r, bool pretty) {
                      {"std_error_mm", Vec(h.std_error_mm, 0.001)},
                      {"likelihood_std_error_mm", Vec(h.likelihood_se_mm, 0.001)},
                      {"jackknife_std_error_mm", Vec(h.jackknife_se_mm, 0.001)},
+                     {"registration_std_error_mm", Vec(h.registration_se_mm, 0.001)},
                      {"surface_radius_mm", Round(h.fit.surface_radius_mm, 0.001)},
                      {"leaf_depth_mm", Round(h.fit.leaf_depth_mm, 0.001)},
                      {"clipped_share", Round(h.fit.clipped_share, 0.001)},

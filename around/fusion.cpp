@@ -96,6 +96,12 @@ struct Registration {
   std::vector<Eigen::Isometry3d> poses;
   std::vector<Eigen::Vector3d> centres;   // per cluster
   std::vector<Eigen::Matrix<double, 6, 6>> covariance;  // per view: rotation (rad), translation (mm)
+  // Per cluster, its centre's (mm^2), the first capture held: what the captures' centres and the
+  // given poses' prior pin of where the hedge stands in the first capture's frame. A hedge the
+  // first capture does not see stands where the others' poses put it, and what no hedge pins of
+  // those poses (a row seen across an arc: their turn about a hedge the first capture sees) only
+  // the prior holds. Empty without registration.
+  std::vector<Eigen::Matrix3d> centre_covariance;
 };
 
 // Gauss-Newton over the captures' pose corrections (`anchor`'s fixed when >= 0) and the hedges' centres:
@@ -176,6 +182,7 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
   for (int v = 0; v < V; ++v) {
     if (slot[std::size_t(v)] >= 0) r.covariance[std::size_t(v)] = cov.block<6, 6>(6 * slot[std::size_t(v)], 6 * slot[std::size_t(v)]);
   }
+  for (int j = 0; j < clusters; ++j) r.centre_covariance.push_back(cov.block<3, 3>(6 * n_views + 3 * j, 6 * n_views + 3 * j));
   return r;
 }
 
@@ -383,6 +390,7 @@ void RegisterAndLeaveOut(const std::vector<View>& views, const FuseOptions& o, S
       const Eigen::Isometry3d to_first = s->given[std::size_t(anchor)] * s->reg.poses[std::size_t(anchor)].inverse();
       for (auto& pose : s->reg.poses) pose = to_first * pose;
       for (auto& c : s->reg.centres) c = to_first * c;
+      for (auto& c : s->reg.centre_covariance) c = to_first.linear() * c * to_first.linear().transpose();
       for (std::size_t v = 0; v < s->used.size(); ++v) {
         if (!s->used[v]) s->reg.poses[v] = s->given[v];
       }
@@ -522,9 +530,18 @@ std::optional<FusedHedge> FuseHedge(const std::vector<View>& views, const State&
       f.jackknife_se_mm = (ss * double(loo.size() - 1) / double(loo.size())).cwiseSqrt();
     }
   }
+  const int cluster = s.sightings[mem.front()].cluster;
+  if (std::size_t(cluster) < s.reg.centre_covariance.size()) {
+    f.registration_se_mm = s.reg.centre_covariance[std::size_t(cluster)].diagonal().cwiseMax(0).cwiseSqrt();
+  }
   for (int k = 0; k < 4; ++k) {
-    const double a = f.likelihood_se_mm[k], b = f.jackknife_se_mm[k];
-    f.std_error_mm[k] = std::isfinite(a) && std::isfinite(b) ? std::max(a, b) : (std::isfinite(a) ? a : b);
+    // The larger of what is known: the fit's, the views' disagreement, and (the centre) where the
+    // registration could put the hedge.
+    double se = NAN;
+    for (double x : {f.likelihood_se_mm[k], f.jackknife_se_mm[k], k < 3 ? f.registration_se_mm[k] : NAN}) {
+      if (std::isfinite(x)) se = std::isfinite(se) ? std::max(se, x) : x;
+    }
+    f.std_error_mm[k] = se;
   }
   f.fit.fit.std_error_mm = f.std_error_mm;
   f.fit.fit.std_error_own = true;

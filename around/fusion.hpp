@@ -95,9 +95,12 @@ struct PoseResult {
 struct FusedHedge {
   int id = 0;                              ///< 1, 2, ...: by x of the world frame
   fitting::EnvelopeFit fit;                ///< all captures together, world frame
-  Eigen::Vector4d std_error_mm = Eigen::Vector4d::Constant(NAN);       ///< cx, cy, cz, R: the larger of the two below
+  Eigen::Vector4d std_error_mm = Eigen::Vector4d::Constant(NAN);       ///< cx, cy, cz, R: the largest of the three below
   Eigen::Vector4d likelihood_se_mm = Eigen::Vector4d::Constant(NAN);   ///< the fit's own (sandwich)
   Eigen::Vector4d jackknife_se_mm = Eigen::Vector4d::Constant(NAN);    ///< leaving out each capture
+  /// Where the registration could put the centre (the first capture held): the captures' centres'
+  /// errors through the poses, and what only the given poses' prior pins. NaN without registration.
+  Eigen::Vector3d registration_se_mm = Eigen::Vector3d::Constant(NAN);
   std::vector<int> views;                  ///< indices of the captures that saw it
   std::vector<Eigen::Vector3d> view_centres_mm;  ///< each capture's own centre, world frame (refined poses)
   std::vector<double> view_radii_mm;

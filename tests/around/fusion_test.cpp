@@ -233,6 +233,58 @@ TEST(Fuse, CoverageOfAHemisphereIsHalf) {
   EXPECT_LE(c, 0.5 + 1.0 / 18 + 0.01);
 }
 
+// A row of two balls seen across an arc, the first capture (exact, the frame) seeing only the
+// near one (B) and the other three both, with odometry whose heading drifts 1.5-2.5 degrees. The
+// centres pin each capture's pose relative to the pair, but nothing in the data pins the pair's
+// turn about B: only the given poses' prior (3 degrees by default) does, so the far ball (A, 1.4 m
+// from B) lands a few centimetres off along that turn. Its interval says so (the registration's
+// share); its fit's own interval, a few millimetres, would not hold it.
+TEST(Fuse, WhatOnlyThePriorPinsIsInTheInterval) {
+  const Eigen::Vector3d a(-700, 600, 0), b(700, 600, 0), mid = (a + b) / 2;
+  std::mt19937 rng(21);
+  std::vector<View> views;
+  for (int k = 0; k < 4; ++k) {
+    View v;
+    v.name = std::to_string(k + 1);
+    v.world_from_camera = Pose(-60 + 40.0 * k, mid, 2600);
+    v.hedges.push_back(SeeBall(b, v.world_from_camera, &rng));
+    if (k > 0) {
+      v.hedges.push_back(SeeBall(a, v.world_from_camera, &rng));
+      v.hedges.back().id = 2;
+    }
+    views.push_back(v);
+  }
+  for (std::size_t k = 1; k < views.size(); ++k) {
+    views[k].world_from_camera.linear() =
+        Eigen::AngleAxisd((1 + 0.5 * double(k)) * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+        views[k].world_from_camera.linear();
+  }
+  const FuseResult r = Fuse(views, FuseOptions());
+  ASSERT_EQ(r.hedges.size(), 2u);
+  for (const FusedHedge& h : r.hedges) {
+    const bool far = h.views.size() == 3u;
+    const Eigen::Vector3d truth = far ? a : b;
+    const Eigen::Vector3d err = h.fit.fit.sphere.center_mm - truth;
+    if (!far) {
+      // B is where the exact first capture puts it, to its own few tenths of a millimetre.
+      EXPECT_LT(err.norm(), 1.5);
+      continue;
+    }
+    // A: turned about B by part of the drift (1.5-2.5 degrees over 1.4 m is 37-61 mm; the prior
+    // shares it between the given poses and the centres).
+    EXPECT_GT(err.norm(), 10) << "the test's drift should leave A off";
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_LE(std::abs(err[k]), 1.96 * h.std_error_mm[k]) << k << ": " << err.transpose();
+    }
+    // Without the registration's share: the fit's own and the captures' disagreement.
+    const double own = std::max(std::isfinite(h.likelihood_se_mm.z()) ? h.likelihood_se_mm.z() : 0.0,
+                                std::isfinite(h.jackknife_se_mm.z()) ? h.jackknife_se_mm.z() : 0.0);
+    EXPECT_GT(own, 0);
+    EXPECT_GT(std::abs(err.z()), 1.96 * own) << "the fit's own interval already held it";
+    EXPECT_GT(h.registration_se_mm.z(), 10);
+  }
+}
+
 }  // namespace
 }  // namespace hedgefit::around
 
