@@ -282,6 +282,49 @@ std::string Unpinned(const TopiaryShape& s, const TopiaryOptions& o) {
                           "within %.0f %%", s.shape.c_str(), s.axes_mm(k), s.axes_ci95_mm(k), 100 * o.max_axis_uncertainty);
 }
 
+// The top view of the footprint: the share of the ellipse within 0.8 of its semi-axes that lies
+// within a disc of the cell's area (radius cell / sqrt(pi)) of one of the points `p`. For points
+// scattered at random it is a cell's chance of holding one; unlike cells, it is the same wherever
+// the cloud lies and however it is turned. Read on a lattice of quarter cells (`step`) in the
+// shape's frame, `samples` of them inside; each point marks the lattice points within its reach,
+// which is the same as asking each lattice point for a point within reach. A footprint of more
+// than 16 million lattice points (tens of metres at millimetre spacing: refused for its size)
+// is read on a coarser lattice.
+double TopViewCover(const std::vector<Eigen::Vector3d>& p, const TopiaryShape& s, double cell, double* step, std::size_t* samples) {
+  const double reach = cell / std::sqrt(M_PI), reach2 = reach * reach;
+  const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
+  const double ct = std::cos(th), st = std::sin(th);
+  *step = std::max(cell / 4, std::sqrt(4 * fa * fb / double(1 << 24)));
+  const double h = *step;
+  const long nu = long(std::floor(2 * fa / h)) + 1, nv = long(std::floor(2 * fb / h)) + 1;
+  std::vector<std::uint8_t> hit(std::size_t(nu) * std::size_t(nv), 0);
+  for (const auto& q : p) {
+    const Eigen::Vector2d d = q.head<2>() - s.center_mm.head<2>();
+    const double u = d.x() * ct + d.y() * st, v = -d.x() * st + d.y() * ct;
+    const long i0 = std::max(0L, long(std::ceil((u - reach + fa) / h))), i1 = std::min(nu - 1, long(std::floor((u + reach + fa) / h)));
+    const long j0 = std::max(0L, long(std::ceil((v - reach + fb) / h))), j1 = std::min(nv - 1, long(std::floor((v + reach + fb) / h)));
+    for (long i = i0; i <= i1; ++i) {
+      const double du = -fa + double(i) * h - u;
+      for (long j = j0; j <= j1; ++j) {
+        const double dv = -fb + double(j) * h - v;
+        if (du * du + dv * dv <= reach2) hit[std::size_t(i * nv + j)] = 1;
+      }
+    }
+  }
+  std::size_t inside = 0, hits = 0;
+  for (long i = 0; i < nu; ++i) {
+    const double u = -fa + double(i) * h;
+    for (long j = 0; j < nv; ++j) {
+      const double v = -fb + double(j) * h;
+      if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
+      ++inside;
+      hits += hit[std::size_t(i * nv + j)];
+    }
+  }
+  *samples = inside;
+  return inside > 0 ? double(hits) / double(inside) : 0;
+}
+
 // The lower 95 % bound of a share `p_hat` seen in `n` trials (Wilson's score interval).
 double WilsonLower(double p_hat, double n) {
   const double z = 1.96;
@@ -337,42 +380,12 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   // Seen from above, a solid top intercepts as many of the sensor's rays as the lawn beside it.
   const double footprint_mm2 = M_PI * s.footprint_mm.x() * s.footprint_mm.y();
   c.density = double(p.size()) / (footprint_mm2 * lawn.PerMm2Around(s.center_mm.head<2>(), s.footprint_mm.x()));
-  // The top view of the footprint: the share of the ellipse within 0.8 of its semi-axes that lies
-  // within a disc of the cell's area (radius cell / sqrt(pi)) of one of the candidate's points.
-  // For points scattered at random it is a cell's chance of holding one; unlike cells, it is the
-  // same wherever the cloud lies and however it is turned. Read on a lattice of quarter cells in
-  // the shape's frame; `inside` counts the footprint in cells, the evidence the bound weighs.
-  const double reach = cell / std::sqrt(M_PI), reach2 = reach * reach;
-  std::unordered_map<std::int64_t, std::vector<Eigen::Vector2d>> bins;
-  auto bin = [reach](double x, double y) {
-    return (std::int64_t(std::floor(x / reach)) << 32) ^ (std::int64_t(std::floor(y / reach)) & 0xffffffff);
-  };
-  for (const auto& v : p) bins[bin(v.x(), v.y())].push_back(v.head<2>());
-  auto near_point = [&](const Eigen::Vector2d& q) {
-    const auto bx = std::int64_t(std::floor(q.x() / reach)), by = std::int64_t(std::floor(q.y() / reach));
-    for (std::int64_t dx = -1; dx <= 1; ++dx) {
-      for (std::int64_t dy = -1; dy <= 1; ++dy) {
-        const auto it = bins.find(((bx + dx) << 32) ^ ((by + dy) & 0xffffffff));
-        if (it == bins.end()) continue;
-        for (const auto& w : it->second) {
-          if ((w - q).squaredNorm() <= reach2) return true;
-        }
-      }
-    }
-    return false;
-  };
-  const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
-  const double ct = std::cos(th), st = std::sin(th), step = cell / 4;
-  std::size_t samples = 0, hits = 0;
-  for (double u = -fa; u <= fa; u += step) {
-    for (double v = -fb; v <= fb; v += step) {
-      if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
-      ++samples;
-      hits += near_point(s.center_mm.head<2>() + Eigen::Vector2d(u * ct - v * st, u * st + v * ct));
-    }
-  }
+  // The footprint's cover from above (TopViewCover); `inside` counts it in cells, the evidence the
+  // bound weighs.
+  double step = 0;
+  std::size_t samples = 0;
+  c.covered = TopViewCover(p, s, cell, &step, &samples);
   const std::size_t inside = std::size_t(std::lround(double(samples) * step * step / (cell * cell)));
-  c.covered = samples > 0 ? double(hits) / double(samples) : 0;
   // The cover's lower 95 % bound (Wilson's score interval): a few cells cannot show a solid top.
   if (inside > 0) c.covered_lower = WilsonLower(c.covered, double(inside));
   if (s.top_mm < o.min_height_mm) {
