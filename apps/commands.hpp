@@ -21,22 +21,11 @@ void AddCompareCommand(CLI::App& app, CommandFn* run);
 void AddCalibrateCommand(CLI::App& app, CommandFn* run);
 void AddRigCommand(CLI::App& app, CommandFn* run);
 void AddCheckRigCommand(CLI::App& app, CommandFn* run);
-// `simulate` and `bench` live in their own program, hedgefit-bench (apps/bench_main.cpp), which
-// alone links the simulator and the benches; hedgefit lists them and hands them over
-// (apps/forward.cpp). Their one-line descriptions, shared by both programs' --help:
-inline constexpr char kSimulateAbout[] =
-    "Render a simulated stereo rig's view of a chessboard or a textured sphere, with truth";
-inline constexpr char kBenchAbout[] = "End-to-end benchmarks";
-/// The name of the program that runs `simulate` and `bench`, found beside hedgefit.
-inline constexpr char kBenchProgram[] = "hedgefit-bench";
-
-void AddSimulateCommand(CLI::App& app, CommandFn* run);
 void AddRenderCommand(CLI::App& app, CommandFn* run);
 void AddConvertCommand(CLI::App& app, CommandFn* run);
 void AddMeasureCommand(CLI::App& app, CommandFn* run);
 void AddTrimCommand(CLI::App& app, CommandFn* run);
 void AddStreamCommand(CLI::App& app, CommandFn* run);
-void AddBenchCommand(CLI::App& app, CommandFn* run);
 void AddFindCommand(CLI::App& app, CommandFn* run);
 
 /// When argv[1] names a command of hedgefit-bench (`simulate`, `bench`), runs that program, found
@@ -44,7 +33,5 @@ void AddFindCommand(CLI::App& app, CommandFn* run);
 /// when it cannot (the exit code for a one-line error already printed), or -1 for any other
 /// command.
 int ForwardToBenchProgram(int argc, char** argv);
-/// The allocator's and the libraries' settings both programs start with (apps/forward.cpp).
-void PrepareProcess();
 
 }  // namespace hedgefit::apps

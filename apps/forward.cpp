@@ -1,10 +1,7 @@
-// What hedgefit and hedgefit-bench share at start-up, and hedgefit simulate / hedgefit bench
-// handed to hedgefit-bench, the program beside this one that
+// hedgefit simulate / hedgefit bench handed to hedgefit-bench, the program beside this one that
 // links the simulator and the benches (as git hands `git foo` to git-foo), so the hedgefit a robot
 // runs carries neither.
 
-#include <malloc.h>
-#include <opencv2/core/utils/logger.hpp>
 #include <unistd.h>
 
 #include <cerrno>
@@ -14,7 +11,6 @@
 #include <vector>
 
 #include "apps/commands.hpp"
-#include "fitting/methods.hpp"
 
 namespace hedgefit::apps {
 
@@ -45,19 +41,6 @@ int ForwardToBenchProgram(int argc, char** argv) {
                "and installed with it\n",
                command.c_str(), program.c_str(), std::strerror(errno));
   return kExitBadInput;
-}
-
-void PrepareProcess() {
-  // Each capture allocates and frees images of several megabytes (rectified views, B-spline
-  // coefficients, disparity maps). glibc serves blocks that large from fresh mmap'd pages that the
-  // kernel must fault in and zero every time: a tenth of a garden capture's CPU time. Served
-  // from the heap and reused instead, a row of three hedges measures 5 % faster in `stream`
-  // (488-497 -> 460-465 ms per frame) and peaks lower (433 -> 392 MB).
-  mallopt(M_MMAP_THRESHOLD, 256 << 20);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
-  // hedgefit reports problems itself, one line each: OpenCV's own warnings would come first.
-  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
-  hedgefit::fitting::QuietSolverWarnings();  // and Ceres' (glog) warnings: each fit reports its own trouble
 }
 
 }  // namespace hedgefit::apps

@@ -27,4 +27,16 @@ void PrepareRegistry(bool load_plugins);
 /// code: kExitBadInput for usage and hedgefit::Error, kExitProcessing for failures.
 int RunCommandLine(CLI::App& app, int argc, char** argv, const CommandFn* run);
 
+/// The allocator's and the libraries' settings both programs (hedgefit, hedgefit-bench) start with.
+void PrepareProcess();
+
+// `simulate` and `bench` live in their own program, hedgefit-bench (bench/cli/), which alone
+// links the simulator and the benches; hedgefit lists them and hands them over
+// (apps/forward.cpp). Their one-line descriptions, shared by both programs' --help:
+inline constexpr char kSimulateAbout[] =
+    "Render a simulated stereo rig's view of a chessboard or a textured sphere, with truth";
+inline constexpr char kBenchAbout[] = "End-to-end benchmarks";
+/// The name of the program that runs `simulate` and `bench`, built beside hedgefit.
+inline constexpr char kBenchProgram[] = "hedgefit-bench";
+
 }  // namespace hedgefit::cli

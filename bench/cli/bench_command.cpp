@@ -1,6 +1,6 @@
 // hedgefit bench lab and bench garden: parse their flags and run bench/lab_bench.hpp and bench/garden_bench.hpp.
 
-#include "apps/commands.hpp"
+#include "bench/cli/commands.hpp"
 #include "cli/parse.hpp"
 #include "cli/stage_flags.hpp"
 #include "cloud/cleaning.hpp"
@@ -16,7 +16,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace hedgefit::apps {
+namespace hedgefit::bench_cli {
 
 namespace {
 
@@ -191,4 +191,4 @@ void AddBenchCommand(CLI::App& app, CommandFn* run) {
   AddAroundBench(bench, run);
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::bench_cli

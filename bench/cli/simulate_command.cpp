@@ -3,11 +3,11 @@
 
 #include <cstdio>
 
-#include "apps/commands.hpp"
+#include "bench/cli/commands.hpp"
 #include "cli/stage_flags.hpp"
 #include "sim/simulate.hpp"
 
-namespace hedgefit::apps {
+namespace hedgefit::bench_cli {
 
 void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   auto* cmd = app.add_subcommand("simulate", kSimulateAbout);
@@ -39,4 +39,4 @@ void AddSimulateCommand(CLI::App& app, CommandFn* run) {
   });
 }
 
-}  // namespace hedgefit::apps
+}  // namespace hedgefit::bench_cli

@@ -1,14 +1,14 @@
 // hedgefit-bench: `hedgefit simulate` and `hedgefit bench`, the commands that need the simulator
-// and the benches, in a program of their own so that hedgefit links neither. hedgefit hands
-// them over (apps/forward.cpp); run directly, it takes the same arguments.
+// and the benches, in a program of their own beside the benches they run, so that hedgefit links
+// neither. hedgefit hands them over (apps/forward.cpp); run directly, it takes the same arguments.
 
 #include <string>
 
-#include "apps/commands.hpp"
+#include "bench/cli/commands.hpp"
 #include "pipeline/version.hpp"
 
 int main(int argc, char** argv) {
-  using namespace hedgefit::apps;
+  using namespace hedgefit::bench_cli;
   PrepareProcess();
   CLI::App app{"hedgefit " + std::string(hedgefit::kVersion) +
                ": the simulator and the benchmarks (hedgefit simulate, hedgefit bench)"};
