@@ -121,6 +121,30 @@ void AddGardenBench(CLI::App* bench, CommandFn* run) {
   });
 }
 
+// A bench whose flags are all its options table's (in `group`): run, print, and the JSON with --json.
+template <class Options, class Result>
+void AddTableBench(CLI::App* cmd, CommandFn* run, const char* group, Result (*bench_run)(const Options&),
+                   void (*print)(const Result&), std::string (*to_json)(const Result&)) {
+  struct Args {
+    Options o;
+    StageFlags flags;
+    std::string json;
+  };
+  auto a = std::make_shared<Args>();
+  a->flags.Add(cmd, Options::Table().Specs(), {}, group);
+  cmd->add_option("--json", a->json, "also write the table as JSON here")->group("Output");
+  cmd->callback([=]() {
+    *run = [=]() {
+      fitting::QuietSolverWarnings();
+      Options::Table().Apply(a->flags.Given(), &a->o);
+      const Result result = bench_run(a->o);
+      print(result);
+      if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, to_json(result));
+      return kExitOk;
+    };
+  });
+}
+
 void AddFindBench(CLI::App* bench, CommandFn* run) {
   auto* cmd = bench->add_subcommand(
       "find", "Simulated garden scans (16- and 32-beam LiDAR driving past, a terrestrial scanner, a photogrammetry "
@@ -130,24 +154,7 @@ void AddFindBench(CLI::App* bench, CommandFn* run) {
       "  hedgefit bench find                       # 3 gardens per sensor, about a minute\n"
       "  hedgefit bench find --sensors lidar16 --gardens 10 --json find.json\n"
       "  hedgefit bench find --gardens 1 --dir build/scans   # also write the scans (PLY, metres) and truths\n");
-  struct Args {
-    bench::FindBenchOptions o;
-    StageFlags flags;
-    std::string json;
-  };
-  auto a = std::make_shared<Args>();
-  a->flags.Add(cmd, bench::FindBenchOptions::Table().Specs(), {}, "Scans");
-  cmd->add_option("--json", a->json, "also write the table as JSON here")->group("Output");
-  cmd->callback([=]() {
-    *run = [=]() {
-      fitting::QuietSolverWarnings();
-      bench::FindBenchOptions::Table().Apply(a->flags.Given(), &a->o);
-      const bench::FindBenchResult result = bench::RunFindBench(a->o);
-      bench::PrintFindBench(result);
-      if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, bench::FindBenchJson(result));
-      return kExitOk;
-    };
-  });
+  AddTableBench(cmd, run, "Scans", bench::RunFindBench, bench::PrintFindBench, bench::FindBenchJson);
 }
 
 void AddAroundBench(CLI::App* bench, CommandFn* run) {
@@ -160,24 +167,7 @@ void AddAroundBench(CLI::App* bench, CommandFn* run) {
       "  hedgefit bench around --renderer povray --scenes single --captures 4 --json around-pov.json\n"
       "  hedgefit bench around --scenes bulge --layouts ring --captures 6 --registration centres+gicp\n"
       "Captures, manifests (exact and odometry), TUM trajectories and truths are kept in --dir and reused.\n");
-  struct Args {
-    bench::AroundBenchOptions o;
-    StageFlags flags;
-    std::string json;
-  };
-  auto a = std::make_shared<Args>();
-  a->flags.Add(cmd, bench::AroundBenchOptions::Table().Specs(), {}, "Sets");
-  cmd->add_option("--json", a->json, "also write the table as JSON here")->group("Output");
-  cmd->callback([=]() {
-    *run = [=]() {
-      fitting::QuietSolverWarnings();
-      bench::AroundBenchOptions::Table().Apply(a->flags.Given(), &a->o);
-      const bench::AroundBenchResult result = bench::RunAroundBench(a->o);
-      bench::PrintAroundBench(result);
-      if (!a->json.empty()) cloud::WriteTextFileAtomic(a->json, bench::AroundBenchJson(result));
-      return kExitOk;
-    };
-  });
+  AddTableBench(cmd, run, "Sets", bench::RunAroundBench, bench::PrintAroundBench, bench::AroundBenchJson);
 }
 
 }  // namespace
