@@ -104,12 +104,12 @@ struct Registration {
   std::vector<Eigen::Matrix3d> centre_covariance;
 };
 
-// Gauss-Newton over the captures' pose corrections (`anchor`'s fixed when >= 0) and the hedges' centres:
+// Gauss-Newton over the captures' pose corrections (`anchor`'s held where given) and the hedges' centres:
 // each sighting's centre, through its capture's pose, on its hedge's centre (weighted by its
 // covariance), and each correction drawn to the given pose by the prior.
 Registration RegisterByCentres(const std::vector<View>& views, const std::vector<Eigen::Isometry3d>& given,
                                const std::vector<bool>& used, const std::vector<Sighting>& sightings, int clusters,
-                               int anchor, int gauge, const FuseOptions& o,
+                               int anchor, const FuseOptions& o,
                                const std::set<std::pair<int, std::size_t>>& odd) {
   const int V = int(views.size());
   std::vector<int> slot(std::size_t(V), -1);
@@ -173,11 +173,9 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
     for (int j = 0; j < clusters; ++j) r.centres[std::size_t(j)] += step.segment<3>(6 * n_views + 3 * j);
     if (step.cwiseAbs().maxCoeff() < 1e-6) break;
   }
-  // The covariance with the first capture held (the frame is the first capture's: see
+  // The covariance with the anchor held (the frame is the first capture's: see
   // RegisterAndLeaveOut), so it holds what the hedges pin between the captures, not the frame's drift.
-  Eigen::MatrixXd Hg = H;
-  if (gauge >= 0 && slot[std::size_t(gauge)] >= 0) Hg.block<6, 6>(6 * slot[std::size_t(gauge)], 6 * slot[std::size_t(gauge)]) += 1e12 * Eigen::Matrix<double, 6, 6>::Identity();
-  const Eigen::MatrixXd cov = Hg.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  const Eigen::MatrixXd cov = H.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
   r.covariance.assign(std::size_t(V), Eigen::Matrix<double, 6, 6>::Zero());
   for (int v = 0; v < V; ++v) {
     if (slot[std::size_t(v)] >= 0) r.covariance[std::size_t(v)] = cov.block<6, 6>(6 * slot[std::size_t(v)], 6 * slot[std::size_t(v)]);
@@ -386,7 +384,7 @@ void RegisterAndLeaveOut(const std::vector<View>& views, const FuseOptions& o, S
     // first one's own correction: exact poses moved 0.3-2.8 mm on the hedgefit renderer's arcs
     // and rings, and 0.0-0.1 mm held; the fused centres were 0.17-1.78 mm off, and are 0.16-0.74.)
     s->reg = o.registration == "none" ? AsGiven(views, *s)
-                                      : RegisterByCentres(views, s->given, s->used, s->sightings, s->clusters, anchor, anchor, o, s->odd);
+                                      : RegisterByCentres(views, s->given, s->used, s->sightings, s->clusters, anchor, o, s->odd);
     std::vector<int> seen_by(static_cast<std::size_t>(s->clusters), 0);
     for (const Sighting& x : s->sightings) ++seen_by[std::size_t(x.cluster)];
     bool dropped = false;
