@@ -292,8 +292,9 @@ void AddPlanFunctions(py::module_& m) {
       "trim",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const std::vector<double>& center,
          double radius, double tolerance, const std::vector<double>& axes, double heading, const std::string& shape,
-         const std::vector<double>& up) {
+         const std::vector<double>& up, double bin_deg) {
         if (center.size() != 3) throw Error("trim: center: give [x, y, z] in mm");
+        if (!(bin_deg >= 0)) throw Error("trim: bin_deg: give the cut bins' size in degrees, or 0 for automatic");
         if (!axes.empty() && axes.size() != 3) throw Error("trim: axes: give [a, b, c] semi-axes in mm, or none for a sphere");
         if (up.size() != 3) throw Error("trim: up: give the vertical as [x, y, z]");
         if (axes.empty() && !(radius > 0)) throw Error("trim: give the target's radius (mm), or a clipped shape's axes");
@@ -302,6 +303,7 @@ void AddPlanFunctions(py::module_& m) {
         if (!axes.empty()) to.axes_mm = Eigen::Vector3d(axes[0], axes[1], axes[2]);
         to.heading_deg = heading;
         to.shape = shape;
+        to.bin_deg = bin_deg;
         const fitting::TrimPlan t =
             fitting::PlanTrim(Points(xyz), fitting::Sphere{Eigen::Vector3d(center[0], center[1], center[2]), axes.empty() ? radius : 1},
                               to, Eigen::Vector3d(up[0], up[1], up[2]));
@@ -317,6 +319,7 @@ void AddPlanFunctions(py::module_& m) {
         d["volume_seen_l"] = t.volume_seen_l;
         d["volume_all_round_l"] = t.volume_all_round_l;
         d["volume_binning_l"] = t.volume_binning_l;
+        d["bin_deg"] = t.bin_deg;
         for (const std::string& w : t.warnings) {
           if (PyErr_WarnEx(PyExc_UserWarning, ("hedgefit.trim: " + w).c_str(), 1) != 0) throw py::error_already_set();
         }
@@ -324,12 +327,13 @@ void AddPlanFunctions(py::module_& m) {
       },
       py::arg("xyz"), py::arg("center"), py::arg("radius") = 0.0, py::arg("tolerance") = 5.0,
       py::arg("axes") = std::vector<double>{}, py::arg("heading") = 0.0, py::arg("shape") = "ellipsoid",
-      py::arg("up") = std::vector<double>{0, -1, 0},
+      py::arg("up") = std::vector<double>{0, -1, 0}, py::arg("bin_deg") = 0.0,
       "The trim plan of (N, 3) points against a target sphere of `radius`, or a clipped shape of semi-axes `axes` "
       "(along `heading`, degrees about `up` from x; across it; along `up`) that is an 'ellipsoid', a 'cylinder' (R, R, "
       "half-height), a 'cuboid' (half-sides) or a 'cone' (base R, R, half-height): per-point cut depth (mm, + = cut, along the ray from the centre), share "
       "to cut, depth percentiles, volume to remove (litres), as `hedgefit trim`. `up` is the vertical (a camera's "
-      "cloud: [0, -1, 0]).");
+      "cloud: [0, -1, 0]); `bin_deg` the cut bins' size (0: from the points' spacing; give a few degrees on boxes and "
+      "cones, whose radius changes fast across a bin: see volume_binning_l).");
   m.def(
       "run_pipeline",
       [](const std::string& pipeline, std::uint64_t seed) {

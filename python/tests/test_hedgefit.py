@@ -128,6 +128,17 @@ class Trim(unittest.TestCase):
         # the C++ test holds 2 % at 3-degree bins, the automatic ones here are about 4.5 degrees:
         # 5 %. (An ellipsoid's gauge in place of the box's would leave some 136 L to cut.)
         self.assertAlmostEqual(t["volume_all_round_l"], 22.08, delta=0.05 * 22.08)
+        # Bins of a given size are the ones used; at 3 degrees about 9 of these points fall in a
+        # bin, so the volume holds the same 5 %, and the bins' own part of it is reported (not
+        # more than the volume it is part of).
+        fine = hedgefit.trim(xyz, [100.0, -50.0, 300.0], axes=[400.0, 250.0, 300.0], shape="cuboid", up=[0, 0, 1],
+                             bin_deg=3)
+        self.assertEqual(fine["bin_deg"], 3)
+        self.assertNotEqual(t["bin_deg"], 3)
+        self.assertAlmostEqual(fine["volume_all_round_l"], 22.08, delta=0.05 * 22.08)
+        self.assertTrue(0 <= fine["volume_binning_l"] <= fine["volume_seen_l"])
+        with self.assertRaises(hedgefit.Error):
+            hedgefit.trim(xyz, [100.0, -50.0, 300.0], axes=[400.0, 250.0, 300.0], shape="cuboid", bin_deg=-1)
         with self.assertRaises(hedgefit.Error):
             hedgefit.trim(xyz, [100.0, -50.0, 300.0], axes=[400.0, 250.0, 300.0], shape="cylinder", up=[0, 0, 1])
 
