@@ -117,8 +117,8 @@ MeasureResult RunRecipe(pipeline::Pipeline& p, pipeline::Context& ctx, const Mea
 
 MeasureResult MeasureCapture(const std::string& left, const std::string& right, const std::string& rig,
                              const MeasureRequest& request, const pipeline::Registry& registry) {
-  stereo::ReadRig(rig);
-  stereo::CheckCaptureImages(left, right);
+  // The rig and the images are read once, by the recipe's readers.stereo: a file it cannot read is
+  // an InputError naming it, before any other stage runs.
   if (!request.overlay.empty()) pipeline::CheckImageOutput("--overlay", request.overlay, {".png", ".jpg", ".jpeg"}, {left, right, rig});
   pipeline::Pipeline p = pipeline::Pipeline::FromJson(MeasureRecipe(request, registry, left, right, rig), "measure", registry);
   pipeline::Context ctx;

@@ -321,6 +321,9 @@ cv::Mat DecodeImage(const std::vector<unsigned char>& bytes, int flags, const st
 }
 
 std::vector<unsigned char> ReadFileBytes(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a directory; give the image file in it");
+  if (!std::filesystem::exists(path, ec)) throw Error(path + ": no such image file; check the path");
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw Error(path + ": cannot open the image; check the path and permissions");
   const std::streamoff size = in.tellg();

@@ -155,7 +155,16 @@ void AddReader(pipeline::Registry& r) {
                   {}},
         MakeFactory([](const Options& o, Context& ctx) {
           if (o.GetString("rig").empty()) throw Error("stage 'readers.stereo', option 'rig': give the rig file");
-          const StereoRig rig = ReadRig(o.GetString("rig"));
+          // A reader that cannot read its files has bad input (exit 1), not a failed run: the
+          // commands read each file here once, without a check of their own first.
+          StereoRig rig;
+          try {
+            rig = ReadRig(o.GetString("rig"));
+          } catch (const InputError&) {
+            throw;
+          } catch (const Error& e) {
+            throw InputError(e.what());
+          }
           // The two images decode side by side.
           cv::Mat images[2];
           std::exception_ptr errors[2];
@@ -163,8 +172,10 @@ void AddReader(pipeline::Registry& r) {
             for (std::size_t i = b; i < e; ++i) {
               try {
                 images[i] = ReadImage(o.GetString(i == 0 ? "left" : "right"), i == 0 ? "left" : "right");
-              } catch (const Error&) {
-                errors[i] = std::current_exception();  // as thrown: a damaged image stays an InputError
+              } catch (const InputError&) {
+                errors[i] = std::current_exception();
+              } catch (const Error& err) {
+                errors[i] = std::make_exception_ptr(InputError(err.what()));
               }
             }
           });
