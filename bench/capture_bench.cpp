@@ -9,7 +9,9 @@
 // Per path and stage: median and 95th percentile over --frames frames. Two scenes: the lab
 // capture (one ball, r 300 mm at 2.3 m, hedgefit's renderer) and a garden row of three (preset
 // "row": r 450-600 mm at 2.1-2.7 m, a pot in front).
-// Usage: bench_capture [--frames N] [--stock-frames N] [--scenes lab,row] [--method M]
+// Usage: bench_capture [--frames N] [--stock-frames N] [--scenes lab,row] [--method M] [--max-points N]
+// (--max-points: today's pipeline matches and refines at most N pixels per hedge, as `measure
+// --max-points`; the 0.7.0 path keeps its own).
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/ximgproc/disparity_filter.hpp>
@@ -203,34 +205,38 @@ std::vector<std::string> Split(const std::string& s) {
 int main(int argc, char** argv) {
   int frames = 20, stock_frames = 3;
   std::string scenes = "lab,row", method = "ransac_ray";
+  stereo::ConvertOptions today;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--frames" || a == "--repeats") frames = std::max(1, std::atoi(argv[i + 1]));
     else if (a == "--stock-frames") stock_frames = std::max(0, std::atoi(argv[i + 1]));
     else if (a == "--scenes") scenes = argv[i + 1];
     else if (a == "--method") method = argv[i + 1];
+    else if (a == "--max-points") today.match.max_points = std::max(0, std::atoi(argv[i + 1]));
     else {
-      std::fprintf(stderr, "bench_capture: unknown option %s (--frames, --stock-frames, --scenes, --method)\n", a.c_str());
+      std::fprintf(stderr, "bench_capture: unknown option %s (--frames, --stock-frames, --scenes, --method, --max-points)\n",
+                   a.c_str());
       return 2;
     }
   }
   pipeline::Registry registry;
   measure::AddStageModules(registry);
   const std::vector<std::string> fits = {fitting::FindFitMethod(method, "--method").stage};
-  std::printf("capture to spheres, 1920 x 1200 pairs (hedgefit's renderer), %u hardware threads; fit: %s; ms per frame\n",
-              std::thread::hardware_concurrency(), method.c_str());
+  std::printf("capture to spheres, 1920 x 1200 pairs (hedgefit's renderer), %u hardware threads; fit: %s; at most %d "
+              "points per hedge; ms per frame\n",
+              std::thread::hardware_concurrency(), method.c_str(), today.match.max_points);
   for (const Scene& s : MakeScenes(Split(scenes))) {
     std::printf("\n%s\n%-44s %8s %8s %6s %8s\n", s.what.c_str(), "path / stage", "median", "p95", "frames", "speed-up");
     const Timings stock = StockFrames(s, stock_frames);
     const double stock_med = stock.total.empty() ? 0 : Quantile(stock.total, 0.5);
     if (stock_frames > 0) Print("stock OpenCV (the paper's method)", stock, stock_med);
     const std::vector<Timings> warm =
-        WarmFrames(s, {stereo::ReferenceOptions(), stereo::ConvertOptions{}}, fits, frames, registry);
+        WarmFrames(s, {stereo::ReferenceOptions(), today}, fits, frames, registry);
     Print("hedgefit 0.7.0's path (ReferenceOptions), warm", warm[0], stock_med);
     Print("hedgefit, warm pipeline, one frame at a time", warm[1], stock_med);
     std::printf("%-44s %8.2f\n", "  ratio of medians, 0.7.0's path / today's",
                 Quantile(warm[0].total, 0.5) / Quantile(warm[1].total, 0.5));
-    Print("hedgefit stream: next frame prepared alongside", StreamFrames(s, stereo::ConvertOptions{}, fits, frames, registry),
+    Print("hedgefit stream: next frame prepared alongside", StreamFrames(s, today, fits, frames, registry),
           stock_med);
   }
   return 0;

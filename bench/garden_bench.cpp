@@ -63,7 +63,11 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
                "with two balls in sun and a dome and a ball under an overcast sky")
           .Bind<int>("garden_refine_curvature", [](O& o) -> int& { return o.convert.match.garden_refine_curvature; },
                      "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
-          .Range(0, 10);
+          .Range(0, 10)
+          .Bind<int>("max_points", [](O& o) -> int& { return o.convert.match.max_points; },
+                     "at most this many pixels matched and refined per hedge: a larger hedge keeps every s-th pixel "
+                     "and row (0 = every pixel)")
+          .Range(0, 100000000);
   return table;
 }
 

@@ -74,6 +74,14 @@ const pipeline::OptionTable<LabOptions>& LabOptions::Table() {
           .Bind<int>("refine_curvature", [](O& o) -> int& { return o.convert.match.sgbm.refine_curvature; },
                      "curvature correction grid half-size, steps of 2 px (0 = off)")
           .Range(0, 10)
+          .Bind<int>("max_points", [](O& o) -> int& { return o.convert.match.max_points; },
+                     "at most this many pixels matched and refined per hedge: a larger hedge keeps every s-th pixel "
+                     "and row (0 = every pixel; the lab sphere covers about 45,000)")
+          .Range(0, 100000000)
+          .Bind<int>("min_stride", [](O& o) -> int& { return o.convert.match.min_stride; },
+                     "every n-th pixel and row at most, however small the hedge (1 = every pixel; from 3 SGBM runs at "
+                     "half resolution, half_res_from_stride)")
+          .Range(1, 64)
           .Add("alpha", &O::alpha,
                "rectification scaling (0 = only valid pixels, -1 = OpenCV's default): a rectified focal length that "
                "differs from the camera's varies the resampling phase over the hedge")

@@ -6,9 +6,11 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|hard|random|leaves|paper|depth|find|around|headline|real [--slow]
+Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|depth|find|around|headline|real [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
+  stride    the lab's mean |AER| / mean LD against the pixels refined (`bench lab --min-stride 1-4`, every
+            n-th pixel and row) on the lab sets rendered here
   hard      the envelope fit's AER / LD per ball of `bench garden --hard`, both renderers
   random    the same for `bench garden --random 12`
   leaves    per leaf preset (`bench garden --leaves`), both renderers: the envelope's AER, LD, interval
@@ -164,6 +166,23 @@ def lab():
         cells = [c for m in methods for c in (lab_cell(calibrated, m), lab_cell(exact, m))]
         print(f"| {label} | " + " | ".join(cells) + " |")
     print("| targets (the lab's, half the paper's error or better) | 0.5 / 1.0 mm |" + " |" * (2 * len(methods) - 1))
+
+
+def stride():
+    """Accuracy against the share of pixels matched and refined: every n-th pixel and row."""
+    strides = [1, 2, 3, 4]
+    methods = ["ransac_ray", "ransac_geometric"]
+    print("| renderer, camera | fit | " + " | ".join(f"every {n}{'st' if n == 1 else 'nd' if n == 2 else 'rd' if n == 3 else 'th'}"
+                                                    f" pixel and row (1/{n * n})" for n in strides) + " |")
+    print("|---|---|" + "---|" * len(strides))
+    for k, (label, directory, flags) in enumerate(LAB):
+        runs = [bench("lab", f"stride{k}-{n}", directory, flags + ["--min-stride", str(n)]) for n in strides]
+        if any(j is None for j in runs):
+            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * len(strides))
+            continue
+        for m in methods:
+            cells = [f"{j['summary'][m]['mean_abs_aer_mm']:.2f} / {j['summary'][m]['mean_ld_mm']:.2f}" for j in runs]
+            print(f"| {label} | `{m}` | " + " | ".join(cells) + " |")
 
 
 def envelope_rows(j):
@@ -559,6 +578,8 @@ if __name__ == "__main__":
     what = next((a for a in sys.argv[1:] if not a.startswith("--")), None)
     if what == "lab":
         lab()
+    elif what == "stride":
+        stride()
     elif what == "leaves":
         leaves()
     elif what in ("hard", "random"):

@@ -30,6 +30,10 @@ const pipeline::OptionTable<MatchOptions>& MatchOptions::Table() {
           .Add("max_points", &O::max_points,
                "per hedge at most: larger regions keep every s-th pixel and row; 0 = all", "points")
           .Range(0, 1e9)
+          .Add("min_stride", &O::min_stride,
+               "every n-th pixel and row at most, where that keeps 2,500 points (pixels 1 apart share most of the "
+               "refinement's window); 1 = every pixel; max_points 0 keeps every pixel")
+          .Range(1, 64)
           .Add("coarse_range", &O::coarse_range,
                "a hedge without a depth range from its segmentation is matched coarsely first, and finely over "
                "the disparities it took there")
@@ -135,9 +139,13 @@ MatchResult MatchHedgeRegion(const StereoRig& rig, const cv::Mat* raw_left, cons
     RectifyRegionPrecisely(rig, *raw_left, *raw_right, roi, left_rect, right_rect);
   }
   // Thinning: the smallest stride that keeps the mask's pixels (the whole region without one)
-  // within max_points.
+  // within max_points, and at least min_stride where that still leaves kMinThinnedPoints: a small
+  // hedge costs little, and the cleaning's neighbour statistics (20-30 neighbours each) and the
+  // fits' jackknife want its points (PCL's outdoor shrub covers 1,500 pixels).
+  constexpr double kMinThinnedPoints = 2500;
   const double pixels = mask.empty() ? double(roi.area()) : double(cv::countNonZero(mask));
-  r.stride = options.max_points > 0 ? std::max(1, int(std::ceil(std::sqrt(pixels / options.max_points)))) : 1;
+  const int min_stride = pixels / (options.min_stride * options.min_stride) >= kMinThinnedPoints ? options.min_stride : 1;
+  r.stride = options.max_points > 0 ? std::max(min_stride, int(std::ceil(std::sqrt(pixels / options.max_points)))) : 1;
   // A hedge near the image's edge: the region cannot reach as far past the mask as the search
   // needs (MatchRegion), so the match is padded by what is missing on that side.
   int pad_left = 0, pad_right = 0;
@@ -357,6 +365,7 @@ ConvertOptions ReferenceOptions() {
   o.reference_cleaning = true;
   o.rig_check.rolling = 1;
   o.segment.coarse = false;
+  o.match.min_stride = 1;
   return o;
 }
 

@@ -334,6 +334,7 @@ cv::Mat SegmentByDepthInBox(const StereoRig& rig, const cv::Mat& raw_left, const
   coarse.margin_px = o.margin_px;
   coarse.precise_resampling = o.precise_resampling;
   coarse.coarse_range = false;  // this is the coarse match: the box's whole working range
+  coarse.min_stride = 1;        // the mask is cut from every pixel of the box
   cv::Mat box_mask = cv::Mat::zeros(left_rect->size(), CV_8U);
   box_mask(box).setTo(255);
   const MatchResult m = MatchHedge(rig, &raw_left, &raw_right, left_rect, right_rect, box_mask, coarse);
