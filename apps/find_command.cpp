@@ -17,6 +17,13 @@ namespace hedgefit::apps {
 
 namespace {
 
+
+// Marks in the file's frame, as the picture's points are (less the cloud's global shift).
+std::vector<Eigen::Vector2d> ShiftedMarks(std::vector<Eigen::Vector2d> marks, const Eigen::Vector3d& offset) {
+  for (auto& m : marks) m -= offset.head<2>();
+  return marks;
+}
+
 struct FindArgs {
   std::vector<std::string> clouds;
   double scale = 0;  // 0: guess
@@ -52,7 +59,7 @@ int RunFind(const FindArgs& a) {
       scene::FindReport rep = scene::FindInCloudFile(file, a.scale, o, &cloud);
       if (!a.labelled.empty()) cloud::WriteCloud(a.labelled, scene::LabelCloud(cloud, rep.result));
       if (!a.plot.empty()) {
-        render::WriteTopView(cloud, rep.result, a.plot, 1200, a.plot_marks.empty() ? std::vector<Eigen::Vector2d>{} : render::ReadTopViewMarks(a.plot_marks, rep.scale));
+        render::WriteTopView(cloud, rep.result, a.plot, 1200, a.plot_marks.empty() ? std::vector<Eigen::Vector2d>{} : ShiftedMarks(render::ReadTopViewMarks(a.plot_marks, rep.scale), rep.offset_mm));
       }
       reports.push_back(std::move(rep));
     } catch (const Error& e) {

@@ -111,6 +111,7 @@ PointCloud ReadCloud(const std::string& path, const ReadOptions& options, CloudF
   if (options.scale != 1.0) {
     const float s = static_cast<float>(options.scale);
     for (auto& p : cloud.points_mm) p *= s;
+    cloud.offset *= options.scale;
   }
   if (header) *header = info;
   return cloud;

@@ -88,8 +88,11 @@ CloudDescription DescribeCloud(const std::string& path) {
   d.has_color = c.HasColor();
   d.width = c.width;
   d.height = c.height;
-  d.has_bounds = Bounds(c, &d.min, &d.max);
-  d.extent = d.has_bounds ? (d.max - d.min).maxCoeff() : 0.0;
+  Eigen::Vector3f lo, hi;
+  d.has_bounds = Bounds(c, &lo, &hi);
+  d.offset = c.offset;
+  d.min = lo.cast<double>() + c.offset, d.max = hi.cast<double>() + c.offset;
+  d.extent = d.has_bounds ? double((hi - lo).maxCoeff()) : 0.0;
   d.spacing = MedianSpacing(c);
   return d;
 }
@@ -109,6 +112,7 @@ std::string DescriptionJson(const CloudDescription& d) {
   if (d.has_bounds) {
     j["bounds"] = {{"min", {d.min.x(), d.min.y(), d.min.z()}}, {"max", {d.max.x(), d.max.y(), d.max.z()}}};
   }
+  if (!d.offset.isZero()) j["offset"] = {d.offset.x(), d.offset.y(), d.offset.z()};
   j["spacing"] = d.spacing;
   j["units_guess"] = GuessUnits(d.extent, d.spacing);
   return j.dump(2);
@@ -132,6 +136,11 @@ void PrintDescription(std::ostream& out, const CloudDescription& d) {
     out << buf;
   } else {
     out << "bounds      none (no finite points)\n";
+  }
+  if (!d.offset.isZero()) {
+    std::snprintf(buf, sizeof(buf), "shift       (%.0f, %.0f, %.0f) subtracted on reading, for single precision\n",
+                  d.offset.x(), d.offset.y(), d.offset.z());
+    out << buf;
   }
   std::snprintf(buf, sizeof(buf), "spacing     %.4g (median distance to the nearest point)\n", d.spacing);
   out << buf;

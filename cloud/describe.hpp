@@ -53,7 +53,9 @@ struct CloudDescription {
   bool organized = false, has_color = false;
   std::uint32_t width = 0, height = 0;
   bool has_bounds = false;  ///< false when no point is finite
-  Eigen::Vector3f min = Eigen::Vector3f::Zero(), max = Eigen::Vector3f::Zero();
+  /// In the file's frame (a global shift added back: PointCloud::offset).
+  Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< the shift applied on reading
   double extent = 0;        ///< the bounds' largest side
   double spacing = 0;       ///< MedianSpacing
 };

@@ -42,8 +42,24 @@ std::vector<double> FieldAt(const PointCloud& cloud, const std::string& name, co
   return out;
 }
 
+void SetPoints(const std::vector<Eigen::Vector3d>& xyz, PointCloud* cloud) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  double largest = 0;
+  for (const auto& p : xyz) {
+    if (!p.allFinite()) continue;
+    lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    largest = std::max(largest, p.cwiseAbs().maxCoeff());
+  }
+  cloud->offset = Eigen::Vector3d::Zero();
+  if (largest > kShiftAbove) cloud->offset = (1000.0 * ((lo + hi) / 2000.0).array().round()).matrix();
+  cloud->points_mm.clear();
+  cloud->points_mm.reserve(xyz.size());
+  for (const auto& p : xyz) cloud->points_mm.push_back((p - cloud->offset).cast<float>());
+}
+
 PointCloud Select(const PointCloud& cloud, const std::vector<std::size_t>& indices) {
   PointCloud out;
+  out.offset = cloud.offset;
   out.points_mm.reserve(indices.size());
   for (std::size_t i : indices) out.points_mm.push_back(cloud.points_mm[i]);
   if (cloud.HasColor()) {

@@ -21,6 +21,11 @@ struct PointCloud {
   std::map<std::string, std::vector<float>> fields;
   std::uint32_t width = 0;   ///< organised: columns; unorganised: size()
   std::uint32_t height = 1;  ///< organised: rows (> 1); unorganised: 1
+  /// The global shift: each point is stored less this (same units as points_mm). A reader sets
+  /// it when a file's coordinates are too large for single precision (kShiftAbove), as
+  /// CloudCompare's global shift and LAS's offsets do; writers add it back. Positions computed
+  /// from the points are in the shifted frame.
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
 
   std::size_t size() const { return points_mm.size(); }
   bool empty() const { return points_mm.empty(); }
@@ -35,6 +40,16 @@ struct PointCloud {
   /// or width*height does not match it; `what` names the source for the message.
   void CheckConsistent(const std::string& what) const;
 };
+
+/// Coordinates beyond this (in the file's units) are shifted on reading: a float's step there is
+/// 1/128 of a unit (8 mm in a metre file), and UTM coordinates reach 10^7. CloudCompare proposes
+/// its global shift from the same 10^5.
+constexpr double kShiftAbove = 1e5;
+
+/// Stores `xyz` (a reader's double coordinates) in `cloud`'s points: as they are, or less a
+/// round offset (the bounding box's centre to the nearest 1000 units) when any finite coordinate
+/// exceeds kShiftAbove, recorded in cloud->offset.
+void SetPoints(const std::vector<Eigen::Vector3d>& xyz, PointCloud* cloud);
 
 /// True if all three coordinates are finite.
 inline bool IsFinite(const Eigen::Vector3f& p) { return p.allFinite(); }

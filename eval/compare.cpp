@@ -169,7 +169,11 @@ std::vector<CloudReport> CompareCloud(const std::string& file, const CompareOpti
     const std::vector<Eigen::Vector3d> pts = cloud::PointsAt(cleaned, g.indices);
     rep.points = groups.size() == 1 ? points_read : g.indices.size();
     rep.points_cleaned = pts.size();
-    rep.truth = TruthForPoints(truths, pts);
+    // A cloud shifted on reading (PointCloud::offset) is fitted in its own frame; truths and
+    // reported fits are in the file's.
+    std::vector<Eigen::Vector3d> in_file = pts;
+    for (auto& q : in_file) q += cleaned.offset;
+    rep.truth = TruthForPoints(truths, in_file);
     const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
     for (const auto& m : o.methods) {
       const std::vector<cloud::TangentRay>* outline = nullptr;
@@ -180,6 +184,7 @@ std::vector<CloudReport> CompareCloud(const std::string& file, const CompareOpti
       rep.fits.push_back(fitting::RunFitMethod(m, pts, o.fit_options, o.seed, g.id >= 1, &pixel_mm, outline));
       rep.fits.back().hedge_id = g.id;
       fitting::AddUncertainty(pts, o.rig, &rep.fits.back(), o.matching);
+      rep.fits.back().sphere.center_mm += cleaned.offset;
     }
     reports.push_back(std::move(rep));
   }

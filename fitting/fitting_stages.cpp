@@ -78,6 +78,10 @@ void AddFitters(pipeline::Registry& r) {
               const auto* disparity_perturbation = ctx.Find<cloud::PointPerturbation>("disparity_perturbation");
               const auto* input_checks = ctx.Find<pipeline::InputChecks>("input_checks");
               const auto* outlines = ctx.Find<cloud::HedgeOutlines>("outlines");
+              // A cloud shifted on reading (PointCloud::offset) is fitted in its own frame and its
+              // fits are recorded in the file's, as every report gives them.
+              const Eigen::Vector3d offset = c.offset;
+              std::vector<Sphere> starts(groups.size());
               std::vector<SphereFitResult> results(groups.size());
               std::vector<std::vector<std::size_t>> inliers(groups.size());
               std::vector<std::string> errors(groups.size());
@@ -109,7 +113,9 @@ void AddFitters(pipeline::Registry& r) {
                   if (earlier) {
                     for (auto it = earlier->rbegin(); it != earlier->rend(); ++it) {
                       if (it->hedge_id == g.id && it->converged) {
-                        in.previous = &it->sphere;
+                        starts[k] = it->sphere;
+                        starts[k].center_mm -= offset;
+                        in.previous = &starts[k];
                         break;
                       }
                     }
@@ -129,6 +135,7 @@ void AddFitters(pipeline::Registry& r) {
                     results[k].checks = check->fields;
                     if (!check->unusable.empty()) results[k].unusable = check->unusable;
                   }
+                  results[k].sphere.center_mm += offset;  // last: the uncertainty is taken against the points
                 }
               });
               for (const std::string& why : errors) {
@@ -227,7 +234,7 @@ void AddTrimDepth(pipeline::Registry& r) {
               TrimOptions hedge_to = to;
               target.radius_mm = to.axes_mm != Eigen::Vector3d::Zero() ? std::cbrt(to.axes_mm.prod()) : opts.GetDouble("radius");
               if (center.size() == 3) {
-                target.center_mm = Eigen::Vector3d(center[0], center[1], center[2]);
+                target.center_mm = Eigen::Vector3d(center[0], center[1], center[2]) - c.offset;  // given in the file's frame
               } else {
                 const SphereFitResult* fit = nullptr;
                 const SphereFitResult* failed = nullptr;  // the last fit of this hedge that failed, for its reason
@@ -250,7 +257,7 @@ void AddTrimDepth(pipeline::Registry& r) {
                   throw Error("stage '" + trim + "': " + hedge +
                               " has no converged fit to centre the target on; put a fitters.* stage before it or give 'center'");
                 }
-                target.center_mm = fit->sphere.center_mm;
+                target.center_mm = fit->sphere.center_mm - c.offset;  // fits are in the file's frame
                 // A leafy envelope's fit says what share of the leaves lie on it: each bin's
                 // radius is then taken where they lie (TrimOptions::clipped_share).
                 if (const auto w = fit->Extra("clipped_share")) hedge_to.clipped_share = std::clamp(*w, 0.05, 1.0);

@@ -87,9 +87,19 @@ std::vector<Eigen::Vector3d> Points(const py::array_t<double, py::array::c_style
 
 py::dict CloudDict(const cloud::PointCloud& c) {
   py::dict d;
-  py::array_t<float> xyz({static_cast<py::ssize_t>(c.size()), py::ssize_t(3)});
-  for (std::size_t i = 0; i < c.size(); ++i) std::memcpy(xyz.mutable_data(py::ssize_t(i), 0), c.points_mm[i].data(), 12);
-  d["xyz"] = xyz;
+  if (c.offset.isZero()) {
+    py::array_t<float> xyz({static_cast<py::ssize_t>(c.size()), py::ssize_t(3)});
+    for (std::size_t i = 0; i < c.size(); ++i) std::memcpy(xyz.mutable_data(py::ssize_t(i), 0), c.points_mm[i].data(), 12);
+    d["xyz"] = xyz;
+  } else {
+    // Shifted on reading (coordinates too large for single precision): float64, the shift added back.
+    py::array_t<double> xyz({static_cast<py::ssize_t>(c.size()), py::ssize_t(3)});
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const Eigen::Vector3d p = c.points_mm[i].cast<double>() + c.offset;
+      std::memcpy(xyz.mutable_data(py::ssize_t(i), 0), p.data(), 24);
+    }
+    d["xyz"] = xyz;
+  }
   if (c.HasColor()) {
     py::array_t<std::uint8_t> rgb({static_cast<py::ssize_t>(c.size()), py::ssize_t(3)});
     for (std::size_t i = 0; i < c.size(); ++i) std::memcpy(rgb.mutable_data(py::ssize_t(i), 0), c.colors[i].data(), 3);
@@ -104,7 +114,7 @@ py::dict CloudDict(const cloud::PointCloud& c) {
 cloud::PointCloud CloudFrom(const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, const py::object& rgb,
                             const py::dict& fields) {
   cloud::PointCloud c;
-  for (const auto& p : Points(xyz)) c.points_mm.push_back(p.cast<float>());
+  cloud::SetPoints(Points(xyz), &c);  // shifted when too large for single precision, as the readers do
   if (!rgb.is_none()) {
     const auto a = rgb.cast<py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>>();
     if (a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != c.size()) {
@@ -375,7 +385,9 @@ void AddFindFunctions(py::module_& m) {
         rep.scale_source = scale > 0 ? "given" : (rep.scale == 1000.0 ? "metres, guessed" : "mm, guessed");
         if (rep.scale != 1.0) {
           for (auto& p : c.points_mm) p *= float(rep.scale);
+          c.offset *= rep.scale;
         }
+        rep.offset_mm = c.offset;
         std::ostringstream text;
         std::vector<float> hedge_id;
         {

@@ -39,8 +39,11 @@ void RegisterRenderStages(pipeline::Registry& r) {
     return std::make_unique<LambdaStage>(o, [ro, file](const Options&, Context& ctx) {
       std::vector<SphereOverlay> spheres;
       if (const auto* fits = ctx.Find<std::vector<fitting::SphereFitResult>>("fits")) {
+        const Eigen::Vector3d offset = ctx.Get<PointCloud>("cloud").offset;  // fits are in the file's frame
         for (const auto& f : *fits) {
-          if (f.converged) spheres.push_back(OverlayOf(f, f.method));
+          if (!f.converged) continue;
+          spheres.push_back(OverlayOf(f, f.method));
+          spheres.back().sphere.center_mm -= offset;
         }
       }
       RenderOptions run = ro;

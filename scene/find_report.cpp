@@ -27,7 +27,9 @@ FindReport FindInCloudFile(const std::string& file, double scale, const FindOpti
   }
   if (rep.scale != 1.0) {
     for (auto& p : c.points_mm) p *= float(rep.scale);
+    c.offset *= rep.scale;
   }
+  rep.offset_mm = c.offset;
   rep.result = FindHedges(c, options);
   rep.result.file = file;
   if (cloud) *cloud = std::move(c);
@@ -39,13 +41,17 @@ namespace {
 using json = nlohmann::json;
 using pipeline::Print;
 
-json FitJson(const fitting::SphereFitResult& f) {
+json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+json FitJson(const fitting::SphereFitResult& f, const Eigen::Vector3d& offset) {
   json j = {{"center_mm", nullptr}, {"radius_mm", nullptr}, {"rms_mm", nullptr}, {"std_error_mm", nullptr}};
   for (const auto& [key, value] : fitting::FitFields(f)) j[key] = std::visit([](const auto& v) { return json(v); }, value);
+  if (f.converged) j["center_mm"] = Vec(f.sphere.center_mm + offset);
   return j;
 }
 
-json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+// A height in the scene's frame (along up) in the file's frame: the shift's part along up.
+double UpShift(const FindResult& r, const Eigen::Vector3d& offset) { return (r.scene_from_cloud * offset).z(); }
 
 // The centroid of an object's points, in the cloud's frame (for an object no sphere fits).
 Eigen::Vector3d Centroid(const FindResult& r, const FoundObject& o) {
@@ -53,13 +59,13 @@ Eigen::Vector3d Centroid(const FindResult& r, const FoundObject& o) {
   return r.scene_from_cloud.transpose() * top;
 }
 
-json ObjectJson(const FindResult& r, const FoundObject& o) {
+json ObjectJson(const FindResult& r, const FoundObject& o, const Eigen::Vector3d& offset) {
   json h;
   h["id"] = o.id;
   h["verdict"] = o.verdict;
   h["ball"] = o.ball;
   const bool sphere = o.fit.converged;
-  h["center_mm"] = sphere ? Vec(o.fit.sphere.center_mm) : Vec(Centroid(r, o));
+  h["center_mm"] = Vec((sphere ? o.fit.sphere.center_mm : Centroid(r, o)) + offset);
   h["radius_mm"] = sphere ? json(o.fit.sphere.radius_mm) : json(nullptr);
   const auto surface = o.fit.Extra("surface_radius_mm");
   h["surface_radius_mm"] = surface ? json(*surface) : (o.geometric && o.geometric->converged ? json(o.geometric->sphere.radius_mm) : json(nullptr));
@@ -69,7 +75,7 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
   h["points"] = o.indices.size();
   h["seen_share"] = o.seen_share;
   auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-  h["ground_mm"] = number(o.ground_mm);
+  h["ground_mm"] = number(o.ground_mm + UpShift(r, offset));
   h["height_mm"] = number(o.height_mm);
   h["center_height_radii"] = sphere ? number(o.base_height_mm) : json(nullptr);
   h["lumpiness"] = o.lumpiness;
@@ -81,7 +87,7 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
     const TopiaryShape& s = *o.shape;
     h["shape"] = {{"shape", s.shape},
                   {"form", s.form},
-                  {"center_mm", Vec(r.scene_from_cloud.transpose() * s.center_mm)},
+                  {"center_mm", Vec(r.scene_from_cloud.transpose() * s.center_mm + offset)},
                   {"axes_mm", Vec(s.axes_mm)},
                   {"heading_deg", s.heading_deg},
                   {"center_ci95_mm", Vec(s.center_ci95_mm)},
@@ -105,8 +111,8 @@ json ObjectJson(const FindResult& r, const FoundObject& o) {
                   {"elongation", o.elongation}};
   }
   if (!o.topiary) h["not_a_ball"] = o.reason.empty() ? o.verdict : o.reason;
-  if (sphere) h["fit"] = FitJson(o.fit);
-  if (o.geometric && o.geometric->converged && o.fit.method != "geometric") h["geometric"] = FitJson(*o.geometric);
+  if (sphere) h["fit"] = FitJson(o.fit, offset);
+  if (o.geometric && o.geometric->converged && o.fit.method != "geometric") h["geometric"] = FitJson(*o.geometric, offset);
   return h;
 }
 
@@ -122,6 +128,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
     c["points"] = r.points;
     c["scale"] = rep.scale;
     c["scale_source"] = rep.scale_source;
+    c["offset_mm"] = Vec(rep.offset_mm);  // the global shift the reader applied; positions here include it
     c["up"] = Vec(r.up);
     c["up_source"] = r.up_source;
     c["spacing_mm"] = r.spacing_mm;
@@ -131,7 +138,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
     c["topiary"] = r.Topiary();
     c["warnings"] = r.warnings;
     c["hedges"] = json::array();
-    for (const auto& o : r.objects) c["hedges"].push_back(ObjectJson(r, o));
+    for (const auto& o : r.objects) c["hedges"].push_back(ObjectJson(r, o, rep.offset_mm));
     c["timings_ms"] = json::object();
     for (const auto& [step, ms] : r.timings_ms) c["timings_ms"][step] = ms;
     doc["clouds"].push_back(c);
@@ -145,7 +152,7 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
   for (const auto& rep : reports) {
     for (const auto& o : rep.result.objects) {
       Print(out, "%s,%d,%s,%d,", rep.result.file.c_str(), o.id, o.verdict.c_str(), o.ball ? 1 : 0);
-      const Eigen::Vector3d c = o.fit.converged ? o.fit.sphere.center_mm : Centroid(rep.result, o);
+      const Eigen::Vector3d c = (o.fit.converged ? o.fit.sphere.center_mm : Centroid(rep.result, o)) + rep.offset_mm;
       Print(out, "%.2f,%.2f,%.2f,", c.x(), c.y(), c.z());
       if (o.fit.converged) {
         Print(out, "%.2f,", o.fit.sphere.radius_mm);
@@ -163,7 +170,7 @@ void WriteFindCsv(std::ostream& out, const std::vector<FindReport>& reports) {
       std::string reason = o.reason;
       for (char& ch : reason) if (ch == '"') ch = '\'';
       Print(out, "%zu,%.3f,", o.indices.size(), o.seen_share);
-      for (double v : {o.ground_mm, o.height_mm}) {
+      for (double v : {o.ground_mm + UpShift(rep.result, rep.offset_mm), o.height_mm}) {
         if (std::isfinite(v)) Print(out, "%.1f,", v); else out << ",";
       }
       Print(out, "%.4f,%.3f,%s,%d,", o.lumpiness, o.axis_ratio, o.fit.converged ? o.fit.method.c_str() : "", o.topiary ? 1 : 0);
@@ -191,28 +198,34 @@ void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
           "topiary by height, of %zu object%s\n",
           r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
           r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.Topiary() - r.Balls() - TopiaryFromBallSearch(r), r.objects.size(), r.objects.size() == 1 ? "" : "s");
+    if (!rep.offset_mm.isZero()) {
+      Print(out, "  its coordinates were shifted by (%.0f, %.0f, %.0f) mm on reading, for single precision; the "
+                 "positions below are in the file's frame\n",
+            0.0 - rep.offset_mm.x() + 0.0, 0.0 - rep.offset_mm.y() + 0.0, 0.0 - rep.offset_mm.z() + 0.0);
+    }
     for (const auto& w : r.warnings) Print(out, "  warning: %s\n", w.c_str());
     if (r.objects.empty()) continue;
     out << "  id  verdict      centre x, y, z (mm)               radius   95 % (r)  leaf r    points  seen  ground   height  lumpy\n";
     for (const auto& o : r.objects) {
       Print(out, "  %-3d %-11s ", o.id, o.verdict.c_str());
       if (o.fit.converged) {
-        const auto& c = o.fit.sphere.center_mm;
+        const Eigen::Vector3d c = o.fit.sphere.center_mm + rep.offset_mm;
         const auto total = fitting::TotalStdError(o.fit);
         const auto surface = o.fit.Extra("surface_radius_mm");
         Print(out, "%9.1f %9.1f %9.1f  %8.1f  %7s  %7s", c.x(), c.y(), c.z(), o.fit.sphere.radius_mm,
               total ? pipeline::Format("+-%.1f", 1.96 * (*total)[3]).c_str() : "",
               surface ? pipeline::Format("%.1f", *surface).c_str() : "");
       } else {
-        const Eigen::Vector3d c = Centroid(r, o);
+        const Eigen::Vector3d c = Centroid(r, o) + rep.offset_mm;
         Print(out, "%9.1f %9.1f %9.1f  %8s  %7s  %7s", c.x(), c.y(), c.z(), "-", "", "");
       }
       auto mm = [](double v) { return std::isfinite(v) ? pipeline::Format("%7.0f", v) : std::string("      -"); };
+      const double ground = o.ground_mm + UpShift(r, rep.offset_mm);
       if (o.shape && o.topiary) {
         // A shape found by height is judged on its footprint, not on a sphere's patches.
-        Print(out, "  %8zu     -  %s  %s      -\n", o.indices.size(), mm(o.ground_mm).c_str(), mm(o.height_mm).c_str());
+        Print(out, "  %8zu     -  %s  %s      -\n", o.indices.size(), mm(ground).c_str(), mm(o.height_mm).c_str());
       } else {
-        Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(o.ground_mm).c_str(),
+        Print(out, "  %8zu  %3.0f%%  %s  %s  %5.3f\n", o.indices.size(), 100 * o.seen_share, mm(ground).c_str(),
               mm(o.height_mm).c_str(), o.lumpiness);
       }
       if (o.shape && o.topiary) {

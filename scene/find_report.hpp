@@ -17,6 +17,9 @@ struct FindReport {
   FindResult result;
   double scale = 1;           ///< coordinates were multiplied by it on read
   std::string scale_source;   ///< "given", "guessed: metres (...)", "guessed: mm"
+  /// The cloud's global shift (cloud::PointCloud::offset, mm after scaling): the result's
+  /// positions are in the shifted frame, and the reports add it back.
+  Eigen::Vector3d offset_mm = Eigen::Vector3d::Zero();
 };
 
 /// `find` on one cloud file: read (cloud/cloud_io.hpp), scaled to mm by `scale` (0: guessed from

@@ -61,6 +61,8 @@ for deg in (30, 90, 137, 200):
     cases.append((f"turned {deg} deg", xyz @ R.T, truth @ R[:2, :2].T, []))
 shift = np.array([-31.7, 48.2, 112.0])
 cases.append(("moved 58 m, 112 m up", xyz + shift, truth + shift[:2], []))
+utm = np.array([500000.0, 5700000.0, 50.0])  # a survey's export: UTM metres (read with a global shift)
+cases.append(("in UTM coordinates", xyz + utm, truth + utm[:2], []))
 keep = rng.random(len(xyz)) < 0.5
 cases.append(("half the points", xyz[keep], truth, []))
 keep = rng.random(len(xyz)) < 0.25

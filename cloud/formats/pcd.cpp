@@ -307,6 +307,7 @@ PointCloud ReadPcd(const std::string& path, CloudFileHeader* header) {
 }
 
 void WritePcd(const std::string& path, const PointCloud& cloud, const WriteOptions& options) {
+  RequireUnshifted(path, cloud, "PCD (single precision)", "a .ply or .xyz file");
   const pcl::PCLPointCloud2 blob = ToPclBlob(cloud);
   const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
   const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();

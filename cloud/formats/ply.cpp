@@ -255,7 +255,8 @@ PointCloud ReadPly(const std::string& path, CloudFileHeader* header) {
   }
   const bool colour = ir >= 0 && ig >= 0 && ib >= 0;
   PointCloud cloud;
-  cloud.points_mm.reserve(std::size_t(vertex->count));
+  std::vector<Eigen::Vector3d> xyz;  // as written: shifted once all are read (SetPoints)
+  xyz.reserve(std::size_t(vertex->count));
   if (colour) cloud.colors.reserve(std::size_t(vertex->count));
   std::vector<std::pair<std::string, int>> extra;  // other scalar vertex properties -> fields
   for (std::size_t k = 0; k < vertex->properties.size(); ++k) {
@@ -284,8 +285,7 @@ PointCloud ReadPly(const std::string& path, CloudFileHeader* header) {
         ReadBinaryRow(in, path, e, i, big, &buffer, &values);
       }
       if (!is_vertex) continue;
-      cloud.points_mm.emplace_back(float(values[std::size_t(ix)]), float(values[std::size_t(iy)]),
-                                   float(values[std::size_t(iz)]));
+      xyz.emplace_back(values[std::size_t(ix)], values[std::size_t(iy)], values[std::size_t(iz)]);
       if (colour) {
         cloud.colors.push_back({colour_byte(values[std::size_t(ir)], vertex->properties[std::size_t(ir)]),
                                 colour_byte(values[std::size_t(ig)], vertex->properties[std::size_t(ig)]),
@@ -304,6 +304,7 @@ PointCloud ReadPly(const std::string& path, CloudFileHeader* header) {
       }
     }
   }
+  SetPoints(xyz, &cloud);
   // PCL writes organised clouds with obj_info num_cols / num_rows.
   if (cols > 0 && rows_hint > 1 && std::uint64_t(cols) * std::uint64_t(rows_hint) == vertex->count) {
     cloud.width = static_cast<std::uint32_t>(cols);
@@ -323,8 +324,11 @@ PointCloud ReadPly(const std::string& path, CloudFileHeader* header) {
 void WritePlyAscii(const std::string& path, const PointCloud& cloud, int precision) {
   std::ofstream out(path);
   if (!out) throw Error(path + ": cannot be opened for writing");
+  const CoordinateText text(cloud, precision);
+  const bool shifted = text.Shifted();
   out << "ply\nformat ascii 1.0\ncomment written by hedgefit\nelement vertex " << cloud.size()
-      << "\nproperty float x\nproperty float y\nproperty float z\n";
+      << (shifted ? "\nproperty double x\nproperty double y\nproperty double z\n"
+                  : "\nproperty float x\nproperty float y\nproperty float z\n");
   if (cloud.HasColor()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   std::vector<std::pair<std::string, const std::vector<float>*>> extra;
   for (const auto& [name, values] : cloud.fields) {
@@ -333,10 +337,9 @@ void WritePlyAscii(const std::string& path, const PointCloud& cloud, int precisi
     extra.emplace_back(name, &values);
   }
   out << "end_header\n";
-  char buf[64];
+  char buf[96];
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const auto& p = cloud.points_mm[i];
-    out.write(buf, std::snprintf(buf, sizeof(buf), "%.*g %.*g %.*g", precision, p.x(), precision, p.y(), precision, p.z()));
+    out.write(buf, text.Print(buf, sizeof(buf), cloud.points_mm[i]));
     if (cloud.HasColor()) {
       out.write(buf, std::snprintf(buf, sizeof(buf), " %d %d %d", cloud.colors[i][0], cloud.colors[i][1], cloud.colors[i][2]));
     }
@@ -348,7 +351,8 @@ void WritePlyAscii(const std::string& path, const PointCloud& cloud, int precisi
 }
 
 void WritePly(const std::string& path, const PointCloud& cloud, const WriteOptions& options) {
-  if (!options.ply_binary) return WritePlyAscii(path, cloud, options.ascii_precision);
+  // A shifted cloud is written as text with its shift added back: PCL's binary writer stores floats.
+  if (!options.ply_binary || !cloud.offset.isZero()) return WritePlyAscii(path, cloud, options.ascii_precision);
   pcl::PLYWriter writer;
   if (writer.writeBinary(path, ToPclBlob(cloud), Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), false) < 0) {
     throw Error(path + ": write failed; check free space and permissions");

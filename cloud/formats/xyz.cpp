@@ -18,6 +18,7 @@ namespace {
 PointCloud ReadXyz(const std::string& path) {
   std::ifstream in(path);
   PointCloud cloud;
+  std::vector<Eigen::Vector3d> xyz;  // as written: shifted once all are read (SetPoints)
   std::string line;
   std::size_t line_no = 0;
   int columns = -1;
@@ -50,7 +51,7 @@ PointCloud ReadXyz(const std::string& path) {
       throw Error(path + ":" + std::to_string(line_no) + ": " + std::to_string(v.size()) + " values but line 1 of data had " +
                   std::to_string(columns) + "; use one layout for the whole file");
     }
-    cloud.points_mm.emplace_back(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+    xyz.emplace_back(v[0], v[1], v[2]);
     if (columns == 6) {
       Rgb c;
       for (int k = 0; k < 3; ++k) {
@@ -64,6 +65,7 @@ PointCloud ReadXyz(const std::string& path) {
     }
   }
   if (in.bad()) throw Error(path + ": read error after line " + std::to_string(line_no));
+  SetPoints(xyz, &cloud);
   cloud.Flatten();
   return cloud;
 }
@@ -72,9 +74,9 @@ void WriteXyz(const std::string& path, const PointCloud& cloud, int precision) {
   std::ofstream out(path);
   if (!out) throw Error(path + ": cannot be opened for writing");
   char buf[160];
+  const CoordinateText text(cloud, precision);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const auto& p = cloud.points_mm[i];
-    int n = std::snprintf(buf, sizeof(buf), "%.*g %.*g %.*g", precision, p.x(), precision, p.y(), precision, p.z());
+    int n = text.Print(buf, sizeof(buf), cloud.points_mm[i]);
     out.write(buf, n);
     if (cloud.HasColor()) {
       n = std::snprintf(buf, sizeof(buf), " %d %d %d", cloud.colors[i][0], cloud.colors[i][1], cloud.colors[i][2]);

@@ -12,6 +12,7 @@
 #include <pcl/point_types.h>
 
 #include <fstream>
+#include <cstdio>
 #include <random>
 
 #include "pipeline/error.hpp"
@@ -157,6 +158,58 @@ void ExpectReadError(const std::string& path, const std::string& fragment) {
     EXPECT_NE(msg.find(fragment), std::string::npos) << msg;
     EXPECT_EQ(msg.find('\n'), std::string::npos) << "not one line: " << msg;
   }
+}
+
+// A survey's export: metres in UTM, 0.1 mm in the text. A float steps by 0.5 m at 5.7e6; shifted
+// on reading by a round offset (to 1000 m: the shifted points reach 242 m, where a float steps by
+// 15 um), the points keep the text's 0.1 mm, and every text writer adds the shift back (printing
+// 10 um digits). PCD stores floats: refused, naming a
+// format that can hold them.
+TEST(CloudIo, UtmCoordinatesAreShiftedOnReadingAndWrittenBack) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-8.0, 8.0);
+  std::vector<Eigen::Vector3d> truth;
+  {
+    std::ofstream out(dir / "utm.xyz");
+    char line[96];
+    for (int i = 0; i < 500; ++i) {
+      const Eigen::Vector3d p = Eigen::Vector3d(500123.0, 5701234.0, 48.0) + Eigen::Vector3d(u(rng), u(rng), u(rng) / 4);
+      const int n = std::snprintf(line, sizeof(line), "%.4f %.4f %.4f\n", p.x(), p.y(), p.z());
+      out.write(line, n);
+      Eigen::Vector3d written;  // the text's value, 0.1 mm
+      ASSERT_EQ(std::sscanf(line, "%lf %lf %lf", &written.x(), &written.y(), &written.z()), 3);
+      truth.push_back(written);
+    }
+  }
+  const PointCloud c = ReadCloud((dir / "utm.xyz").string());
+  EXPECT_EQ(c.offset, Eigen::Vector3d(500000.0, 5701000.0, 0.0));  // the box's centre to the nearest 1000
+  auto worst = [&](const PointCloud& cloud) {
+    double w = 0;
+    for (std::size_t i = 0; i < truth.size(); ++i) w = std::max(w, (cloud.points_mm[i].cast<double>() + cloud.offset - truth[i]).cwiseAbs().maxCoeff());
+    return w;
+  };
+  EXPECT_LT(worst(c), 8e-6);  // half a float's step at 242
+  for (const std::string name : {"back.ply", "back.xyz"}) {
+    WriteCloud((dir / name).string(), c);
+    const PointCloud b = ReadCloud((dir / name).string());
+    EXPECT_LT(worst(b), 8e-6 + 5e-6) << name;  // and half the printed last digit
+  }
+  try {
+    WriteCloud((dir / "back.pcd").string(), c);
+    ADD_FAILURE() << "a shifted cloud was written to PCD";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("back.pcd: "), std::string::npos) << what;
+    EXPECT_NE(what.find(".ply or .xyz"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(dir / "back.pcd"));
+  // A camera's cloud (mm, 60 m at most) is not shifted.
+  std::ofstream(dir / "local.xyz") << "-1500.25 300.5 2400.75\n2000 -800 59999.5\n";
+  const PointCloud local = ReadCloud((dir / "local.xyz").string());
+  EXPECT_TRUE(local.offset.isZero());
+  EXPECT_EQ(local.points_mm[1].z(), 59999.5f);
 }
 
 TEST(CloudIo, BadFilesGiveOneLineErrors) {
