@@ -117,6 +117,7 @@ void AddRenderCommand(CLI::App& app, CommandFn* run) {
       }
       // Fits and truths are in the file's frame; a cloud shifted on reading is drawn in its own.
       for (auto& s : spheres) s.sphere.center_mm -= cloud.offset;
+      o.label_offset_mm = cloud.offset;
       o.distance_sphere = render::MostTrustedSphere(spheres);
       render::RenderToPng(cloud, spheres, o, a->output);
       std::printf("wrote %s\n", a->output.c_str());

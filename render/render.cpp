@@ -400,12 +400,13 @@ SphereLayer MakeSphereLayer(const std::vector<SphereOverlay>& spheres, const Ren
     }
     layer.actors.push_back(actor);
     char text[200];
+    const Eigen::Vector3d c = s.sphere.center_mm + options.label_offset_mm;
     if (shaped) {
       std::snprintf(text, sizeof(text), "%s  %.0f x %.0f x %.0f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.axes_mm.x(),
-                    s.axes_mm.y(), s.axes_mm.z(), s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+                    s.axes_mm.y(), s.axes_mm.z(), c.x(), c.y(), c.z());
     } else {
-      std::snprintf(text, sizeof(text), "%s  r %.1f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.sphere.radius_mm,
-                    s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z());
+      std::snprintf(text, sizeof(text), "%s  r %.1f  c (%.1f, %.1f, %.1f) mm", s.label.c_str(), s.sphere.radius_mm, c.x(),
+                    c.y(), c.z());
     }
     vtkNew<vtkSphereSource> symbol;
     symbol->Update();

@@ -42,6 +42,9 @@ struct SphereOverlay {
 SphereOverlay OverlayOf(const fitting::SphereFitResult& fit, const std::string& label);
 
 struct RenderOptions {
+  /// Added to the centres the legend prints: a cloud shifted on reading (PointCloud::offset) is
+  /// drawn in its own frame, and its spheres are labelled in the file's.
+  Eigen::Vector3d label_offset_mm = Eigen::Vector3d::Zero();
   int width = 1024;                    ///< px (of each view when tiled)
   int height = 768;                    ///< px
   ColorMode color = ColorMode::kOwn;   ///< point colours

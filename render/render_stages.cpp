@@ -47,6 +47,7 @@ void RegisterRenderStages(pipeline::Registry& r) {
         }
       }
       RenderOptions run = ro;
+      run.label_offset_mm = ctx.Get<PointCloud>("cloud").offset;
       if (!spheres.empty()) run.distance_sphere = spheres.back().sphere;  // the pipeline's last fit
       RenderToPng(ctx.Get<PointCloud>("cloud"), spheres, run, ctx.OutputPath(file));
       ctx.Note("filename", file);
