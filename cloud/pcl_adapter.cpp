@@ -70,11 +70,28 @@ PointCloud FromPclBlob(const pcl::PCLPointCloud2& blob, const std::string& sourc
     const std::size_t col = blob.width ? i % blob.width : 0;
     return blob.data.data() + row * blob.row_step + col * blob.point_step;
   };
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint8_t* p = at(i);
-    out.points_mm[i] = Eigen::Vector3f(static_cast<float>(ReadScalar(p + fx->offset, fx->datatype)),
-                                       static_cast<float>(ReadScalar(p + fy->offset, fy->datatype)),
-                                       static_cast<float>(ReadScalar(p + fz->offset, fz->datatype)));
+  // Coordinates stored wider than a float (doubles, 32-bit integers: a survey's or a
+  // georeferenced model's) are read as doubles and shifted where they are large (SetPoints);
+  // floats are kept as they are, as nothing a shift could save is in them.
+  auto wide = [](const pcl::PCLPointField* f) {
+    return f->datatype == pcl::PCLPointField::FLOAT64 || f->datatype == pcl::PCLPointField::INT32 ||
+           f->datatype == pcl::PCLPointField::UINT32;
+  };
+  if (wide(fx) || wide(fy) || wide(fz)) {
+    std::vector<Eigen::Vector3d> xyz(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint8_t* p = at(i);
+      xyz[i] = Eigen::Vector3d(ReadScalar(p + fx->offset, fx->datatype), ReadScalar(p + fy->offset, fy->datatype),
+                               ReadScalar(p + fz->offset, fz->datatype));
+    }
+    SetPoints(xyz, &out);
+  } else {
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint8_t* p = at(i);
+      out.points_mm[i] = Eigen::Vector3f(static_cast<float>(ReadScalar(p + fx->offset, fx->datatype)),
+                                         static_cast<float>(ReadScalar(p + fy->offset, fy->datatype)),
+                                         static_cast<float>(ReadScalar(p + fz->offset, fz->datatype)));
+    }
   }
 
   const pcl::PCLPointField* packed = FindField(blob, "rgb");
@@ -115,7 +132,7 @@ PointCloud FromPclBlob(const pcl::PCLPointCloud2& blob, const std::string& sourc
   return out;
 }
 
-pcl::PCLPointCloud2 ToPclBlob(const PointCloud& cloud) {
+pcl::PCLPointCloud2 ToPclBlob(const PointCloud& cloud, bool file_frame) {
   pcl::PCLPointCloud2 blob;
   std::uint32_t offset = 0;
   auto add = [&](const std::string& name, std::uint8_t type) {
@@ -125,11 +142,13 @@ pcl::PCLPointCloud2 ToPclBlob(const PointCloud& cloud) {
     f.datatype = type;
     f.count = 1;
     blob.fields.push_back(f);
-    offset += 4;
+    offset += type == pcl::PCLPointField::FLOAT64 ? 8 : 4;
   };
-  add("x", pcl::PCLPointField::FLOAT32);
-  add("y", pcl::PCLPointField::FLOAT32);
-  add("z", pcl::PCLPointField::FLOAT32);
+  const bool doubles = file_frame && !cloud.offset.isZero();
+  const std::uint8_t xyz_type = doubles ? pcl::PCLPointField::FLOAT64 : pcl::PCLPointField::FLOAT32;
+  add("x", xyz_type);
+  add("y", xyz_type);
+  add("z", xyz_type);
   if (cloud.HasColor()) add("rgb", pcl::PCLPointField::FLOAT32);  // PCL's packed-float convention
   std::vector<const std::vector<float>*> extra;
   for (const auto& [name, values] : cloud.fields) {
@@ -145,8 +164,14 @@ pcl::PCLPointCloud2 ToPclBlob(const PointCloud& cloud) {
   blob.data.resize(static_cast<std::size_t>(blob.point_step) * cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     std::uint8_t* p = blob.data.data() + i * blob.point_step;
-    std::memcpy(p, cloud.points_mm[i].data(), 12);
     std::size_t o = 12;
+    if (doubles) {
+      const Eigen::Vector3d v = cloud.points_mm[i].cast<double>() + cloud.offset;
+      std::memcpy(p, v.data(), 24);
+      o = 24;
+    } else {
+      std::memcpy(p, cloud.points_mm[i].data(), 12);
+    }
     if (cloud.HasColor()) {
       const Rgb& c = cloud.colors[i];
       const std::uint32_t v = (0xffu << 24) | (std::uint32_t{c[0]} << 16) | (std::uint32_t{c[1]} << 8) | c[2];

@@ -45,15 +45,6 @@ class CoordinateText {
   int decimals_ = -1;
 };
 
-/// A shifted cloud (PointCloud::offset) cannot be written in single precision without losing
-/// what the shift kept: one line naming the file and `instead`.
-inline void RequireUnshifted(const std::string& path, const PointCloud& cloud, const std::string& what,
-                             const std::string& instead) {
-  if (cloud.offset.isZero()) return;
-  throw Error(path + ": its coordinates reach " + std::to_string(std::llround(cloud.offset.cwiseAbs().maxCoeff())) +
-              ", beyond what " + what + " stores to the point's precision; write " + instead + " instead");
-}
-
 /// Reads a PCL blob's points (PCD and PLY share it): fields, origin, header encoding.
 PointCloud FromBlob(const pcl::PCLPointCloud2& blob, const std::string& path, CloudFileHeader* header);
 

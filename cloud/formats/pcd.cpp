@@ -307,14 +307,16 @@ PointCloud ReadPcd(const std::string& path, CloudFileHeader* header) {
 }
 
 void WritePcd(const std::string& path, const PointCloud& cloud, const WriteOptions& options) {
-  RequireUnshifted(path, cloud, "PCD (single precision)", "a .ply or .xyz file");
-  const pcl::PCLPointCloud2 blob = ToPclBlob(cloud);
+  // A shifted cloud's coordinates are written as doubles in the file's frame (FIELDS x y z of
+  // TYPE F SIZE 8, as PCL reads them), with the digits they need in text.
+  const pcl::PCLPointCloud2 blob = ToPclBlob(cloud, true);
+  const int precision = cloud.offset.isZero() ? options.ascii_precision : std::max(options.ascii_precision, 15);
   const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
   const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
   pcl::PCDWriter writer;
   int status = 0;
   switch (options.pcd_encoding) {
-    case PcdEncoding::kAscii: status = writer.writeASCII(path, blob, origin, orientation, options.ascii_precision); break;
+    case PcdEncoding::kAscii: status = writer.writeASCII(path, blob, origin, orientation, precision); break;
     case PcdEncoding::kBinary: status = writer.writeBinary(path, blob, origin, orientation); break;
     case PcdEncoding::kBinaryCompressed: status = writer.writeBinaryCompressed(path, blob, origin, orientation); break;
   }

@@ -46,17 +46,16 @@ class Clouds(unittest.TestCase):
     def test_utm_coordinates_keep_their_digits(self):
         # Metres in UTM: float32 steps by 0.5 m at 5.7e6. The cloud comes back as float64 with
         # the reader's shift added back, to a float's step at the shifted coordinates (< 1e-4 m),
-        # and a PCD, which stores floats, is refused.
+        # through PLY and through PCD (whose x y z are then doubles).
         rng = np.random.default_rng(3)
         xyz = np.array([500123.0, 5701234.0, 48.0]) + rng.uniform(-8, 8, size=(300, 3))
         with tempfile.TemporaryDirectory() as tmp:
-            path = os.path.join(tmp, "utm.ply")
-            hedgefit.write_cloud(path, xyz)
-            back = hedgefit.read_cloud(path)
-            self.assertEqual(back["xyz"].dtype, np.float64)
-            self.assertLess(float(np.max(np.abs(back["xyz"] - xyz))), 1e-4)
-            with self.assertRaises(hedgefit.Error):
-                hedgefit.write_cloud(os.path.join(tmp, "utm.pcd"), xyz)
+            for ext in ("ply", "pcd"):
+                path = os.path.join(tmp, "utm." + ext)
+                hedgefit.write_cloud(path, xyz)
+                back = hedgefit.read_cloud(path)
+                self.assertEqual(back["xyz"].dtype, np.float64, ext)
+                self.assertLess(float(np.max(np.abs(back["xyz"] - xyz))), 1e-4, ext)
 
     def test_bad_input_raises_hedgefit_error_naming_it(self):
         with self.assertRaises(hedgefit.Error) as e:
