@@ -42,13 +42,20 @@ struct PointCloud {
 };
 
 /// Coordinates beyond this (in the file's units) are shifted on reading: a float's step there is
-/// 1/128 of a unit (8 mm in a metre file), and UTM coordinates reach 10^7. CloudCompare proposes
-/// its global shift from the same 10^5.
+/// 1/128 of a unit (8 mm in a metre file), and UTM coordinates reach 10^7.
 constexpr double kShiftAbove = 1e5;
+/// Coordinates beyond this are shifted too when they lie far from the origin for the cloud's own
+/// size (kShiftFarFor times its longest side): a garden 100 m across in a local grid 30 km from
+/// its origin steps by 2 mm, its own noise's order. CloudCompare's global shift proposes itself
+/// from 10^4; a camera's cloud in mm reaching 10-60 m spans about as far as it reaches, and is
+/// not shifted.
+constexpr double kShiftFarAbove = 1e4;
+constexpr double kShiftFarFor = 16;
 
 /// Stores `xyz` (a reader's double coordinates) in `cloud`'s points: as they are, or less a
 /// round offset (the bounding box's centre to the nearest 1000 units) when any finite coordinate
-/// exceeds kShiftAbove, recorded in cloud->offset.
+/// exceeds kShiftAbove, or kShiftFarAbove and kShiftFarFor times the box's longest side;
+/// recorded in cloud->offset.
 void SetPoints(const std::vector<Eigen::Vector3d>& xyz, PointCloud* cloud);
 
 /// True if all three coordinates are finite.

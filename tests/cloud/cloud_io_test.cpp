@@ -213,7 +213,17 @@ TEST(CloudIo, UtmCoordinatesAreShiftedOnReadingAndWrittenBack) {
     EXPECT_NEAR(double(s.points_mm[0].y()) + s.offset.y(), 5701234.5678, 1e-5);
     EXPECT_NEAR(double(s.points_mm[1].x()) + s.offset.x(), 500124.0001, 1e-5);
   }
-  // A camera's cloud (mm, 60 m at most) is not shifted.
+  // A garden in a local grid, metres 30 km from its origin: a float steps by 2 mm there, so it
+  // is shifted though under 10^5, being far from the origin for its 40 m.
+  {
+    std::ofstream grid(dir / "grid.xyz");
+    grid << "31234.5678 18765.4321 12.3456\n31274.5678 18745.4321 14.5\n";
+  }
+  const PointCloud g = ReadCloud((dir / "grid.xyz").string());
+  EXPECT_EQ(g.offset, Eigen::Vector3d(31000.0, 19000.0, 0.0));
+  EXPECT_NEAR(double(g.points_mm[0].x()) + g.offset.x(), 31234.5678, 1e-5);
+  EXPECT_NEAR(double(g.points_mm[0].y()) + g.offset.y(), 18765.4321, 1e-5);
+  // A camera's cloud (mm, 60 m at most) is not shifted: it reaches about as far as it spans.
   std::ofstream(dir / "local.xyz") << "-1500.25 300.5 2400.75\n2000 -800 59999.5\n";
   const PointCloud local = ReadCloud((dir / "local.xyz").string());
   EXPECT_TRUE(local.offset.isZero());
