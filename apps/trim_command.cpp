@@ -47,7 +47,7 @@ void AddTrimCommand(CLI::App& app, CommandFn* run) {
       "The volume counts what the camera saw (seen_share of the sphere); volume_all_round_l assumes the\n"
       "unseen side sticks out as the seen side does.\n");
   auto a = std::make_shared<TrimArgs>();
-  cmd->add_option("cloud", a->cloud, "cloud file (.pcd, .ply, .xyz); a hedge_id field gives one plan per hedge")->required();
+  cmd->add_option("cloud", a->cloud, "cloud file (" + cloud::CloudExtensionList() + "); a hedge_id field gives one plan per hedge")->required();
   cmd->add_option("--radius", a->radius, "target radius, mm (up to 100 m); or --axes")->check(CLI::Range(1e-3, 1e5));
   cmd->add_option("--axes", a->axes,
                   "a clipped shape as the target: semi-axes A,B,C in mm along the heading, across it and along --up "

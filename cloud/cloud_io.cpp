@@ -60,7 +60,7 @@ PointCloud FromBlob(const pcl::PCLPointCloud2& blob, const std::string& path, Cl
 
 const std::vector<CloudFormat>& CloudFormats() {
   // The one list of formats: a new one is its own file and one entry here.
-  static const std::vector<CloudFormat> formats = {internal::PcdFormat(), internal::PlyFormat(), internal::XyzFormat()};
+  static const std::vector<CloudFormat> formats = {internal::PcdFormat(), internal::PlyFormat(), internal::XyzFormat(), internal::LasFormat()};
   return formats;
 }
 

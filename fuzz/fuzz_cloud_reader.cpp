@@ -1,4 +1,4 @@
-// Fuzzes the cloud readers (PCD, PLY, XYZ): any bytes either read into a consistent cloud or are
+// Fuzzes the cloud readers (PCD, PLY, XYZ, LAS): any bytes either read into a consistent cloud or are
 // refused with hedgefit::Error. The format comes from HEDGEFIT_FUZZ_EXTENSION (".pcd", ...).
 
 #include <cstdint>

@@ -11,7 +11,7 @@ SECS=${1:-60}
 WORKERS=${2:-1}
 shift $(( $# > 2 ? 2 : $# ))
 NAMES=("$@")
-[ ${#NAMES[@]} -gt 0 ] || NAMES=(pcd ply xyz pipeline_json rig_yaml capture_image)
+[ ${#NAMES[@]} -gt 0 ] || NAMES=(pcd ply xyz las pipeline_json rig_yaml capture_image)
 bash scripts/setup.sh
 mkdir -p build-fuzz
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEDGEFIT_BUILD_FUZZ=ON \

@@ -17,6 +17,7 @@ namespace hedgefit::cloud::internal {
 CloudFormat PcdFormat();
 CloudFormat PlyFormat();
 CloudFormat XyzFormat();
+CloudFormat LasFormat();
 
 /// A coordinate as text: as `precision` significant digits, or, in a shifted cloud, with the
 /// offset added back and the decimals the stored float holds (its step at the largest shifted

@@ -585,7 +585,7 @@ TEST(ConvertCli, StageFlagErrorsNameTheFlag) {
   // (not the writer's temporary file after the work, as it was).
   r = RunHedgefit("convert --left l.png --right r.png --rig rig.yaml -o o.foo", dir);
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.err, "hedgefit: -o o.foo: not a cloud file name; end it in .pcd, .ply or .xyz\n");
+  EXPECT_EQ(r.err, "hedgefit: -o o.foo: not a cloud file name; end it in .pcd, .ply, .xyz or .las\n");
   fs::create_directories(dir / "out");
   for (const std::string out : {"out", "out/"}) {
     r = RunHedgefit("convert --left l.png --right r.png --rig rig.yaml -o " + out, dir);

@@ -7,7 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
+#include <cstring>
+#include <limits>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
@@ -230,6 +233,91 @@ TEST(CloudIo, UtmCoordinatesAreShiftedOnReadingAndWrittenBack) {
   EXPECT_EQ(local.points_mm[1].z(), 59999.5f);
 }
 
+// A LAS 1.4 file as the specification lays it out (a 375-byte header, point format 7: 36-byte
+// records with 16-bit colour), built here byte by byte rather than by hedgefit's writer.
+std::string Las14Format7(const std::vector<std::array<std::int32_t, 3>>& xyz, const Eigen::Vector3d& scale,
+                         const Eigen::Vector3d& offset, std::uint8_t format_byte = 7, std::uint64_t promised = 0) {
+  std::string h(375, '\0');
+  auto put = [&](std::size_t at, const void* v, std::size_t n) { std::memcpy(&h[at], v, n); };
+  h.replace(0, 4, "LASF");
+  h[24] = 1, h[25] = 4;
+  const std::uint16_t header_size = 375, record = 36;
+  const std::uint32_t data_at = 375;
+  put(94, &header_size, 2), put(96, &data_at, 4), put(104, &format_byte, 1), put(105, &record, 2);
+  for (int k = 0; k < 3; ++k) put(131 + 8 * std::size_t(k), &scale(k), 8), put(155 + 8 * std::size_t(k), &offset(k), 8);
+  const std::uint64_t n = promised ? promised : xyz.size();  // LAS 1.4: the 64-bit count, the legacy one 0
+  put(247, &n, 8);
+  for (std::size_t i = 0; i < xyz.size(); ++i) {
+    std::string r(36, '\0');
+    std::memcpy(&r[0], xyz[i].data(), 12);
+    const std::uint16_t intensity = std::uint16_t(100 * (i + 1));
+    std::memcpy(&r[12], &intensity, 2);
+    r[16] = char(i % 2 ? 2 : 5);  // ground, high vegetation
+    const std::uint16_t rgb[3] = {std::uint16_t(0xFF00), std::uint16_t(0x8000), std::uint16_t(0x0100 * i)};
+    std::memcpy(&r[30], rgb, 6);
+    h += r;
+  }
+  return h;
+}
+
+// LAS, the format survey LiDAR and photogrammetry exports come in: coordinates are integers
+// times a scale plus an offset, read in double precision and shifted as the other readers do;
+// 16-bit colour to 8 bits; intensity and classification as fields. A LAZ file is refused with
+// what to do, a truncated one says so.
+TEST(CloudIo, LasIsReadToItsScaleAndWrittenBack) {
+  const auto dir = hedgefit::testing::ScratchDir();
+  const Eigen::Vector3d scale(0.001, 0.001, 0.01), offset(500000, 5700000, 0);
+  const std::vector<std::array<std::int32_t, 3>> ints = {{123456, 234567, 4812}, {-5000, 1000, 4900}, {0, 0, 5000}};
+  WriteText(dir / "survey.las", Las14Format7(ints, scale, offset));
+  const PointCloud c = ReadCloud((dir / "survey.las").string());
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(c.offset, Eigen::Vector3d(500000.0, 5700000.0, 0.0));
+  for (std::size_t i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const double truth = ints[i][std::size_t(k)] * scale(k) + offset(k);  // the specification's formula
+      EXPECT_NEAR(double(c.points_mm[i](k)) + c.offset(k), truth, 1e-5) << i << " " << k;
+    }
+    EXPECT_EQ(c.fields.at("intensity")[i], float(100 * (i + 1)));
+    EXPECT_EQ(c.fields.at("classification")[i], i % 2 ? 2.f : 5.f);
+    EXPECT_EQ(c.colors[i][0], 255);
+    EXPECT_EQ(c.colors[i][1], 128);
+    EXPECT_EQ(c.colors[i][2], std::uint8_t(i));
+  }
+  // Written back (LAS 1.2, point format 2) with a NaN point, which LAS cannot hold: left out.
+  PointCloud w = c;
+  w.points_mm.push_back(Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  w.colors.push_back({1, 2, 3});
+  for (auto& [name, v] : w.fields) v.push_back(0);
+  w.Flatten();
+  WriteCloud((dir / "back.las").string(), w);
+  const PointCloud b = ReadCloud((dir / "back.las").string());
+  ASSERT_EQ(b.size(), 3u);
+  EXPECT_EQ(b.offset, c.offset);
+  for (std::size_t i = 0; i < 3; ++i) {
+    // The writer's scale is 10^-4 of a unit here: half of it, and a float's step at 250 units.
+    EXPECT_LT((b.points_mm[i] - c.points_mm[i]).cwiseAbs().maxCoeff(), 5e-5f + 3e-5f) << i;
+    EXPECT_EQ(b.colors[i], c.colors[i]);
+    EXPECT_EQ(b.fields.at("intensity")[i], c.fields.at("intensity")[i]);
+    EXPECT_EQ(b.fields.at("classification")[i], c.fields.at("classification")[i]);
+  }
+  auto refused = [&](const std::string& name, const std::string& bytes, const std::string& fragment) {
+    WriteText(dir / name, bytes);
+    try {
+      ReadCloud((dir / name).string());
+      ADD_FAILURE() << name << " was read";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(name), std::string::npos) << what;
+      EXPECT_NE(what.find(fragment), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  };
+  refused("compressed.laz", Las14Format7(ints, scale, offset, 7 | 0x80), "LAZ");
+  refused("short.las", Las14Format7(ints, scale, offset, 7, 4), "truncated");
+  refused("eleven.las", Las14Format7(ints, scale, offset, 11), "point format 11");
+  refused("plain.las", std::string(300, 'x'), "LASF");
+}
+
 TEST(CloudIo, BadFilesGiveOneLineErrors) {
   const fs::path dir = testing::ScratchDir();
   ExpectReadError((dir / "missing.pcd").string(), "no such file");
@@ -286,8 +374,8 @@ TEST(CloudIo, BadFilesGiveOneLineErrors) {
   ExpectReadError((dir / "bad.xyz").string(), "bad.xyz:2");
   WriteText(dir / "bad.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n");
   ExpectReadError((dir / "bad.ply").string(), "PLY");
-  WriteText(dir / "cloud.las", "x");
-  ExpectReadError((dir / "cloud.las").string(), "unknown cloud format");
+  WriteText(dir / "cloud.e57", "x");
+  ExpectReadError((dir / "cloud.e57").string(), "unknown cloud format");
 
   // Binary and compressed files cut short, at several lengths (PCL pads files to a page,
   // so cuts stay within the first 60 %, which is all point data).

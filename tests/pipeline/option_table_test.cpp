@@ -131,10 +131,10 @@ TEST(OptionTable, EveryCloudFormatHasAReaderAndAWriterStage) {
     for (const auto& opt : f.write_options) EXPECT_NE(w->info.FindOption(opt), nullptr) << f.name << " " << opt;
   }
   try {
-    FormatFromPath("scan.las");
+    FormatFromPath("scan.e57");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), "scan.las: unknown cloud format '.las'; use .pcd, .ply or .xyz");
+    EXPECT_EQ(std::string(e.what()), "scan.e57: unknown cloud format '.e57'; use .pcd, .ply, .xyz or .las");
   }
 }
 

@@ -66,13 +66,13 @@ TEST(Pipeline, ValidationErrorsNameStageAndOption) {
   EXPECT_EQ(BuildError("[{\"type\": \"filters.voxel_grid\"}]"),
             "p.json: stage 'filters.voxel_grid' needs a 'cloud' artifact but no earlier stage makes one; start the "
             "pipeline with a reader, e.g. \"input.pcd\"");
-  EXPECT_EQ(BuildError("[\"in.las\"]"), "p.json: stage 1: no reader for 'in.las'; use .pcd, .ply or .xyz, or give \"type\"");
+  EXPECT_EQ(BuildError("[\"in.e57\"]"), "p.json: stage 1: no reader for 'in.e57'; use .pcd, .ply, .xyz or .las, or give \"type\"");
   EXPECT_EQ(BuildError("[\"in.pcd\", {\"type\": \"filters.crop_box\", \"min\": [0, 0, 10], \"max\": [1, 1, 1]}]"),
             "stage 'filters.crop_box', option 'min'/'max': min z (10.000000) is above max z (1.000000); swap them");
   EXPECT_EQ(BuildError("[\"in.pcd\", \"no/such/dir/out.pcd\"]"),
             "stage 'writers.pcd', option 'filename': directory 'no/such/dir' does not exist; create it first");
   EXPECT_EQ(BuildError("[\"in.pcd\", {\"type\": \"writers.pcd\", \"filename\": \"out.foo\"}]"),
-            "stage 'writers.pcd', option 'filename': out.foo: unknown cloud format '.foo'; use .pcd, .ply or .xyz");
+            "stage 'writers.pcd', option 'filename': out.foo: unknown cloud format '.foo'; use .pcd, .ply, .xyz or .las");
   EXPECT_EQ(BuildError("[\"in.pcd\", {\"type\": \"writers.pcd\", \"filename\": \"out/\"}]"),
             "stage 'writers.pcd', option 'filename': 'out/' is a directory; give a file name in it");
   EXPECT_EQ(BuildError("[]"), "p.json: the pipeline has no stages");
