@@ -41,6 +41,26 @@ def write_xyz(path, xyz):
     np.savetxt(path, xyz, fmt="%.4f")
 
 
+def write_las(path, xyz, offset, scale=0.001):
+    """LAS 1.2, point format 0, as a survey exports it: integer millimetres from `offset`."""
+    header = bytearray(227)
+    header[0:4] = b"LASF"
+    header[24], header[25] = 1, 2
+    n = len(xyz)
+    ints = np.round((xyz - offset) / scale).astype("<i4")
+    fields = [(94, "<H", 227), (96, "<I", 227), (104, "<B", 0), (105, "<H", 20), (107, "<I", n)]
+    for at, fmt, v in fields:
+        header[at:at + np.dtype(fmt).itemsize] = np.array(v, dtype=fmt).tobytes()
+    for k in range(3):
+        header[131 + 8 * k:139 + 8 * k] = np.array(scale, "<f8").tobytes()
+        header[155 + 8 * k:163 + 8 * k] = np.array(offset[k], "<f8").tobytes()
+    records = np.zeros((n, 20), dtype=np.uint8)
+    records[:, 0:12] = ints.view(np.uint8).reshape(n, 12)
+    with open(path, "wb") as f:
+        f.write(bytes(header))
+        f.write(records.tobytes())
+
+
 pts = read_ply(os.path.join(garden, "garden_west.ply"))
 xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
 objects = json.load(open(os.path.join(garden, "objects.json")))["objects"]
@@ -63,6 +83,7 @@ shift = np.array([-31.7, 48.2, 112.0])
 cases.append(("moved 58 m, 112 m up", xyz + shift, truth + shift[:2], []))
 utm = np.array([500000.0, 5700000.0, 50.0])  # a survey's export: UTM metres (read with a global shift)
 cases.append(("in UTM coordinates", xyz + utm, truth + utm[:2], []))
+cases.append(("as LAS in UTM, 1 mm steps", xyz + utm, truth + utm[:2], []))
 keep = rng.random(len(xyz)) < 0.5
 cases.append(("half the points", xyz[keep], truth, []))
 keep = rng.random(len(xyz)) < 0.25
@@ -78,8 +99,12 @@ cases.append(("tilted 2 deg", xyz @ T.T, truth @ T[:2, :2].T, []))
 print("| case | topiary found | other objects called topiary | undecided: topiary, other | exit |")
 print("|---|---|---|---|---|")
 for k, (name, p, t, flags) in enumerate(cases):
-    path = os.path.join(out_dir, f"case{k}.xyz")
-    write_xyz(path, p)
+    if name.startswith("as LAS"):
+        path = os.path.join(out_dir, f"case{k}.las")
+        write_las(path, p, np.floor(p.min(axis=0)))
+    else:
+        path = os.path.join(out_dir, f"case{k}.xyz")
+        write_xyz(path, p)
     unit = 1000.0 if name == "in millimetres" else 1.0
     run = subprocess.run([exe, "find", path, "--format", "json", *flags], capture_output=True, text=True)
     if run.returncode != 0:
