@@ -77,21 +77,16 @@ PointCloud FromPclBlob(const pcl::PCLPointCloud2& blob, const std::string& sourc
     return f->datatype == pcl::PCLPointField::FLOAT64 || f->datatype == pcl::PCLPointField::INT32 ||
            f->datatype == pcl::PCLPointField::UINT32;
   };
+  std::vector<Eigen::Vector3d> xyz(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint8_t* p = at(i);
+    xyz[i] = Eigen::Vector3d(ReadScalar(p + fx->offset, fx->datatype), ReadScalar(p + fy->offset, fy->datatype),
+                             ReadScalar(p + fz->offset, fz->datatype));
+  }
   if (wide(fx) || wide(fy) || wide(fz)) {
-    std::vector<Eigen::Vector3d> xyz(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint8_t* p = at(i);
-      xyz[i] = Eigen::Vector3d(ReadScalar(p + fx->offset, fx->datatype), ReadScalar(p + fy->offset, fy->datatype),
-                               ReadScalar(p + fz->offset, fz->datatype));
-    }
     SetPoints(xyz, &out);
   } else {
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint8_t* p = at(i);
-      out.points_mm[i] = Eigen::Vector3f(static_cast<float>(ReadScalar(p + fx->offset, fx->datatype)),
-                                         static_cast<float>(ReadScalar(p + fy->offset, fy->datatype)),
-                                         static_cast<float>(ReadScalar(p + fz->offset, fz->datatype)));
-    }
+    for (std::size_t i = 0; i < n; ++i) out.points_mm[i] = xyz[i].cast<float>();
   }
 
   const pcl::PCLPointField* packed = FindField(blob, "rgb");

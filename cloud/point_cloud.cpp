@@ -52,7 +52,9 @@ void SetPoints(const std::vector<Eigen::Vector3d>& xyz, PointCloud* cloud) {
   }
   cloud->offset = Eigen::Vector3d::Zero();
   const double side = largest > 0 ? (hi - lo).maxCoeff() : 0.0;
-  if (largest > kShiftAbove || (largest > kShiftFarAbove && largest > kShiftFarFor * side)) cloud->offset = (1000.0 * ((lo + hi) / 2000.0).array().round()).matrix();
+  if (largest > kShiftAbove || (largest > kShiftFarAbove && largest > kShiftFarFor * side)) {
+    cloud->offset = (1000.0 * ((lo + hi) / 2000.0).array().round()).matrix();
+  }
   cloud->points_mm.clear();
   cloud->points_mm.reserve(xyz.size());
   for (const auto& p : xyz) cloud->points_mm.push_back((p - cloud->offset).cast<float>());
