@@ -520,7 +520,7 @@ double WallCover(const std::vector<Eigen::Vector3d>& p, const FamilyFit& prism, 
 // `cylinder` and `cuboid` may be absent (not fitted, or not converged).
 const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const FamilyFit& ball, const FamilyFit& spheroid,
                               const FamilyFit& ellipsoid, const FamilyFit* cylinder, const FamilyFit* cuboid,
-                              const FamilyFit* cone, double noise_mm, ClippedShape* s, Family* family) {
+                              const FamilyFit* cone, double noise_mm, double max_spread_mm, ClippedShape* s, Family* family) {
   // One scale for all: the most flexible quadric's robust spread; residuals beyond 2.5 of it
   // (strays, a neighbour's leaves) count as 2.5.
   const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
@@ -536,14 +536,22 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
   // than 5 % (below that a gardener clips it as the simpler shape, and thousands of points make
   // any difference "significant").
   auto differ = [](double x, double y) { return std::abs(x - y) > 0.05 * std::max(x, y); };
-  const FamilyFit* best = &ball;
-  *family = Family::kBall;
-  double best_bic = s->bic_ball;
-  if (s->bic_spheroid < best_bic && differ(spheroid.q(3), spheroid.q(5))) {
+  // With `max_spread_mm`, only the quadrics whose points lie that close are candidates, when one
+  // does: the criterion weighs the tails (a neighbour's leaves beyond the clip) and the spread the
+  // core, and on a rough top the two can prefer different families of one shape.
+  auto smooth = [&](const FamilyFit& f) { return max_spread_mm <= 0 || RobustSpread(f.residuals) <= max_spread_mm; };
+  const bool any_smooth = smooth(ball) || smooth(spheroid) || smooth(ellipsoid);
+  auto candidate = [&](const FamilyFit& f) { return !any_smooth || smooth(f); };
+  const FamilyFit* best = nullptr;
+  double best_bic = std::numeric_limits<double>::infinity();
+  if (candidate(ball)) best = &ball, *family = Family::kBall, best_bic = s->bic_ball;
+  if (candidate(spheroid) && (!best || (s->bic_spheroid < best_bic && differ(spheroid.q(3), spheroid.q(5))))) {
     best = &spheroid, *family = Family::kSpheroid, best_bic = s->bic_spheroid;
   }
   const Full& e = ellipsoid.q;
-  if (s->bic_ellipsoid < best_bic && (differ(e(3), e(4)) || (*family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))) {
+  if (candidate(ellipsoid) &&
+      (!best || (s->bic_ellipsoid < best_bic &&
+                 (differ(e(3), e(4)) || (*family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))))) {
     best = &ellipsoid, *family = Family::kEllipsoid, best_bic = s->bic_ellipsoid;
   }
   // A drum or a box is another shape, not a refinement of a quadric: it wins when the criterion
@@ -650,7 +658,7 @@ void FitPrisms(const std::vector<Eigen::Vector3d>& p, const FamilyFit& spheroid,
 }  // namespace
 
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
-                             std::size_t max_points, bool jackknife, bool envelope) {
+                             std::size_t max_points, bool jackknife, bool envelope, double max_spread_mm) {
   ClippedShape s;
   s.points = all.size();
   if (all.size() < 20) return s;
@@ -705,7 +713,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   FamilyFit cylinder, cuboid, cone;
   FitPrisms(p, spheroid, ellipsoid, bounds, ground_mm, noise_mm, &cylinder, &cuboid, &cone);
   Family family = Family::kBall;
-  const FamilyFit* best = ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, &cone, noise_mm, &s, &family);
+  const FamilyFit* best = ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, &cone, noise_mm, max_spread_mm, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
   Measured measured;
   if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm);

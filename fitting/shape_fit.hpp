@@ -5,7 +5,8 @@
 /// spread) on the radial distance to the surface, with a sandwich covariance. The class is the one
 /// with the lowest Bayesian information criterion on the residuals clipped at 2.5 robust
 /// deviations, when its axes also differ by more than 5 % (below that a gardener clips the simpler
-/// shape, and thousands of points make any difference "significant"). A ball or spheroid whose
+/// shape, and thousands of points make any difference "significant"); a caller may limit the
+/// choice to the families whose points lie within a robust spread (`max_spread_mm`). A ball or spheroid whose
 /// centre lies below 0.8 of its vertical semi-axis above the ground is cut by it: a dome.
 ///
 /// Topiary is also clipped to drums and boxes: a cylinder (4: centre, radius, top) and a cuboid
@@ -77,9 +78,12 @@ struct ClippedShape {
 /// (above), from the leaf layer's model with the noise `noise_mm` (at least 1 mm; 0: estimated
 /// with the layer from the residuals), of the chosen
 /// family fitted again without the points beyond 2.5 robust deviations of its median residual.
+/// `max_spread_mm` (0: none): when one of the quadrics' points lie within this robust spread of it,
+/// the class is chosen among those that do (a caller that refuses a rougher shape asks whether
+/// any of the families is smooth enough, not only the one the criterion prefers).
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                              double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
-                             bool envelope = false);
+                             bool envelope = false, double max_spread_mm = 0);
 
 /// How far `p` lies outside the shape `s` (mm; negative inside), along the shape's normal near
 /// it: the radial distance (the point's distance from the centre less the surface's along that

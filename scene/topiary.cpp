@@ -369,7 +369,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   }
   mean /= double(std::max<std::size_t>(1, p.size()));
   c.points = std::move(points);
-  c.shape = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm);
+  c.shape = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 800, false, false, o.max_roughness * noise);
   const TopiaryShape& s = c.shape;
   if (!s.converged) {
     c.reason = "no shape with a vertical axis fits its points";
@@ -426,7 +426,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose
     // lower half no sensor saw is pinned by the top's curvature alone, and wants them all), and
     // to its envelope: where its outer leaves end (fitting/shape_fit.hpp).
-    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true, true);
+    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true, true, o.max_roughness * noise);
     if (fine.converged) c.shape = fine;
     // Measured with the block jackknife, a shape the judging fit's own interval let pass may
     // still not be pinned down.

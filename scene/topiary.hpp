@@ -7,8 +7,9 @@
 ///     between them stands above `merge_saddle` of the lower peak's height (a hedge row's ridge, a
 ///     rose's lumps), and two objects when it falls below (topiary in a bed, touching or not).
 ///  3. Each object's upper three quarters are fitted with three families with a vertical axis
-///     (fitting/shape_fit.hpp: a ball, a spheroid, an ellipsoid with its heading, a drum or a box; the class by BIC;
-///     a shape cut by the ground is a dome), the horizontal semi-axes bounded by the footprint of
+///     (fitting/shape_fit.hpp: a ball, a spheroid, an ellipsoid with its heading, a drum or a box; the class by BIC
+///     among the families whose points lie within max_roughness of them, when one does; a shape cut by the ground is
+///     a dome), the horizontal semi-axes bounded by the footprint of
 ///     the object's upper half in the height model.
 ///  4. Verdict: topiary when the shape's top stands `min_height_mm` above the ground, its
 ///     horizontal semi-axes are at least the smallest hedge's radius, its footprint is no longer
@@ -109,8 +110,8 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts,
 /// fitting::FitClippedShape (step 3), as the finder calls it.
 inline TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                                     double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
-                                    bool envelope = false) {
-  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points, jackknife, envelope);
+                                    bool envelope = false, double max_spread_mm = 0) {
+  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points, jackknife, envelope, max_spread_mm);
 }
 
 /// The lawn's points per mm^2 about a place, from the points within the ground's band on a grid
