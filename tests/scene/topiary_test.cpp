@@ -96,6 +96,28 @@ TEST(FitTopiaryShape, ABallStandingFreeIsABall) {
   EXPECT_NEAR(s.center_mm.z(), 500, 5.0);
 }
 
+// The finder asks whether any family is smooth enough (max_spread_mm: its max_roughness times the
+// ground's noise), not only the one the criterion prefers. On a free ball the criterion takes the
+// ball, and the spheroid and ellipsoid, with more parameters, fit its 5 mm noise a little more
+// closely: a bound just under the ball's spread must choose one of them and keep within it; a
+// bound none reaches leaves the criterion's choice as it was.
+TEST(FitTopiaryShape, TheClassIsChosenAmongTheFamiliesSmoothEnough) {
+  std::mt19937 rng(1);
+  const auto pts = SeenFromAbove({0, 0, 500}, 400, 400, 400, 0, 5, 20, &rng);
+  const TopiaryShape free = FitTopiaryShape(pts, 0, 5);
+  ASSERT_TRUE(free.converged);
+  ASSERT_EQ(free.family, "ball");
+  const double bound = 0.99 * free.roughness_mm;
+  const TopiaryShape smooth = FitTopiaryShape(pts, 0, 5, 0, 800, false, false, bound);
+  ASSERT_TRUE(smooth.converged);
+  EXPECT_NE(smooth.family, "ball");
+  EXPECT_LE(smooth.roughness_mm, bound);
+  EXPECT_NEAR(smooth.axes_mm.x(), 400, 0.01 * 400);  // the same ball, as a spheroid or ellipsoid
+  const TopiaryShape none = FitTopiaryShape(pts, 0, 5, 0, 800, false, false, 0.5 * free.roughness_mm);
+  EXPECT_EQ(none.family, "ball");
+  EXPECT_DOUBLE_EQ(none.roughness_mm, free.roughness_mm);
+}
+
 // A prism standing on the lawn as a sensor above sees it: its flat top and its sides down to the
 // lawn (or down to `sides_from` above it: a slab), every `step` mm, with Gaussian noise; a drum
 // (radius a) or, with b > 0, a box of half-sides a x b turned by `heading_deg`.
@@ -588,29 +610,6 @@ TEST(RealData, TopiaryOfTheWageningenGardenWestHalf) {
     EXPECT_GT(s.top_mm, 200);
     EXPECT_LT(s.top_mm, 550);
   }
-}
-
-
-// The finder asks whether any family is smooth enough (max_spread_mm: its max_roughness times the
-// ground's noise), not only the one the criterion prefers. On a free ball the criterion takes the
-// ball, and the spheroid and ellipsoid, with more parameters, fit its 5 mm noise a little more
-// closely: a bound just under the ball's spread must choose one of them and keep within it; a
-// bound none reaches leaves the criterion's choice as it was.
-TEST(FitTopiaryShape, TheClassIsChosenAmongTheFamiliesSmoothEnough) {
-  std::mt19937 rng(1);
-  const auto pts = SeenFromAbove({0, 0, 500}, 400, 400, 400, 0, 5, 20, &rng);
-  const TopiaryShape free = FitTopiaryShape(pts, 0, 5);
-  ASSERT_TRUE(free.converged);
-  ASSERT_EQ(free.family, "ball");
-  const double bound = 0.99 * free.roughness_mm;
-  const TopiaryShape smooth = FitTopiaryShape(pts, 0, 5, 0, 800, false, false, bound);
-  ASSERT_TRUE(smooth.converged);
-  EXPECT_NE(smooth.family, "ball");
-  EXPECT_LE(smooth.roughness_mm, bound);
-  EXPECT_NEAR(smooth.axes_mm.x(), 400, 0.01 * 400);  // the same ball, as a spheroid or ellipsoid
-  const TopiaryShape none = FitTopiaryShape(pts, 0, 5, 0, 800, false, false, 0.5 * free.roughness_mm);
-  EXPECT_EQ(none.family, "ball");
-  EXPECT_DOUBLE_EQ(none.roughness_mm, free.roughness_mm);
 }
 
 }  // namespace
