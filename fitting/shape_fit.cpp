@@ -540,16 +540,16 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
   // does: the criterion weighs the tails (a neighbour's leaves beyond the clip) and the spread the
   // core, and on a rough top the two can prefer different families of one shape.
   auto smooth = [&](const FamilyFit& f) { return max_spread_mm <= 0 || RobustSpread(f.residuals) <= max_spread_mm; };
-  const bool any_smooth = smooth(ball) || smooth(spheroid) || smooth(ellipsoid);
-  auto candidate = [&](const FamilyFit& f) { return !any_smooth || smooth(f); };
+  const bool smooth_ball = smooth(ball), smooth_spheroid = smooth(spheroid), smooth_ellipsoid = smooth(ellipsoid);
+  const bool any_smooth = smooth_ball || smooth_spheroid || smooth_ellipsoid;
   const FamilyFit* best = nullptr;
   double best_bic = std::numeric_limits<double>::infinity();
-  if (candidate(ball)) best = &ball, *family = Family::kBall, best_bic = s->bic_ball;
-  if (candidate(spheroid) && (!best || (s->bic_spheroid < best_bic && differ(spheroid.q(3), spheroid.q(5))))) {
+  if (!any_smooth || smooth_ball) best = &ball, *family = Family::kBall, best_bic = s->bic_ball;
+  if ((!any_smooth || smooth_spheroid) && (!best || (s->bic_spheroid < best_bic && differ(spheroid.q(3), spheroid.q(5))))) {
     best = &spheroid, *family = Family::kSpheroid, best_bic = s->bic_spheroid;
   }
   const Full& e = ellipsoid.q;
-  if (candidate(ellipsoid) &&
+  if ((!any_smooth || smooth_ellipsoid) &&
       (!best || (s->bic_ellipsoid < best_bic &&
                  (differ(e(3), e(4)) || (*family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))))) {
     best = &ellipsoid, *family = Family::kEllipsoid, best_bic = s->bic_ellipsoid;
