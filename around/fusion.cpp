@@ -95,7 +95,7 @@ std::vector<Sighting> Match(const std::vector<View>& views, const std::vector<Ei
 struct Registration {
   std::vector<Eigen::Isometry3d> poses;
   std::vector<Eigen::Vector3d> centres;   // per cluster
-  std::vector<Eigen::Matrix<double, 6, 6>> covariance;  // per view: rotation (rad), translation (mm)
+  std::vector<Eigen::Matrix<double, 6, 6>> covariance;  // per view: rotation (rad), translation (mm); what the hedges and the prior pin
   // Per cluster, its centre's (mm^2), the first capture held: what the captures' centres and the
   // given poses' prior pin of where the hedge stands in the first capture's frame. A hedge the
   // first capture does not see stands where the others' poses put it, and what no hedge pins of
@@ -103,6 +103,51 @@ struct Registration {
   // the prior holds. Empty without registration.
   std::vector<Eigen::Matrix3d> centre_covariance;
 };
+
+// The given poses' steps as an odometry measures them: each used capture's pose relative to the
+// previous used one, held to `o.step_translation_share` of the step's length and
+// `o.step_rotation_deg` (a between-factor, as in a pose graph). An odometry's error accumulates
+// along the path, so neighbouring poses are far better known relative to each other than each is
+// on its own (the prior above). Residuals in the world frame, with the corrections' left
+// perturbations: the turn's phi = Log(R_b Z^T R_a^T), d/d(a) -I, d/d(b) +I; the position's
+// u = t_b - (R_a z + t_a), d/d(turn a) Skew(R_a z), d/d(move a) -I, d/d(move b) +I.
+void AddStepFactors(const std::vector<Eigen::Isometry3d>& given, const std::vector<Eigen::Isometry3d>& poses,
+                    const std::vector<int>& slot, const std::vector<bool>& used, const FuseOptions& o,
+                    Eigen::MatrixXd* H, Eigen::VectorXd* g) {
+  if (!(o.step_rotation_deg > 0) || !(o.step_translation_share > 0)) return;
+  int a = -1;
+  for (int b = 0; b < int(given.size()); ++b) {
+    if (!used[std::size_t(b)]) continue;
+    if (a < 0) {
+      a = b;
+      continue;
+    }
+    const Eigen::Isometry3d step = given[std::size_t(a)].inverse() * given[std::size_t(b)];
+    const Eigen::Isometry3d& Ta = poses[std::size_t(a)];
+    const Eigen::Isometry3d& Tb = poses[std::size_t(b)];
+    const Eigen::Vector3d z_world = Ta.linear() * step.translation();
+    Eigen::Matrix<double, 6, 1> e;
+    e << Log(Tb.linear() * step.linear().transpose() * Ta.linear().transpose()), Tb.translation() - (z_world + Ta.translation());
+    // A floor of a centimetre: a capture taken where the last one stood is not known to a micron.
+    const double st = std::max(10.0, o.step_translation_share * step.translation().norm());
+    const double sr = o.step_rotation_deg * kDeg;
+    Eigen::Matrix<double, 6, 1> w;
+    w << Eigen::Vector3d::Constant(1 / (sr * sr)), Eigen::Vector3d::Constant(1 / (st * st));
+    const int pa = slot[std::size_t(a)], pb = slot[std::size_t(b)];
+    Eigen::Matrix<double, 6, 6> Ja = Eigen::Matrix<double, 6, 6>::Zero(), Jb = Eigen::Matrix<double, 6, 6>::Identity();
+    Ja.topLeftCorner<3, 3>() = -Eigen::Matrix3d::Identity();
+    Ja.bottomLeftCorner<3, 3>() = Skew(z_world);
+    Ja.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
+    const auto add = [&](int pi, const Eigen::Matrix<double, 6, 6>& Ji, int pj, const Eigen::Matrix<double, 6, 6>& Jj) {
+      if (pi < 0 || pj < 0) return;
+      H->block<6, 6>(6 * pi, 6 * pj) += Ji.transpose() * w.asDiagonal() * Jj;
+    };
+    add(pa, Ja, pa, Ja), add(pa, Ja, pb, Jb), add(pb, Jb, pa, Ja), add(pb, Jb, pb, Jb);
+    if (pa >= 0) g->segment<6>(6 * pa) += Ja.transpose() * w.asDiagonal() * e;
+    if (pb >= 0) g->segment<6>(6 * pb) += Jb.transpose() * w.asDiagonal() * e;
+    a = b;
+  }
+}
 
 // Gauss-Newton over the captures' pose corrections (`anchor`'s held where given) and the hedges' centres:
 // each sighting's centre, through its capture's pose, on its hedge's centre (weighted by its
@@ -128,7 +173,7 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
   }
   for (int j = 0; j < clusters; ++j) r.centres[std::size_t(j)] /= std::max(1, count[std::size_t(j)]);
   const double wr = 1 / (o.prior_rotation_deg * kDeg), wt = 1 / o.prior_translation_mm;
-  Eigen::MatrixXd H(n, n);
+  Eigen::MatrixXd H(n, n), Hs(n, n);  // the hedges' and the prior's; the steps'
   for (int iteration = 0; iteration < 10; ++iteration) {
     H.setZero();
     Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
@@ -161,7 +206,9 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
     }
     // A hedge seen once has nothing to agree with: a tiny prior keeps its centre defined.
     for (int j = 0; j < clusters; ++j) H.block<3, 3>(6 * n_views + 3 * j, 6 * n_views + 3 * j) += 1e-9 * Eigen::Matrix3d::Identity();
-    const Eigen::VectorXd step = H.ldlt().solve(-g);
+    Hs.setZero();
+    AddStepFactors(given, r.poses, slot, used, o, &Hs, &g);
+    const Eigen::VectorXd step = (H + Hs).ldlt().solve(-g);
     if (!step.allFinite()) break;
     for (int v = 0; v < V; ++v) {
       const int pv = slot[std::size_t(v)];
@@ -175,10 +222,14 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
   }
   // The covariance with the anchor held (the frame is the first capture's: see
   // RegisterAndLeaveOut), so it holds what the hedges pin between the captures, not the frame's drift.
-  const Eigen::MatrixXd cov = H.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  // A pose's covariance is what the hedges (and the prior) pin, without the steps: JudgePose
+  // counts the degrees of freedom the hedges determined. The centres' is everything's.
+  const Eigen::MatrixXd pose_cov = H.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  const Eigen::MatrixXd cov = (H + Hs).ldlt().solve(Eigen::MatrixXd::Identity(n, n));
   r.covariance.assign(std::size_t(V), Eigen::Matrix<double, 6, 6>::Zero());
   for (int v = 0; v < V; ++v) {
-    if (slot[std::size_t(v)] >= 0) r.covariance[std::size_t(v)] = cov.block<6, 6>(6 * slot[std::size_t(v)], 6 * slot[std::size_t(v)]);
+    const int pv = slot[std::size_t(v)];
+    if (pv >= 0) r.covariance[std::size_t(v)] = pose_cov.block<6, 6>(6 * pv, 6 * pv);
   }
   for (int j = 0; j < clusters; ++j) r.centre_covariance.push_back(cov.block<3, 3>(6 * n_views + 3 * j, 6 * n_views + 3 * j));
   return r;
@@ -205,6 +256,13 @@ const pipeline::OptionTable<FuseOptions>& FuseOptions::Table() {
           .Range(0.01, 10)
           .Add("prior_translation", &O::prior_translation_mm, "the given poses' position error, 1 sigma", "mm").Min(0.01)
           .Add("prior_rotation", &O::prior_rotation_deg, "the given poses' orientation error, 1 sigma", "deg").Min(0.001)
+          .Add("step_translation", &O::step_translation_share,
+               "each step between consecutive captures' given poses is good to this share of its length, 1 sigma "
+               "(odometry's error accumulates; 0: the steps are not used)", "")
+          .Range(0, 1)
+          .Add("step_rotation", &O::step_rotation_deg,
+               "each step between consecutive captures' given poses turns to within this, 1 sigma (0: not used)", "deg")
+          .Min(0)
           .Add("max_correction", &O::max_correction_mm, "a capture whose pose moves further is left out", "mm").Min(0)
           .Add("max_correction_deg", &O::max_correction_deg, "a capture whose pose turns further is left out", "deg").Min(0)
           .Add("max_centre_residual", &O::max_centre_residual_mm,

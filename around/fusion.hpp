@@ -55,6 +55,13 @@ struct FuseOptions {
   double match_gate_radii = 0.6;          ///< centres within this many radii are one hedge
   double prior_translation_mm = 150;      ///< the given poses' error, 1 sigma (odometry: cm)
   double prior_rotation_deg = 3;          ///< ... and of their orientation
+  /// The given poses' steps: each capture's pose relative to the previous one (in the order
+  /// given) is good to this share of the step's length (at least 10 mm) and this turn, 1 sigma. An
+  /// odometry's error accumulates along the path (wheel odometry drifts 1-5 % of the distance,
+  /// a degree or so a turn), so neighbours are better known relative to each other than each is
+  /// alone. 0 for either: the steps are not used (poses with independent errors).
+  double step_translation_share = 0.05;
+  double step_rotation_deg = 1;
   double max_correction_mm = 600;         ///< a larger correction leaves the capture out
   double max_correction_deg = 15;
   double max_centre_residual_mm = 25;     ///< a capture's centre further from the hedge's after registration is left out
