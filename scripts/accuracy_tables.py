@@ -198,25 +198,38 @@ def envelope_rows(j):
 
 
 def garden(which):
+    """Envelope AER / LD per ball, each set a column; sets that hold other gardens (the tuning
+    seeds, the held-back seeds) follow under a header row of their own."""
     sets = GARDENS[which]
     results = [(label, bench("garden", f"{which}{k}", d, f)) for k, (label, d, f) in enumerate(sets)]
     shown = [(label, envelope_rows(j)) for label, j in results if j is not None]
     missing = [label for label, j in results if j is None]
-    print("| garden, ball (r, centre distance) | " + " | ".join(label for label, _ in shown) + " |")
-    print("|---|" + "---|" * len(shown))
-    keys = list(shown[0][1].keys())
-    for key in keys:
-        cells = []
-        for _, rows in shown:
-            r = rows.get(key)
-            cells.append("not found" if r is None or r[1] is None else f"{r[1]:+.2f} / {r[2]:.2f}")
-        print(f"| {shown[0][1][key][0]} | " + " | ".join(cells) + " |")
-    means = []
-    for _, rows in shown:
-        fitted = [r for r in rows.values() if r[1] is not None]
-        means.append(f"**{sum(abs(r[1]) for r in fitted) / len(fitted):.2f} / "
-                     f"{sum(r[2] for r in fitted) / len(fitted):.2f}** ({len(fitted)} of {len(rows)} balls)")
-    print("| mean \\|AER\\| / LD, mm | " + " | ".join(means) + " |")
+    groups = []  # [(keys, [(label, rows)])], in the order the sets come
+    for label, rows in shown:
+        keys = list(rows.keys())
+        group = next((g for g in groups if g[0] == keys), None)
+        if group is None:
+            groups.append((keys, [(label, rows)]))
+        else:
+            group[1].append((label, rows))
+    for n, (keys, columns) in enumerate(groups):
+        if n == 0:
+            print("| garden, ball (r, centre distance) | " + " | ".join(label for label, _ in columns) + " |")
+            print("|---|" + "---|" * len(columns))
+        else:  # a header row of its own inside the one table
+            print("| **garden, ball** | " + " | ".join(f"**{label}**" for label, _ in columns) + " |")
+        for key in keys:
+            cells = []
+            for _, rows in columns:
+                r = rows[key]
+                cells.append("not found" if r[1] is None else f"{r[1]:+.2f} / {r[2]:.2f}")
+            print(f"| {columns[0][1][key][0]} | " + " | ".join(cells) + " |")
+        means = []
+        for _, rows in columns:
+            fitted = [r for r in rows.values() if r[1] is not None]
+            means.append(f"**{sum(abs(r[1]) for r in fitted) / len(fitted):.2f} / "
+                         f"{sum(r[2] for r in fitted) / len(fitted):.2f}** ({len(fitted)} of {len(rows)} balls)")
+        print("| mean \\|AER\\| / LD, mm | " + " | ".join(means) + " |")
     for label in missing:
         print(f"| {label}: not rendered here | `scripts/make_docs.sh --slow` |" + " |" * (len(shown) - 1))
 
