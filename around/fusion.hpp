@@ -8,9 +8,11 @@
 ///  3. Register: the given poses (odometry: centimetres and a degree or two off) are corrected so
 ///     that every capture's hedge centres agree, each capture's fitted centre weighted by its own
 ///     standard errors, with the given pose as a prior (`prior_translation_mm`,
-///     `prior_rotation_deg`); the first capture fixes the frame. What the hedges cannot pin (one
-///     ball: the turn of a capture about it) stays at the given pose, and the correction's
-///     standard deviations say so. Optionally the corrected poses are refined by PCL's
+///     `prior_rotation_deg`) and each step between consecutive given poses as a between-factor
+///     (`step_translation_share`, `step_rotation_deg`); the first capture fixes the frame. What the
+///     hedges cannot pin (one ball: the turn of a capture about it) stays where the given poses and
+///     their steps hold it, and the correction's standard deviations (the hedges' and the prior's)
+///     say so. Optionally the corrected poses are refined by PCL's
 ///     generalized ICP on the hedges' surfaces. A capture whose correction exceeds the limits or
 ///     whose hedges match no other capture's is left out, with the reason.
 ///  4. Fit each hedge to all its points: the leafy envelope (fitting::FitEnvelope, each point
