@@ -230,8 +230,9 @@ def garden(which):
             means.append(f"**{sum(abs(r[1]) for r in fitted) / len(fitted):.2f} / "
                          f"{sum(r[2] for r in fitted) / len(fitted):.2f}** ({len(fitted)} of {len(rows)} balls)")
         print("| mean \\|AER\\| / LD, mm | " + " | ".join(means) + " |")
+    width = len(groups[0][1]) if groups else 1  # the table's columns after the first
     for label in missing:
-        print(f"| {label}: not rendered here | `scripts/make_docs.sh --slow` |" + " |" * (len(shown) - 1))
+        print(f"| {label}: not rendered here | `scripts/make_docs.sh --slow` |" + " |" * (width - 1))
 
 
 def envelope_fit(h):

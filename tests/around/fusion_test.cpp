@@ -287,9 +287,9 @@ std::vector<View> RowOfTwo(const Eigen::Vector3d& a, const Eigen::Vector3d& b, u
 // A row of two balls seen across an arc, the first capture (exact, the frame) seeing only the
 // near one (B) and the other three both, with odometry whose heading drifts 1.5-2.5 degrees. The
 // centres pin each capture's pose relative to the pair, but nothing in the data pins the pair's
-// turn about B: only the given poses (their prior, 3 degrees by default, and their steps) do, so the far ball (A, 1.4 m
-// from B) lands a few centimetres off along that turn. Its interval says so (the registration's
-// share); its fit's own interval, a few millimetres, would not hold it.
+// turn about B: only the given poses (their prior, 3 degrees by default, and their steps) do, so
+// the far ball (A, 1.4 m from B) lands a few centimetres off along that turn. Its interval says so
+// (the registration's share); its fit's own interval, a few millimetres, would not hold it.
 TEST(Fuse, WhatOnlyThePriorPinsIsInTheInterval) {
   const Eigen::Vector3d a(-700, 600, 0), b(700, 600, 0);
   std::vector<View> views = RowOfTwo(a, b, 21);
