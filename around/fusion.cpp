@@ -105,23 +105,18 @@ struct Registration {
 };
 
 // The given poses' steps as an odometry measures them: each used capture's pose relative to the
-// previous used one, held to `o.step_translation_share` of the step's length and
+// previous used one along `path` (PathOrder), held to `o.step_translation_share` of the step's length and
 // `o.step_rotation_deg` (a between-factor, as in a pose graph). An odometry's error accumulates
 // along the path, so neighbouring poses are far better known relative to each other than each is
 // on its own (the prior above). Residuals in the world frame, with the corrections' left
 // perturbations: the turn's phi = Log(R_b Z^T R_a^T), d/d(a) -I, d/d(b) +I; the position's
 // u = t_b - (R_a z + t_a), d/d(turn a) Skew(R_a z), d/d(move a) -I, d/d(move b) +I.
 void AddStepFactors(const std::vector<Eigen::Isometry3d>& given, const std::vector<Eigen::Isometry3d>& poses,
-                    const std::vector<int>& slot, const std::vector<bool>& used, const FuseOptions& o,
+                    const std::vector<int>& slot, const std::vector<int>& path, const FuseOptions& o,
                     Eigen::MatrixXd* H, Eigen::VectorXd* g) {
   if (!(o.step_rotation_deg > 0) || !(o.step_translation_share > 0)) return;
-  int a = -1;
-  for (int b = 0; b < int(given.size()); ++b) {
-    if (!used[std::size_t(b)]) continue;
-    if (a < 0) {
-      a = b;
-      continue;
-    }
+  for (std::size_t k = 1; k < path.size(); ++k) {
+    const int a = path[k - 1], b = path[k];
     const Eigen::Isometry3d step = given[std::size_t(a)].inverse() * given[std::size_t(b)];
     const Eigen::Isometry3d& Ta = poses[std::size_t(a)];
     const Eigen::Isometry3d& Tb = poses[std::size_t(b)];
@@ -145,8 +140,24 @@ void AddStepFactors(const std::vector<Eigen::Isometry3d>& given, const std::vect
     add(pa, Ja, pa, Ja), add(pa, Ja, pb, Jb), add(pb, Jb, pa, Ja), add(pb, Jb, pb, Jb);
     if (pa >= 0) g->segment<6>(6 * pa) += Ja.transpose() * w.asDiagonal() * e;
     if (pb >= 0) g->segment<6>(6 * pb) += Jb.transpose() * w.asDiagonal() * e;
-    a = b;
   }
+}
+
+// The used captures in the order an odometry went through them: by time when every one has a
+// time (a manifest need not list them so), else as given.
+std::vector<int> PathOrder(const std::vector<View>& views, const std::vector<bool>& used) {
+  std::vector<int> path;
+  bool timed = true;
+  for (int v = 0; v < int(views.size()); ++v) {
+    if (!used[std::size_t(v)]) continue;
+    path.push_back(v);
+    timed = timed && views[std::size_t(v)].time_s.has_value();
+  }
+  if (timed) {
+    std::stable_sort(path.begin(), path.end(),
+                     [&](int a, int b) { return *views[std::size_t(a)].time_s < *views[std::size_t(b)].time_s; });
+  }
+  return path;
 }
 
 // Gauss-Newton over the captures' pose corrections (`anchor`'s held where given) and the hedges' centres:
@@ -173,6 +184,7 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
   }
   for (int j = 0; j < clusters; ++j) r.centres[std::size_t(j)] /= std::max(1, count[std::size_t(j)]);
   const double wr = 1 / (o.prior_rotation_deg * kDeg), wt = 1 / o.prior_translation_mm;
+  const std::vector<int> path = PathOrder(views, used);
   Eigen::MatrixXd H(n, n), Hs(n, n);  // the hedges' and the prior's; the steps'
   for (int iteration = 0; iteration < 10; ++iteration) {
     H.setZero();
@@ -207,7 +219,7 @@ Registration RegisterByCentres(const std::vector<View>& views, const std::vector
     // A hedge seen once has nothing to agree with: a tiny prior keeps its centre defined.
     for (int j = 0; j < clusters; ++j) H.block<3, 3>(6 * n_views + 3 * j, 6 * n_views + 3 * j) += 1e-9 * Eigen::Matrix3d::Identity();
     Hs.setZero();
-    AddStepFactors(given, r.poses, slot, used, o, &Hs, &g);
+    AddStepFactors(given, r.poses, slot, path, o, &Hs, &g);
     const Eigen::VectorXd step = (H + Hs).ldlt().solve(-g);
     if (!step.allFinite()) break;
     for (int v = 0; v < V; ++v) {
@@ -257,8 +269,8 @@ const pipeline::OptionTable<FuseOptions>& FuseOptions::Table() {
           .Add("prior_translation", &O::prior_translation_mm, "the given poses' position error, 1 sigma", "mm").Min(0.01)
           .Add("prior_rotation", &O::prior_rotation_deg, "the given poses' orientation error, 1 sigma", "deg").Min(0.001)
           .Add("step_translation", &O::step_translation_share,
-               "each step between consecutive captures' given poses is good to this share of its length, 1 sigma "
-               "(odometry's error accumulates; 0: the steps are not used)", "")
+               "each step between consecutive captures' given poses (in time when every capture has one, else as "
+               "listed) is good to this share of its length, 1 sigma (odometry's error accumulates; 0: not used)", "")
           .Range(0, 1)
           .Add("step_rotation", &O::step_rotation_deg,
                "each step between consecutive captures' given poses turns to within this, 1 sigma (0: not used)", "deg")

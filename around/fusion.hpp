@@ -8,8 +8,9 @@
 ///  3. Register: the given poses (odometry: centimetres and a degree or two off) are corrected so
 ///     that every capture's hedge centres agree, each capture's fitted centre weighted by its own
 ///     standard errors, with the given pose as a prior (`prior_translation_mm`,
-///     `prior_rotation_deg`) and each step between consecutive given poses as a between-factor
-///     (`step_translation_share`, `step_rotation_deg`); the first capture fixes the frame. What the
+///     `prior_rotation_deg`) and each step between consecutive given poses (in time, when every
+///     capture has one) as a between-factor (`step_translation_share`, `step_rotation_deg`); the
+///     first capture fixes the frame. What the
 ///     hedges cannot pin (one ball: the turn of a capture about it) stays where the given poses and
 ///     their steps hold it, and the correction's standard deviations (the hedges' and the prior's)
 ///     say so. Optionally the corrected poses are refined by PCL's
@@ -48,6 +49,9 @@ struct ViewHedge {
 struct View {
   std::string name;
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();  ///< given, mm
+  /// when it was taken (s), if known: the steps between given poses follow time when every
+  /// capture has one, else the order the captures are given in
+  std::optional<double> time_s;
   std::vector<ViewHedge> hedges;
   std::string failed;  ///< why the capture gave no hedge ("" = it did)
 };
@@ -57,8 +61,8 @@ struct FuseOptions {
   double match_gate_radii = 0.6;          ///< centres within this many radii are one hedge
   double prior_translation_mm = 150;      ///< the given poses' error, 1 sigma (odometry: cm)
   double prior_rotation_deg = 3;          ///< ... and of their orientation
-  /// The given poses' steps: each capture's pose relative to the previous one (in the order
-  /// given) is good to this share of the step's length (at least 10 mm) and this turn, 1 sigma. An
+  /// The given poses' steps: each capture's pose relative to the previous one (in time when
+  /// every capture has a time, else in the order given) is good to this share of the step's length (at least 10 mm) and this turn, 1 sigma. An
   /// odometry's error accumulates along the path (wheel odometry drifts 1-5 % of the distance,
   /// a degree or so a turn), so neighbours are better known relative to each other than each is
   /// alone. 0 for either: the steps are not used (poses with independent errors).

@@ -39,6 +39,7 @@ View MeasureView(const PosedCapture& capture, const std::string& rig_path, const
   View view;
   view.name = capture.name;
   view.world_from_camera = capture.world_from_camera;
+  view.time_s = capture.time_s;
   const std::string rig_file = capture.rig.empty() ? rig_path : capture.rig;
   try {
     const stereo::StereoRig rig = stereo::ReadRig(rig_file);

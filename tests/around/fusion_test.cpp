@@ -326,12 +326,8 @@ TEST(Fuse, WhatOnlyThePriorPinsIsInTheInterval) {
 
 // An odometry's error accumulates: each step's heading is 0.5 degrees off, so the captures'
 // headings are 0.5, 1 and 1.5 degrees off by the last, and their positions follow the turned
-// steps. The first capture sees only B; the others B and A, 1.4 m apart. The hedges pin the others
-// relative to the pair but not the pair's turn about B, which only the given poses hold. Each
-// given pose alone is off by up to 1.5 degrees (A 37 mm round); the step from the first to the
-// second by 0.5 (12 mm), and the steps say so: A is fused nearer, and still inside its interval.
-TEST(Fuse, TheStepsBetweenCapturesPinWhatTheHedgesLeaveFree) {
-  const Eigen::Vector3d a(-700, 600, 0), b(700, 600, 0);
+// steps. The first capture sees only B; the others B and A, 1.4 m apart (RowOfTwo).
+std::vector<View> DriftingArc(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   std::vector<View> views = RowOfTwo(a, b, 29);
   std::vector<Eigen::Isometry3d> truth;
   for (const View& v : views) truth.push_back(v.world_from_camera);
@@ -341,21 +337,33 @@ TEST(Fuse, TheStepsBetweenCapturesPinWhatTheHedgesLeaveFree) {
     views[k].world_from_camera.translation() = views[k - 1].world_from_camera.translation() + turn * step;
     views[k].world_from_camera.linear() = turn * truth[k].linear();
   }
-  const auto far_error = [&](const FuseOptions& o, Eigen::Vector3d* se) {
-    const FuseResult r = Fuse(views, o);
-    EXPECT_EQ(r.hedges.size(), 2u);
-    for (const FusedHedge& h : r.hedges) {
-      if (h.views.size() != 3u) continue;
-      *se = h.std_error_mm.head<3>();
-      return Eigen::Vector3d(h.fit.fit.sphere.center_mm - a);
-    }
-    ADD_FAILURE() << "A not fused";
-    return Eigen::Vector3d(Eigen::Vector3d::Constant(1e9));
-  };
+  return views;
+}
+
+// The fused far ball's error from `a`, and its standard errors.
+Eigen::Vector3d FarError(const std::vector<View>& views, const Eigen::Vector3d& a, const FuseOptions& o, Eigen::Vector3d* se) {
+  const FuseResult r = Fuse(views, o);
+  EXPECT_EQ(r.hedges.size(), 2u);
+  for (const FusedHedge& h : r.hedges) {
+    if (h.views.size() != 3u) continue;
+    *se = h.std_error_mm.head<3>();
+    return h.fit.fit.sphere.center_mm - a;
+  }
+  ADD_FAILURE() << "A not fused";
+  return Eigen::Vector3d::Constant(1e9);
+}
+
+// The hedges pin the captures relative to the pair but not the pair's turn about B, which only
+// the given poses hold. Each given pose alone is off by up to 1.5 degrees (A 37 mm round); the
+// step from the first to the second by 0.5 (12 mm), and the steps say so: A is fused nearer, and
+// still inside its interval.
+TEST(Fuse, TheStepsBetweenCapturesPinWhatTheHedgesLeaveFree) {
+  const Eigen::Vector3d a(-700, 600, 0), b(700, 600, 0);
+  const std::vector<View> views = DriftingArc(a, b);
   FuseOptions without;
   without.step_rotation_deg = 0;
   Eigen::Vector3d se_without, se;
-  const Eigen::Vector3d err_without = far_error(without, &se_without), err = far_error(FuseOptions(), &se);
+  const Eigen::Vector3d err_without = FarError(views, a, without, &se_without), err = FarError(views, a, FuseOptions(), &se);
   // Without the steps the absolute priors share the turn: about a degree, 20-30 mm at A.
   EXPECT_GT(err_without.norm(), 15) << err_without.transpose();
   // With them the first step (0.5 degrees off, 1 sigma of 1) weighs three times each given
@@ -363,6 +371,27 @@ TEST(Fuse, TheStepsBetweenCapturesPinWhatTheHedgesLeaveFree) {
   // without. A fifth less at the least.
   EXPECT_LT(err.norm(), 0.8 * err_without.norm()) << err.transpose() << " against " << err_without.transpose();
   for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(err[k]), 1.96 * se[k]) << k << ": " << err.transpose();
+}
+
+// A manifest need not list its captures in the order they were taken. With a time each, the steps
+// follow the path the odometry went, and the result is the one of the captures listed in order;
+// without, the steps link the captures as listed (the first to the last, then back), which reads
+// the turn from a step 1.5 degrees off rather than 0.5, and A lands elsewhere.
+TEST(Fuse, TheStepsFollowTheCapturesTimes) {
+  const Eigen::Vector3d a(-700, 600, 0), b(700, 600, 0);
+  const std::vector<View> in_order = DriftingArc(a, b);
+  std::vector<View> listed;
+  for (int k : {0, 3, 1, 2}) listed.push_back(in_order[std::size_t(k)]);
+  Eigen::Vector3d se;
+  const Eigen::Vector3d err = FarError(in_order, a, FuseOptions(), &se);
+  const Eigen::Vector3d untimed = FarError(listed, a, FuseOptions(), &se);
+  // The listed order's first step is off by three times the path's first: the turn is read
+  // about twice as far round at A (30 against 15 mm); half of that, 7 mm, at the least.
+  EXPECT_GT((untimed - err).norm(), 7) << untimed.transpose() << " against " << err.transpose();
+  for (std::size_t k = 0; k < listed.size(); ++k) listed[k].time_s = 100.0 + std::stod(listed[k].name);
+  const Eigen::Vector3d timed = FarError(listed, a, FuseOptions(), &se);
+  // The same solve up to the order of its sums.
+  EXPECT_LT((timed - err).norm(), 1e-3) << timed.transpose() << " against " << err.transpose();
 }
 
 }  // namespace
