@@ -22,7 +22,12 @@
 /// point's normal, its residual from that surface is modelled as the envelope's offset, less a
 /// leaf's depth below the envelope (none for a share w, the shears' cut; exponential for the rest),
 /// plus the sensor's Gaussian noise (`noise_mm`): envelope_fit.hpp's model, in one dimension. Its
-/// maximum likelihood gives the offset, added to each semi-axis.
+/// maximum likelihood gives the offset. A quadric's centre height and vertical semi-axis are then
+/// fitted again on the exact distance along its normal (the nearest point of the surface), its
+/// footprint held, with its points the offset inside it: the envelope itself. Seen from above, a
+/// squat shape's vertical semi-axis is pinned only by the curvature of its rim, where the radial
+/// distance is biased by noise (a flat spheroid read 3-20 % tall under 6-12 mm); a prism's sides
+/// and top move out by the offset.
 ///
 /// Up is +z: the caller turns its points (scene::FindHedges does; fitters.shape by its `up`).
 
