@@ -151,10 +151,9 @@ Eigen::Vector3d NearestOnEllipsoid(const Eigen::Vector3d& e, const Eigen::Vector
 
 // The radial distance from the surface: along the ray from the centre through the point, the
 // point's distance less the surface's (exact for a ball, first order for flattened shapes); with
-// `orthogonal`, projected on the surface's normal there (the distance across a leaf layer).
-// The fit itself stays radial: on the real garden (wageningen_west), an orthogonal fit turned
-// every squat topiary into a lens 50-70 mm lower than its points' top, though on simulated
-// aerial scans it removed a +1-7 % bias of the vertical semi-axis under 6 mm noise.
+// `orthogonal`, projected on the surface's normal there (DistanceOutside's). The fits choose
+// the class and place the footprint on the radial distance; the measured fit's height is
+// refitted on the exact distance along the normal (Normal, MeasureEnvelope says why).
 class Surface {
  public:
   // The heading's sine and cosine and the axes' inverse squares once per shape, not per point: a
@@ -547,7 +546,8 @@ Eigen::Vector4d FitLeafLayer(const std::vector<double>& r, double sigma, const E
 }
 
 // The residuals FitLeafLayer reads: about `count` of `p`'s distances from `surface` along its
-// normal, less `shift`.
+// normal, plus `shift` (an envelope's offset: then they are the distances from the surface that
+// far inside it, as FitLeafLayer's model reads them).
 std::vector<double> LayerResiduals(const std::vector<Eigen::Vector3d>& p, const Surface& surface, std::size_t count,
                                    double shift = 0) {
   std::vector<double> r;
@@ -725,7 +725,7 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
 // inside it near one of its two faces. A prism is fitted on its exact distance already; its
 // sides and top move out by the offset.
 struct Measured {
-  FamilyFit refit;                    // ok = false: none (too few points left, or none trimmed)
+  FamilyFit refit;                    // ok = false: none (too few points left; a prism's: none trimmed)
   std::vector<Eigen::Vector3d> kept;  // the points it was fitted to
   double offset_mm = 0;
   bool envelope_fitted = false;       // refit is the envelope (the offset is in its axes)
