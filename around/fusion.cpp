@@ -105,8 +105,8 @@ struct Registration {
 };
 
 // The given poses' steps as an odometry measures them: each used capture's pose relative to the
-// previous used one along `path` (PathOrder), held to `o.step_translation_share` of the step's length and
-// `o.step_rotation_deg` (a between-factor, as in a pose graph). An odometry's error accumulates
+// previous used one along `path` (PathOrder), held to `o.step_translation_share` of the step's
+// length and `o.step_rotation_deg` (a between-factor, as in a pose graph). An odometry's error accumulates
 // along the path, so neighbouring poses are far better known relative to each other than each is
 // on its own (the prior above). Residuals in the world frame, with the corrections' left
 // perturbations: the turn's phi = Log(R_b Z^T R_a^T), d/d(a) -I, d/d(b) +I; the position's

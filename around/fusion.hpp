@@ -10,11 +10,10 @@
 ///     standard errors, with the given pose as a prior (`prior_translation_mm`,
 ///     `prior_rotation_deg`) and each step between consecutive given poses (in time, when every
 ///     capture has one) as a between-factor (`step_translation_share`, `step_rotation_deg`); the
-///     first capture fixes the frame. What the
-///     hedges cannot pin (one ball: the turn of a capture about it) stays where the given poses and
-///     their steps hold it, and the correction's standard deviations (the hedges' and the prior's)
-///     say so. Optionally the corrected poses are refined by PCL's
-///     generalized ICP on the hedges' surfaces. A capture whose correction exceeds the limits or
+///     first capture fixes the frame. What the hedges cannot pin (one ball: the turn of a capture
+///     about it) stays where the given poses and their steps hold it, and the correction's
+///     standard deviations (the hedges' and the prior's) say so. Optionally the corrected poses
+///     are refined by PCL's generalized ICP on the hedges' surfaces. A capture whose correction exceeds the limits or
 ///     whose hedges match no other capture's is left out, with the reason.
 ///  4. Fit each hedge to all its points: the leafy envelope (fitting::FitEnvelope, each point
 ///     seen from its own capture's camera, every capture's outline), with standard errors from
@@ -62,10 +61,11 @@ struct FuseOptions {
   double prior_translation_mm = 150;      ///< the given poses' error, 1 sigma (odometry: cm)
   double prior_rotation_deg = 3;          ///< ... and of their orientation
   /// The given poses' steps: each capture's pose relative to the previous one (in time when
-  /// every capture has a time, else in the order given) is good to this share of the step's length (at least 10 mm) and this turn, 1 sigma. An
-  /// odometry's error accumulates along the path (wheel odometry drifts 1-5 % of the distance,
-  /// a degree or so a turn), so neighbours are better known relative to each other than each is
-  /// alone. 0 for either: the steps are not used (poses with independent errors).
+  /// every capture has a time, else in the order given) is good to this share of the step's
+  /// length (at least 10 mm) and this turn, 1 sigma. An odometry's error accumulates along the
+  /// path (wheel odometry drifts 1-5 % of the distance, a degree or so a turn), so neighbours
+  /// are better known relative to each other than each is alone. 0 for either: the steps are not
+  /// used (poses with independent errors).
   double step_translation_share = 0.05;
   double step_rotation_deg = 1;
   double max_correction_mm = 600;         ///< a larger correction leaves the capture out
