@@ -150,10 +150,10 @@ Eigen::Vector3d NearestOnEllipsoid(const Eigen::Vector3d& e, const Eigen::Vector
 }
 
 // The radial distance from the surface: along the ray from the centre through the point, the
-// point's distance less the surface's (exact for a ball, first order for flattened shapes); with
-// `orthogonal`, projected on the surface's normal there (DistanceOutside's). The fits choose
-// the class and place the footprint on the radial distance; the measured fit's height is
-// refitted on the exact distance along the normal (Normal, MeasureEnvelope says why).
+// point's distance less the surface's (exact for a ball, first order for flattened shapes). The
+// fits choose the class and place the footprint on the radial distance; the measured fit's height
+// is refitted on the exact distance along the normal (Normal, MeasureEnvelope says why), and
+// DistanceOutside is that distance.
 class Surface {
  public:
   // The heading's sine and cosine and the axes' inverse squares once per shape, not per point: a
@@ -163,16 +163,14 @@ class Surface {
         inv2_(1 / (q(3) * q(3)), 1 / (q(4) * q(4)), 1 / (q(5) * q(5))), smallest_(std::min({q(3), q(4), q(5)})),
         axes_(q.segment<3>(3)), family_(f) {}
 
-  double Radial(const Eigen::Vector3d& p, bool orthogonal = false) const {
+  double Radial(const Eigen::Vector3d& p) const {
     const Eigen::Vector3d d = p - c_;
     const Eigen::Vector3d uvw(d.x() * cs_ + d.y() * sn_, -d.x() * sn_ + d.y() * cs_, d.z());
     if (Prism(family_)) return Signed(uvw);
     const double s = std::sqrt(uvw.cwiseAbs2().dot(inv2_));
     const double n = d.norm();
     if (s < 1e-12) return -smallest_;
-    if (!orthogonal) return n * (1 - 1 / s);
-    const Eigen::Vector3d g = uvw.cwiseProduct(inv2_);
-    return n * (1 - 1 / s) * uvw.dot(g) / (n * g.norm());
+    return n * (1 - 1 / s);
   }
 
   // Radial(p) and its derivatives by the seven parameters (cx, cy, cz, a, b, c, heading), in
@@ -931,7 +929,7 @@ double DistanceOutside(const ClippedShape& s, const Eigen::Vector3d& p) {
                    : s.family == "cuboid" ? Family::kCuboid
                    : s.family == "cone"   ? Family::kCone
                                           : Family::kEllipsoid;
-  return Surface(q, f).Radial(p, true);
+  return Surface(q, f).Normal(p);
 }
 
 Eigen::Matrix3d ShapeAxes(const Eigen::Vector3d& up, double heading_deg) {

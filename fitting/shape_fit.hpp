@@ -90,10 +90,9 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double 
                              double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
                              bool envelope = false, double max_spread_mm = 0);
 
-/// How far `p` lies outside the shape `s` (mm; negative inside), along the shape's normal near
-/// it: the radial distance (the point's distance from the centre less the surface's along that
-/// ray) projected on the normal there, which is the distance itself on a ball and to first order
-/// on flattened shapes. Both in the frame `s` was fitted in (up +z).
+/// How far `p` lies outside the shape `s` (mm; negative inside), along the shape's normal: the
+/// exact distance to the nearest point of a quadric's surface (a prism's: to its faces, edges
+/// and rounded sides). Both in the frame `s` was fitted in (up +z).
 double DistanceOutside(const ClippedShape& s, const Eigen::Vector3d& p);
 
 /// A shape's axes in its cloud's frame, as columns: along its heading, across it, along `up`.
