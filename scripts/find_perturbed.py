@@ -112,12 +112,15 @@ for k, (name, p, t, flags) in enumerate(cases):
         continue
     cloud = json.loads(run.stdout)["clouds"][0]
     shapes = [h for h in cloud["hedges"] if h["topiary"]]
+    def top_view(h, shaped=True):
+        """An object's centre (x, y) in the map's frame (a y-up cloud's (x, -z))."""
+        c = np.array(h["shape"]["center_mm"] if shaped and "shape" in h else h["center_mm"])
+        return np.array([c[0], -c[2]]) if name == "y up" else c[:2]
+
     used = set()
     for tx, ty in t * (1000.0 / unit):
         for h in shapes:
-            c = np.array(h["shape"]["center_mm"] if "shape" in h else h["center_mm"])
-            if name == "y up":
-                c = np.array([c[0], -c[2], c[1]])
+            c = top_view(h)
             if h["id"] not in used and np.hypot(c[0] - tx, c[1] - ty) < 200:
                 used.add(h["id"])
                 break
@@ -125,21 +128,20 @@ for k, (name, p, t, flags) in enumerate(cases):
     undecided = [h for h in cloud["hedges"] if h.get("undecided")]
     near_map = 0
     for h in undecided:
-        c = np.array(h["center_mm"])
-        if name == "y up":
-            c = np.array([c[0], -c[2], c[1]])
+        c = top_view(h, shaped=False)
         near_map += any(np.hypot(c[0] - tx, c[1] - ty) < 200 for tx, ty in t * (1000.0 / unit))
     print(f"| {name} | {len(used)} of {len(t)} | {len(shapes) - len(used)} | {near_map}, {len(undecided) - near_map} | {run.returncode} |")
     if not why:
         continue
     # What became of each topiary missed, and what else was called topiary.
     for tx, ty in t * (1000.0 / unit):
-        hit = [h for h in shapes if h["id"] in used and np.hypot(*(np.array(h["shape"]["center_mm"][:2]) - (tx, ty))) < 200]
+        hit = [h for h in shapes if h["id"] in used and np.hypot(*(top_view(h) - (tx, ty))) < 200]
         if hit:
             continue
-        near = min(cloud["hedges"], key=lambda h: np.hypot(h["center_mm"][0] - tx, h["center_mm"][1] - ty))
+        near = min(cloud["hedges"], key=lambda h: np.hypot(*(top_view(h, shaped=False) - (tx, ty))))
         print(f"    missed ({tx:.0f}, {ty:.0f}): nearest object {near['id']}, {near['points']} points, "
-              f"{np.hypot(near['center_mm'][0] - tx, near['center_mm'][1] - ty):.0f} mm off: {near.get('not_a_ball', '')}")
+              f"{np.hypot(*(top_view(near, shaped=False) - (tx, ty))):.0f} mm off: {near.get('not_a_ball', '')}")
     for h in shapes:
         if h["id"] not in used:
-            print(f"    other: {h['id']} {h['verdict']} at ({h['center_mm'][0]:.0f}, {h['center_mm'][1]:.0f}), {h['points']} points")
+            c = top_view(h, shaped=False)
+            print(f"    other: {h['id']} {h['verdict']} at ({c[0]:.0f}, {c[1]:.0f}), {h['points']} points")
