@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include <Eigen/Geometry>
 
@@ -139,6 +140,37 @@ std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::V
         if (group != int(g)) rest.push_back(subset[i]);
       }
       if (rest.size() == subset.size()) continue;  // an empty patch (a cap seen from one side)
+      by_group[g] = Refit(rest, sphere);
+    }
+  });
+  std::vector<Eigen::Vector4d> estimates;
+  for (const auto& e : by_group) {
+    if (e) estimates.push_back(*e);
+  }
+  if (estimates.size() < 4) return std::nullopt;
+  const double n = double(estimates.size());
+  return Eigen::Vector4d((SquaredDeviations(estimates) * (n - 1) / n).cwiseSqrt());
+}
+
+std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                     const Eigen::Vector3d& up, int bands, std::size_t max_points) {
+  if (support.size() < 64 || bands < 4 || !(up.norm() > 0)) return std::nullopt;
+  const std::vector<Eigen::Vector3d> subset = EvenSubset(support, max_points);
+  const Eigen::Vector3d u = up.normalized();
+  // Each point's band by its rank in height: equal counts, so no band is a handful of points.
+  std::vector<std::size_t> order(subset.size());
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return subset[a].dot(u) < subset[b].dot(u); });
+  std::vector<int> band(subset.size());
+  for (std::size_t k = 0; k < order.size(); ++k) band[order[k]] = int(k * std::size_t(bands) / order.size());
+  std::vector<std::optional<Eigen::Vector4d>> by_group(static_cast<std::size_t>(bands));
+  pipeline::ParallelFor(by_group.size(), 0, 1, [&](std::size_t b, std::size_t e) {
+    std::vector<Eigen::Vector3d> rest;
+    for (std::size_t g = b; g < e; ++g) {
+      rest.clear();
+      for (std::size_t i = 0; i < subset.size(); ++i) {
+        if (band[i] != int(g)) rest.push_back(subset[i]);
+      }
       by_group[g] = Refit(rest, sphere);
     }
   });

@@ -32,6 +32,16 @@ std::optional<Eigen::Vector4d> ScatterStdError(const std::vector<Eigen::Vector3d
 std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
                                                       std::size_t max_points = 3000);
 
+/// Standard errors of (cx, cy, cz, r) by a delete-a-group jackknife over `bands` horizontal
+/// slices of `support` (equal counts along `up`), refitting by geometric least squares from
+/// `sphere`. A scanner lays its points in rings, one laser each, and a laser's own range offset
+/// moves its whole ring: on a ball at a distance from a level scanner a ring is a horizontal
+/// slice, which the patches above cut across and so count as independent errors. On up to
+/// `max_points` (evenly taken); nullopt with fewer than 64 points.
+std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                     const Eigen::Vector3d& up, int bands = 8,
+                                                     std::size_t max_points = 3000);
+
 /// Standard deviations of (cx, cy, cz, r) over the perturbation's draws: each draw moves (up to
 /// `max_points` of, evenly taken) `support`, and a geometric least-squares fit from `sphere`
 /// is refitted. nullopt with fewer than 2 draws or points.

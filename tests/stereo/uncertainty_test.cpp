@@ -265,6 +265,54 @@ TEST(BlockJackknife, CountsErrorsNeighboursShare) {
   EXPECT_LT(inside_scatter, 0.6 * cases);
 }
 
+// A ball 2.6 m from a 16-laser scanner (lasers 2 degrees apart, a point every 0.2 degrees): each
+// laser's own range offset (6 mm, the spread of a Velodyne's per-laser calibration) moves its
+// whole ring, beside 5 mm of noise per point. The ball holds six or seven rings, so their offsets
+// weigh on the centre's range and height as six or seven errors, not as its several hundred
+// points'. The patches of BlockJackknifeStdError cut across the rings and count them as
+// independent; a jackknife over horizontal bands removes a ring (or most of one) at a time. Over
+// 400 such balls the fit's own and the patches' 95 % intervals held the range 72 % and the height
+// 65 % of the time, with the bands 92 and 89 % (8 groups: Student's t with 7 degrees of freedom
+// puts 1.96 at about 91 %). Here, 40 balls: at least 88 % of all 160 coordinates with the
+// bands; the range and height without them at most 80 %.
+TEST(BandJackknife, AScannersRingsAreCounted) {
+  const Eigen::Vector3d centre(2600, 400, -200);
+  const double radius = 300;
+  int inside_bands = 0, cases = 0, ring_cases = 0, ring_inside_before = 0;
+  for (int t = 0; t < 40; ++t) {
+    cv::RNG rng(500 + t);
+    std::vector<Eigen::Vector3d> pts;
+    for (int ring = 0; ring < 16; ++ring) {
+      const double el = (-15 + 2 * ring) * CV_PI / 180, offset = rng.gaussian(6.0);
+      for (double az = -20; az <= 20; az += 0.2) {
+        const Eigen::Vector3d d(std::cos(el) * std::cos(az * CV_PI / 180), std::cos(el) * std::sin(az * CV_PI / 180), std::sin(el));
+        // The ray's first meeting with the sphere, if any.
+        const double b = d.dot(centre), disc = b * b - (centre.squaredNorm() - radius * radius);
+        if (disc <= 0) continue;
+        pts.push_back((b - std::sqrt(disc) + offset + rng.gaussian(5.0)) * d);
+      }
+    }
+    const fitting::SphereFitResult f = fitting::FitSphereGeometric(pts);
+    ASSERT_TRUE(f.converged && f.std_error_mm);
+    const auto support = fitting::SupportingPoints(pts, f.sphere);
+    const auto patches = fitting::BlockJackknifeStdError(support, f.sphere);
+    const auto bands = fitting::BandJackknifeStdError(support, f.sphere, Eigen::Vector3d::UnitZ());
+    ASSERT_TRUE(patches.has_value() && bands.has_value());
+    const Eigen::Vector4d error(f.sphere.center_mm.x() - centre.x(), f.sphere.center_mm.y() - centre.y(),
+                                f.sphere.center_mm.z() - centre.z(), f.sphere.radius_mm - radius);
+    for (int k = 0; k < 4; ++k) {
+      const double before = std::max((*patches)[k], (*f.std_error_mm)[k]);
+      ++cases;
+      inside_bands += std::abs(error[k]) <= 1.96 * std::max(before, (*bands)[k]);
+      if (k == 0 || k == 2) ++ring_cases, ring_inside_before += std::abs(error[k]) <= 1.96 * before;
+    }
+  }
+  std::printf("with the bands: %d of %d inside; the range and height without them: %d of %d\n", inside_bands, cases,
+              ring_inside_before, ring_cases);
+  EXPECT_GE(inside_bands, 0.88 * cases);
+  EXPECT_LE(ring_inside_before, 0.80 * ring_cases);
+}
+
 // A ball on a lawn: RANSAC's sphere rests on a tenth of the cloud. The points that support it
 // are the ball's, not a band around the lawn's median residual, so its standard errors are the
 // ball's (a few tenths of a mm for 2000 points with 2 mm of noise), not metres.
