@@ -160,7 +160,8 @@ std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Ve
   // Each point's band by its rank in height: equal counts, so no band is a handful of points.
   std::vector<std::size_t> order(subset.size());
   std::iota(order.begin(), order.end(), std::size_t(0));
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return subset[a].dot(u) < subset[b].dot(u); });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return subset[a].dot(u) < subset[b].dot(u); });
   std::vector<int> band(subset.size());
   for (std::size_t k = 0; k < order.size(); ++k) band[order[k]] = int(k * std::size_t(bands) / order.size());
   std::vector<std::optional<Eigen::Vector4d>> by_group(static_cast<std::size_t>(bands));

@@ -284,8 +284,9 @@ TEST(BandJackknife, AScannersRingsAreCounted) {
     std::vector<Eigen::Vector3d> pts;
     for (int ring = 0; ring < 16; ++ring) {
       const double el = (-15 + 2 * ring) * CV_PI / 180, offset = rng.gaussian(6.0);
-      for (double az = -20; az <= 20; az += 0.2) {
-        const Eigen::Vector3d d(std::cos(el) * std::cos(az * CV_PI / 180), std::cos(el) * std::sin(az * CV_PI / 180), std::sin(el));
+      for (double az_deg = -20; az_deg <= 20; az_deg += 0.2) {
+        const double az = az_deg * CV_PI / 180;
+        const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
         // The ray's first meeting with the sphere, if any.
         const double b = d.dot(centre), disc = b * b - (centre.squaredNorm() - radius * radius);
         if (disc <= 0) continue;
