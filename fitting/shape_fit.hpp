@@ -91,8 +91,8 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double 
                              bool envelope = false, double max_spread_mm = 0);
 
 /// How far `p` lies outside the shape `s` (mm; negative inside), along the shape's normal: the
-/// exact distance to the nearest point of a quadric's surface (a prism's: to its faces, edges
-/// and rounded sides). Both in the frame `s` was fitted in (up +z).
+/// exact distance to the nearest point of a quadric's surface (a prism's: the signed distance
+/// its fit uses). Both in the frame `s` was fitted in (up +z).
 double DistanceOutside(const ClippedShape& s, const Eigen::Vector3d& p);
 
 /// A shape's axes in its cloud's frame, as columns: along its heading, across it, along `up`.

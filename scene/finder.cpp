@@ -879,7 +879,6 @@ void GroundUnderBalls(const ScenePoints& s, const GroundModel& ground, const Fin
   }
 }
 
-// A ball's final fits (MeasureBall), checked to pin its sphere down, and its ground and height.
 // A scanner lays its points in rings, one laser each, and a laser's own range offset moves its
 // whole ring: residuals that move together, which the fit's own interval and the patch
 // jackknife (whose patches cut across the rings) count as independent. On the five real
@@ -898,6 +897,7 @@ void WidenForRings(const cloud::PointCloud& cloud, const std::vector<std::size_t
   fit->std_error_mm = fit->std_error_mm ? Eigen::Vector4d(fit->std_error_mm->cwiseMax(*bands)) : *bands;
 }
 
+// A ball's final fits (MeasureBall), checked to pin its sphere down, and its ground and height.
 void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& cloud, const FindOptions& o,
                   FoundObject* obj) {
   obj->top_center_mm = c.j.sphere.center_mm.head<2>();
