@@ -55,6 +55,33 @@ std::optional<Eigen::Vector4d> Refit(const std::vector<Eigen::Vector3d>& points,
   return Eigen::Vector4d(f->center_mm.x(), f->center_mm.y(), f->center_mm.z(), f->radius_mm);
 }
 
+// The delete-a-group jackknife's standard errors of (cx, cy, cz, r): `points` refitted from
+// `sphere` without each of `groups` groups in turn (`group` gives each point's), an empty group
+// skipped (a cap seen from one side leaves patches empty); nullopt with fewer than 4 refits. The
+// refits run in parallel and are gathered in group order: the same result on any core count.
+std::optional<Eigen::Vector4d> GroupJackknife(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& group,
+                                              int groups, const Sphere& sphere) {
+  std::vector<std::optional<Eigen::Vector4d>> by_group(static_cast<std::size_t>(groups));
+  pipeline::ParallelFor(by_group.size(), 0, 1, [&](std::size_t b, std::size_t e) {
+    std::vector<Eigen::Vector3d> rest;
+    for (std::size_t g = b; g < e; ++g) {
+      rest.clear();
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        if (group[i] != int(g)) rest.push_back(points[i]);
+      }
+      if (rest.size() == points.size()) continue;
+      by_group[g] = Refit(rest, sphere);
+    }
+  });
+  std::vector<Eigen::Vector4d> estimates;
+  for (const auto& e : by_group) {
+    if (e) estimates.push_back(*e);
+  }
+  if (estimates.size() < 4) return std::nullopt;
+  const double n = double(estimates.size());
+  return Eigen::Vector4d((SquaredDeviations(estimates) * (n - 1) / n).cwiseSqrt());
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector3d> SupportingPoints(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& sphere) {
@@ -128,28 +155,9 @@ std::optional<Eigen::Vector4d> BlockJackknifeStdError(const std::vector<Eigen::V
     sector[i] = std::min(7, static_cast<int>(az / (2 * M_PI) * 8));
   }
   const double median_polar = Median(polar);
-  constexpr int kGroups = 16;
-  // The refits run in parallel and are gathered in group order: the same result on any core count.
-  std::vector<std::optional<Eigen::Vector4d>> by_group(kGroups);
-  pipeline::ParallelFor(kGroups, 0, 1, [&](std::size_t b, std::size_t e) {
-    std::vector<Eigen::Vector3d> rest;
-    for (std::size_t g = b; g < e; ++g) {
-      rest.clear();
-      for (std::size_t i = 0; i < subset.size(); ++i) {
-        const int group = sector[i] + (polar[i] >= median_polar ? 8 : 0);
-        if (group != int(g)) rest.push_back(subset[i]);
-      }
-      if (rest.size() == subset.size()) continue;  // an empty patch (a cap seen from one side)
-      by_group[g] = Refit(rest, sphere);
-    }
-  });
-  std::vector<Eigen::Vector4d> estimates;
-  for (const auto& e : by_group) {
-    if (e) estimates.push_back(*e);
-  }
-  if (estimates.size() < 4) return std::nullopt;
-  const double n = double(estimates.size());
-  return Eigen::Vector4d((SquaredDeviations(estimates) * (n - 1) / n).cwiseSqrt());
+  std::vector<int> group(subset.size());
+  for (std::size_t i = 0; i < subset.size(); ++i) group[i] = sector[i] + (polar[i] >= median_polar ? 8 : 0);
+  return GroupJackknife(subset, group, 16, sphere);
 }
 
 std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
@@ -164,24 +172,7 @@ std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Ve
                    [&](std::size_t a, std::size_t b) { return subset[a].dot(u) < subset[b].dot(u); });
   std::vector<int> band(subset.size());
   for (std::size_t k = 0; k < order.size(); ++k) band[order[k]] = int(k * std::size_t(bands) / order.size());
-  std::vector<std::optional<Eigen::Vector4d>> by_group(static_cast<std::size_t>(bands));
-  pipeline::ParallelFor(by_group.size(), 0, 1, [&](std::size_t b, std::size_t e) {
-    std::vector<Eigen::Vector3d> rest;
-    for (std::size_t g = b; g < e; ++g) {
-      rest.clear();
-      for (std::size_t i = 0; i < subset.size(); ++i) {
-        if (band[i] != int(g)) rest.push_back(subset[i]);
-      }
-      by_group[g] = Refit(rest, sphere);
-    }
-  });
-  std::vector<Eigen::Vector4d> estimates;
-  for (const auto& e : by_group) {
-    if (e) estimates.push_back(*e);
-  }
-  if (estimates.size() < 4) return std::nullopt;
-  const double n = double(estimates.size());
-  return Eigen::Vector4d((SquaredDeviations(estimates) * (n - 1) / n).cwiseSqrt());
+  return GroupJackknife(subset, band, bands, sphere);
 }
 
 std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
