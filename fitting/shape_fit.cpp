@@ -638,10 +638,12 @@ double WallCover(const std::vector<Eigen::Vector3d>& p, const FamilyFit& prism, 
 }
 
 // The family the criterion chooses (shape_fit.hpp), with each one's BIC written into `s`.
-// `cylinder` and `cuboid` may be absent (not fitted, or not converged).
+// `cylinder` and `cuboid` may be absent (not fitted, or not converged); with `round`, the
+// ellipsoid and the cuboid are not candidates.
 const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const FamilyFit& ball, const FamilyFit& spheroid,
                               const FamilyFit& ellipsoid, const FamilyFit* cylinder, const FamilyFit* cuboid,
-                              const FamilyFit* cone, double noise_mm, double max_spread_mm, ClippedShape* s, Family* family) {
+                              const FamilyFit* cone, double noise_mm, double max_spread_mm, bool round, ClippedShape* s,
+                              Family* family) {
   // One scale for all: the most flexible quadric's robust spread; residuals beyond 2.5 of it
   // (strays, a neighbour's leaves) count as 2.5.
   const double sigma = std::max({1.0, 0.5 * noise_mm, RobustSpread(ellipsoid.residuals)});
@@ -661,7 +663,7 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
   // does: the criterion weighs the tails (a neighbour's leaves beyond the clip) and the spread the
   // core, and on a rough top the two can prefer different families of one shape.
   auto smooth = [&](const FamilyFit& f) { return max_spread_mm <= 0 || RobustSpread(f.residuals) <= max_spread_mm; };
-  const bool smooth_ball = smooth(ball), smooth_spheroid = smooth(spheroid), smooth_ellipsoid = smooth(ellipsoid);
+  const bool smooth_ball = smooth(ball), smooth_spheroid = smooth(spheroid), smooth_ellipsoid = !round && smooth(ellipsoid);
   const bool any_smooth = smooth_ball || smooth_spheroid || smooth_ellipsoid;
   const FamilyFit* best = nullptr;
   double best_bic = std::numeric_limits<double>::infinity();
@@ -670,7 +672,7 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
     best = &spheroid, *family = Family::kSpheroid, best_bic = s->bic_spheroid;
   }
   const Full& e = ellipsoid.q;
-  if ((!any_smooth || smooth_ellipsoid) &&
+  if (!round && (!any_smooth || smooth_ellipsoid) &&
       (!best || (s->bic_ellipsoid < best_bic &&
                  (differ(e(3), e(4)) || (*family == Family::kBall && differ(std::max(e(3), e(4)), e(5))))))) {
     best = &ellipsoid, *family = Family::kEllipsoid, best_bic = s->bic_ellipsoid;
@@ -690,7 +692,7 @@ const FamilyFit* ChooseFamily(const std::vector<Eigen::Vector3d>& p, const Famil
       best = cylinder, *family = Family::kCylinder, best_bic = s->bic_cylinder;
     }
   }
-  if (cuboid && cuboid->ok) {
+  if (cuboid && cuboid->ok && !round) {
     s->bic_cuboid = bic(*cuboid, 6), s->walls_cuboid = WallCover(p, *cuboid, Family::kCuboid);
     if (s->bic_cuboid < best_bic && clearly_closer(*cuboid) && s->walls_cuboid >= kMinWallCover) {
       best = cuboid, *family = Family::kCuboid, best_bic = s->bic_cuboid;
@@ -805,7 +807,7 @@ void FitPrisms(const std::vector<Eigen::Vector3d>& p, const FamilyFit& spheroid,
 }  // namespace
 
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
-                             std::size_t max_points, bool jackknife, bool envelope, double max_spread_mm) {
+                             std::size_t max_points, bool jackknife, bool envelope, double max_spread_mm, bool round) {
   ClippedShape s;
   s.points = all.size();
   if (all.size() < 20) return s;
@@ -860,7 +862,8 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   FamilyFit cylinder, cuboid, cone;
   FitPrisms(p, spheroid, ellipsoid, bounds, ground_mm, noise_mm, &cylinder, &cuboid, &cone);
   Family family = Family::kBall;
-  const FamilyFit* best = ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, &cone, noise_mm, max_spread_mm, &s, &family);
+  const FamilyFit* best =
+      ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, &cone, noise_mm, max_spread_mm, round, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
   Measured measured;
   if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm);

@@ -85,10 +85,11 @@ struct ClippedShape {
 /// family fitted again without the points beyond 2.5 robust deviations of its median residual.
 /// `max_spread_mm` (0: none): when one of the quadrics' points lie within this robust spread of it,
 /// the class is chosen among those that do (a caller that refuses a rougher shape asks whether
-/// any of the families is smooth enough, not only the one the criterion prefers).
+/// any of the families is smooth enough, not only the one the criterion prefers). `round`: only
+/// the families whose footprint is a circle are candidates (ball, spheroid, cylinder, cone).
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                              double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
-                             bool envelope = false, double max_spread_mm = 0);
+                             bool envelope = false, double max_spread_mm = 0, bool round = false);
 
 /// How far `p` lies outside the shape `s` (mm; negative inside), along the shape's normal: the
 /// exact distance to the nearest point of a quadric's surface (a prism's: the signed distance

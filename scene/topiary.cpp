@@ -369,7 +369,26 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   }
   mean /= double(std::max<std::size_t>(1, p.size()));
   c.points = std::move(points);
-  c.shape = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 800, false, false, o.max_roughness * noise);
+  const double ground_mm = ground.HeightAt(mean.x(), mean.y());
+  c.shape = FitTopiaryShape(p, ground_mm, noise, widest_mm, 800, false, false, o.max_roughness * noise);
+  // A stretched footprint (an ellipsoid's or a box's) that its points do not cover from above,
+  // where a round one they cover better fits too, is taken round. The criterion weighs how far the
+  // points lie from each surface, not where a sensor above would have seen the surface and saw
+  // nothing; on a rough, sparse top with a few of a neighbour's leaves at its edge, the ellipsoid
+  // reaches past the points towards them (the real garden's sparsest topiary, 380 points with
+  // 60 mm of relief, turned or tilted a little: semi-axes of 453 x 282 mm, 65 % covered, where
+  // a spheroid's of 324 mm are 82 %). A shape that is truly stretched shows its points over its
+  // whole footprint and is not touched.
+  bool round = false;
+  if (c.shape.converged && (c.shape.family == "ellipsoid" || c.shape.family == "cuboid")) {
+    double step = 0;
+    std::size_t samples = 0;
+    const double stretched = TopViewCover(p, c.shape, cell, &step, &samples);
+    if (stretched < o.min_covered) {
+      TopiaryShape circle = FitTopiaryShape(p, ground_mm, noise, widest_mm, 800, false, false, o.max_roughness * noise, true);
+      if (circle.converged && TopViewCover(p, circle, cell, &step, &samples) > stretched) c.shape = std::move(circle), round = true;
+    }
+  }
   const TopiaryShape& s = c.shape;
   if (!s.converged) {
     c.reason = "no shape with a vertical axis fits its points";
@@ -426,7 +445,7 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose
     // lower half no sensor saw is pinned by the top's curvature alone, and wants them all), and
     // to its envelope: where its outer leaves end (fitting/shape_fit.hpp).
-    const TopiaryShape fine = FitTopiaryShape(p, ground.HeightAt(mean.x(), mean.y()), noise, widest_mm, 4000, true, true, o.max_roughness * noise);
+    const TopiaryShape fine = FitTopiaryShape(p, ground_mm, noise, widest_mm, 4000, true, true, o.max_roughness * noise, round);
     if (fine.converged) c.shape = fine;
     // Measured with the block jackknife, a shape the judging fit's own interval let pass may
     // still not be pinned down.

@@ -110,8 +110,8 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts,
 /// fitting::FitClippedShape (step 3), as the finder calls it.
 inline TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                                     double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
-                                    bool envelope = false, double max_spread_mm = 0) {
-  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points, jackknife, envelope, max_spread_mm);
+                                    bool envelope = false, double max_spread_mm = 0, bool round = false) {
+  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points, jackknife, envelope, max_spread_mm, round);
 }
 
 /// The lawn's points per mm^2 about a place, from the points within the ground's band on a grid

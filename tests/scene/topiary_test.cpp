@@ -630,53 +630,87 @@ TEST(FindHedges, AFlatSpheroidBesideADomeIsNoCapOfABall) { ExpectTheFlatSpheroid
 
 TEST(FindHedges, AFlatSpheroidTouchingADomeIsNoCapOfABall) { ExpectTheFlatSpheroidMeasured(205, 210); }
 
+// The real garden's topiary that `find` reports within 200 mm (top view) of the map's centres,
+// and how many other objects it calls topiary, with the cloud turned by `turn` (the map with it)
+// first; *r is the result.
+int FoundInTheWestHalf(const Eigen::Matrix3d& turn, int* other, FindResult* r) {
+  cloud::PointCloud c = cloud::ReadCloud(hedgefit::testing::DataPath("gardens/wageningen_west/garden_west.ply"));
+  const double scale = cloud::GuessScale(c);
+  EXPECT_EQ(scale, 1000.0) << "the garden is in metres";
+  for (auto& p : c.points_mm) p = (turn.cast<float>() * p) * float(scale);
+  fitting::QuietSolverWarnings();
+  *r = FindHedges(c);
+  std::ifstream in(hedgefit::testing::DataPath("gardens/wageningen_west/objects.json"));
+  const auto map = nlohmann::json::parse(in);
+  std::vector<Eigen::Vector2d> truth;
+  for (const auto& o : map["objects"]) {
+    if (o["label"].get<std::string>().rfind("Topiary", 0) == 0) {
+      const Eigen::Vector3d at(o["position_m"][0].get<double>(), o["position_m"][1].get<double>(), o["position_m"][2].get<double>());
+      truth.push_back(1000 * (turn * at).head<2>());
+    }
+  }
+  EXPECT_EQ(truth.size(), 6u);
+  std::vector<bool> used(r->objects.size(), false);
+  int found = 0;
+  for (const auto& t : truth) {
+    for (std::size_t k = 0; k < r->objects.size(); ++k) {
+      if (!r->objects[k].topiary || used[k]) continue;
+      // In the cloud's frame, as the map is.
+      if ((r->objects[k].fit.sphere.center_mm.head<2>() - t).norm() < 200) {
+        used[k] = true, ++found;
+        break;
+      }
+    }
+  }
+  *other = 0;
+  for (std::size_t k = 0; k < r->objects.size(); ++k) *other += r->objects[k].topiary && !used[k];
+  for (std::size_t k = 0; k < r->objects.size(); ++k) {
+    if (!used[k]) r->objects[k].topiary = false;  // what the caller checks next is the map's
+  }
+  return found;
+}
+
 // The real garden: TrimBot2020's model of its Wageningen test garden (west half) and the
 // project's own annotated map. The target is all 6 topiary within 200 mm of their
 // annotated centres (top view) and at most 1 other object called topiary. The sixth is found only
 // once the watershed's join to the foliage beside it is undone (FindTopiary's split).
 TEST(RealData, TopiaryOfTheWageningenGardenWestHalf) {
   HEDGEFIT_REQUIRE_DATA("gardens/wageningen_west/garden_west.ply");
-  cloud::PointCloud c = cloud::ReadCloud(hedgefit::testing::DataPath("gardens/wageningen_west/garden_west.ply"));
-  const double scale = cloud::GuessScale(c);
-  ASSERT_EQ(scale, 1000.0) << "the garden is in metres";
-  for (auto& p : c.points_mm) p *= float(scale);
-  fitting::QuietSolverWarnings();
-  const FindResult r = FindHedges(c);
-  std::ifstream in(hedgefit::testing::DataPath("gardens/wageningen_west/objects.json"));
-  const auto map = nlohmann::json::parse(in);
-  std::vector<Eigen::Vector2d> truth;
-  for (const auto& o : map["objects"]) {
-    if (o["label"].get<std::string>().rfind("Topiary", 0) == 0) {
-      truth.emplace_back(1000 * o["position_m"][0].get<double>(), 1000 * o["position_m"][1].get<double>());
-    }
-  }
-  ASSERT_EQ(truth.size(), 6u);
-  std::vector<bool> used(r.objects.size(), false);
-  int found = 0;
-  for (const auto& t : truth) {
-    for (std::size_t k = 0; k < r.objects.size(); ++k) {
-      if (!r.objects[k].topiary || used[k]) continue;
-      const Eigen::Vector3d centre = r.scene_from_cloud * r.objects[k].fit.sphere.center_mm;
-      if ((centre.head<2>() - t).norm() < 200) {
-        used[k] = true, ++found;
-        break;
-      }
-    }
-  }
   int other = 0;
-  for (std::size_t k = 0; k < r.objects.size(); ++k) other += r.objects[k].topiary && !used[k];
-  EXPECT_EQ(found, 6);
+  FindResult r;
+  EXPECT_EQ(FoundInTheWestHalf(Eigen::Matrix3d::Identity(), &other, &r), 6);
   EXPECT_LE(other, 1) << "roses, box hedges, trees, fences or the bench called topiary";
   // At its own density nothing here is too sparse to judge.
   for (const auto& o : r.objects) EXPECT_FALSE(o.undecided) << o.id << ": " << o.reason;
   // Topiary in this garden are squat: 0.35-0.5 m tall, 0.55-0.9 m across (the map's extents).
-  for (std::size_t k = 0; k < r.objects.size(); ++k) {
-    if (!used[k]) continue;
-    const auto& s = *r.objects[k].shape;
+  for (const auto& o : r.objects) {
+    if (!o.topiary) continue;
+    ASSERT_TRUE(o.shape.has_value()) << o.id << ": every topiary here is found by height";
+    const auto& s = *o.shape;
     EXPECT_GT(2 * s.axes_mm.y(), 400);
     EXPECT_LT(2 * s.axes_mm.x(), 1000);
     EXPECT_GT(s.top_mm, 200);
     EXPECT_LT(s.top_mm, 550);
+  }
+}
+
+// The same half turned about the vertical: the height model's grid falls differently on the
+// points, and the sparsest topiary (380 points, 60 mm of relief) keeps a few of its neighbour's
+// leaves. Turned 200 degrees, an ellipsoid stretched towards them (its footprint 65 % covered)
+// lost it, until a stretched footprint the points do not cover gave way to a round one
+// (JudgeTopiary); turned 30 degrees it is found either way. Not asserted, as it is still lost:
+// turned 137 degrees, or tilted 2 degrees, where the watershed gives it another part (the note of
+// 2026-11-30, scripts/find_perturbed.py).
+TEST(RealData, TheWestHalfTurnedKeepsItsTopiary) {
+  HEDGEFIT_REQUIRE_DATA("gardens/wageningen_west/garden_west.ply");
+  const std::vector<std::pair<const char*, Eigen::Matrix3d>> turns = {
+      {"turned 30 degrees", Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix()},
+      {"turned 200 degrees", Eigen::AngleAxisd(200 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix()}};
+  for (const auto& [name, turn] : turns) {
+    int other = 0;
+    FindResult r;
+    EXPECT_EQ(FoundInTheWestHalf(turn, &other, &r), 6) << name;
+    EXPECT_LE(other, 1) << name;
   }
 }
 
