@@ -377,8 +377,8 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   // nothing; on a rough, sparse top with a few of a neighbour's leaves at its edge, the ellipsoid
   // reaches past the points towards them (the real garden's sparsest topiary, 380 points with
   // 60 mm of relief, turned or tilted a little: semi-axes of 453 x 282 mm, 65 % covered, where
-  // a spheroid's of 324 mm are 82 %). A shape that is truly stretched shows its points over its
-  // whole footprint and is not touched.
+  // a spheroid of 324 mm is 82 % covered). A shape that is truly stretched shows its points over
+  // its whole footprint and is not touched.
   bool round = false;
   if (c.shape.converged && (c.shape.family == "ellipsoid" || c.shape.family == "cuboid")) {
     double step = 0;

@@ -87,6 +87,20 @@ TEST(FitTopiaryShape, AnEllipsoidWithItsHeading) {
   EXPECT_NEAR(s.heading_deg, 30, 2.0);
 }
 
+// Asked for a round footprint (JudgeTopiary asks when a stretched one is not covered), the same
+// ellipsoid's points get a circle: a spheroid or a ball, its semi-axis between the two it has
+// (a circle through a 450 x 280 mm outline lies within them), never an ellipsoid or a box.
+TEST(FitTopiaryShape, ARoundFootprintWhenAsked) {
+  std::mt19937 rng(2);
+  const auto pts = SeenFromAbove({-500, 300, 260}, 450, 280, 220, 30, 5, 20, &rng);
+  const TopiaryShape s = FitTopiaryShape(pts, 0, 5, 0, 800, false, false, 0, true);
+  ASSERT_TRUE(s.converged);
+  EXPECT_TRUE(s.family == "spheroid" || s.family == "ball") << s.family;
+  EXPECT_DOUBLE_EQ(s.axes_mm.x(), s.axes_mm.y());
+  EXPECT_GT(s.axes_mm.x(), 280);
+  EXPECT_LT(s.axes_mm.x(), 450);
+}
+
 TEST(FitTopiaryShape, ABallStandingFreeIsABall) {
   std::mt19937 rng(3);
   const auto pts = SeenFromAbove({0, 0, 500}, 400, 400, 400, 0, 5, 20, &rng);
