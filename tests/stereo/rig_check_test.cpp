@@ -264,3 +264,37 @@ TEST(RigCheck, AFrameWithTooLittleTextureIsUncheckedAndSaysWhy) {
   EXPECT_EQ(textured.verdict, "ok");
   EXPECT_EQ(Field(textured.checks.at(1), "rig_check_reason"), nullptr);
 }
+
+// A hedge of which too few pixels matched is unusable either way, but the reason depends on the
+// frame: where the frame's rows were measured and agree, the rig fits and the views are a pair,
+// so the reason names the hedge's own surface (glossy leaves) and not the rig; where they were
+// not measured, the rig stays among the causes.
+TEST(RigCheck, AHedgeThatBarelyMatchedBlamesTheRigOnlyWhenTheRowsCouldNotSay) {
+  hedgefit::stereo::StereoRig rig;
+  rig.P1 = (cv::Mat_<double>(3, 4) << 500, 0, 320, 0, 0, 500, 200, 0, 0, 0, 1, 0);
+  hedgefit::stereo::HedgeMatch hedge;
+  hedge.id = 1;
+  hedge.pixels = 80 * 80;
+  hedge.measured = 80 * 80 * 3 / 10;  // 30 %, under the 40 % asked for
+  hedge.vertical.samples = 40;
+  hedge.vertical_max_px = 0.03;
+  cv::Mat labels(400, 640, CV_32S, cv::Scalar(0));
+  labels(cv::Rect(300, 160, 80, 80)).setTo(1);
+  const hedgefit::stereo::RigCheckOptions options;
+  ASSERT_GT(options.min_matched_share, 0.3);
+  const auto [fl, fr] = TexturedBoxes({cv::Rect(40, 0, 600, 400)});
+  const auto textured = hedgefit::stereo::CheckCaptureRig(fl, fr, rig, {hedge}, labels, cv::Mat(), 40, options);
+  ASSERT_GE(textured.rows.cells, 3) << "the test needs a frame the check can measure";
+  EXPECT_EQ(textured.verdict, "unusable");
+  const std::string& fits = textured.checks.at(1).unusable;
+  EXPECT_NE(fits.find("so the rig fits"), std::string::npos) << fits;
+  EXPECT_NE(fits.find("glossy leaves"), std::string::npos) << fits;
+  EXPECT_EQ(fits.find("does not fit"), std::string::npos) << fits;
+
+  const auto [bl, br] = TexturedBoxes({cv::Rect(300, 160, 80, 80)});
+  const auto smooth = hedgefit::stereo::CheckCaptureRig(bl, br, rig, {hedge}, labels, cv::Mat(), 40, options);
+  ASSERT_LT(smooth.rows.cells, 3);
+  EXPECT_EQ(smooth.verdict, "unusable");
+  EXPECT_NE(smooth.checks.at(1).unusable.find("the rig does not fit these cameras"), std::string::npos)
+      << smooth.checks.at(1).unusable;
+}
