@@ -378,9 +378,11 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   // reaches past the points towards them (the real garden's sparsest topiary, 380 points with
   // 60 mm of relief, turned or tilted a little: semi-axes of 453 x 282 mm, 65 % covered, where
   // a spheroid of 324 mm is 82 % covered). A shape that is truly stretched shows its points over
-  // its whole footprint and is not touched.
+  // its whole footprint and is not touched; nor is one stretched beyond max_elongation (a row or
+  // a fence, which a circle would hide from that test).
   bool round = false;
-  if (c.shape.converged && (c.shape.family == "ellipsoid" || c.shape.family == "cuboid")) {
+  if (c.shape.converged && (c.shape.family == "ellipsoid" || c.shape.family == "cuboid") &&
+      c.shape.axes_mm.x() <= o.max_elongation * c.shape.axes_mm.y()) {
     double step = 0;
     std::size_t samples = 0;
     const double stretched = TopViewCover(p, c.shape, cell, &step, &samples);
