@@ -264,4 +264,59 @@ std::optional<Sphere> RefitSphereGeometric(const std::vector<Eigen::Vector3d>& p
   return std::nullopt;
 }
 
+std::optional<Sphere> RefitSphereHuber(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& start, double huber_mm,
+                                       int max_iterations, double tolerance_mm) {
+  if (points_mm.size() < 4 || !(huber_mm > 0)) return std::nullopt;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points_mm) mean += p;
+  mean /= double(points_mm.size());
+  // Ceres' HuberLoss(k) on e^2, halved: e^2 / 2 within k, k |e| - k^2 / 2 beyond.
+  auto cost = [&](const Eigen::Vector4d& x) {
+    const Eigen::Vector3d c = mean + x.head<3>();
+    double sum = 0;
+    for (const auto& p : points_mm) {
+      const double e = std::abs((p - c).norm() - x[3]);
+      sum += e <= huber_mm ? 0.5 * e * e : huber_mm * e - 0.5 * huber_mm * huber_mm;
+    }
+    return sum;
+  };
+  Eigen::Vector4d x;
+  x << start.center_mm - mean, start.radius_mm;
+  double f = cost(x);
+  for (int it = 0; it < max_iterations; ++it) {
+    // The weighted normal equations: weight 1 within the loss's scale, k / |e| beyond (the
+    // Huber loss's own second-order model along the residual, as Ceres' Corrector makes it).
+    const Eigen::Vector3d c = mean + x.head<3>();
+    Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+    for (const auto& p : points_mm) {
+      const Eigen::Vector3d d = p - c;
+      const double n = d.norm();
+      if (!(n > 0)) continue;
+      const double e = n - x[3];
+      const double w = std::abs(e) <= huber_mm ? 1.0 : huber_mm / std::abs(e);
+      Eigen::Vector4d j;
+      j << -d / n, -1.0;
+      H.selfadjointView<Eigen::Upper>().rankUpdate(j, w);
+      g += w * e * j;
+    }
+    const Eigen::LDLT<Eigen::Matrix4d> ldlt(H.selfadjointView<Eigen::Upper>());
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
+    Eigen::Vector4d step = -ldlt.solve(g);
+    if (!step.allFinite()) return std::nullopt;
+    // A step that does not lower the loss is halved (the weights' model is exact only within k).
+    double f_try = cost(x + step);
+    for (int halve = 0; halve < 20 && !(f_try <= f); ++halve) step *= 0.5, f_try = cost(x + step);
+    if (!(f_try <= f)) return std::nullopt;
+    x += step, f = f_try;
+    if (step.cwiseAbs().maxCoeff() < tolerance_mm) {
+      Sphere s;
+      s.center_mm = x.head<3>() + mean;
+      s.radius_mm = std::abs(x[3]);
+      return s;
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace hedgefit::fitting

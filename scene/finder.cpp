@@ -311,7 +311,14 @@ class BallFinder {
       g.loss_scale_mm = j.band / 2;
       g.compute_covariance = false;
       g.num_threads = 1;
-      const auto fit = fitting::FitSphereGeometric(shell, g, &j.sphere);
+      // Reweighted Gauss-Newton first (a tenth of Ceres' cost, to 1e-3 mm: the shell and the
+      // judgement read the sphere to millimetres); Ceres' damped search where it does not settle.
+      fitting::SphereFitResult fit;
+      if (const auto quick = fitting::RefitSphereHuber(shell, j.sphere, g.loss_scale_mm, 100, 1e-3)) {
+        fit.sphere = *quick, fit.converged = true;
+      } else {
+        fit = fitting::FitSphereGeometric(shell, g, &j.sphere);
+      }
       // A refit that leaves the radius limits keeps the last sphere within them.
       if (!fit.converged || fit.sphere.radius_mm < o_.min_radius_mm || fit.sphere.radius_mm > o_.max_radius_mm) break;
       j.sphere = fit.sphere;

@@ -148,5 +148,38 @@ TEST(Refit, GaussNewtonFromACloseStartReachesTheGeometricFit) {
   EXPECT_FALSE(RefitSphereGeometric(std::vector<Eigen::Vector3d>(10, pts[0]), whole.sphere).has_value());
 }
 
+// The robust refit `find` repeats for each ball hypothesis minimises Ceres' Huber loss: on a cap
+// with a fifth of its points thrown 40-150 mm outside (a neighbour's leaves, clutter), from a
+// start 30 mm off, it must reach FitSphereGeometric's Huber fit. It stops within 1e-3 mm of a step
+// (its tolerance here, as in `find`), Ceres within 1e-6 mm; reweighting converges linearly, so 0.01
+// mm separates the same minimum from another one (the plain least squares' lies millimetres out).
+TEST(Refit, HuberReweightedGaussNewtonReachesCeresHuberFit) {
+  std::mt19937_64 rng(9);
+  const Eigen::Vector3d center(-120.0, 60.0, 1800.0);
+  auto pts = Cap(center, 450.0, 70.0, Eigen::Vector3d(0, 0, -1), 2000, 3.0, rng);
+  std::uniform_real_distribution<double> out(40.0, 150.0);
+  for (std::size_t i = 0; i < pts.size(); i += 5) pts[i] = center + (pts[i] - center).normalized() * (450.0 + out(rng));
+  GeometricFitOptions go;
+  go.loss = RobustLoss::kHuber;
+  go.loss_scale_mm = 10.0;
+  go.compute_covariance = false;
+  Sphere start;
+  start.center_mm = center + Eigen::Vector3d(20.0, -15.0, 15.0);
+  start.radius_mm = 430.0;
+  const SphereFitResult reference = FitSphereGeometric(pts, go, &start);
+  ASSERT_TRUE(reference.converged) << reference.message;
+  const auto refit = RefitSphereHuber(pts, start, go.loss_scale_mm, 100, 1e-3);
+  ASSERT_TRUE(refit.has_value());
+  EXPECT_NEAR(refit->radius_mm, reference.sphere.radius_mm, 0.01);
+  EXPECT_NEAR((refit->center_mm - reference.sphere.center_mm).norm(), 0.0, 0.01);
+  // The loss matters here: least squares on the same points lies well away from the Huber fit.
+  const auto plain = RefitSphereGeometric(pts, start);
+  ASSERT_TRUE(plain.has_value());
+  EXPECT_GT(std::abs(plain->radius_mm - reference.sphere.radius_mm), 1.0);
+  // Too few points, or no loss scale: no sphere.
+  EXPECT_FALSE(RefitSphereHuber({pts[0], pts[1], pts[2]}, start, 10.0).has_value());
+  EXPECT_FALSE(RefitSphereHuber(pts, start, 0.0).has_value());
+}
+
 }  // namespace
 }  // namespace hedgefit::fitting
