@@ -3,6 +3,8 @@
 #include <ceres/ceres.h>
 
 #include <chrono>
+#include <limits>
+#include <cstdio>
 #include <cmath>
 #include <thread>
 
@@ -282,7 +284,7 @@ std::optional<Sphere> RefitSphereHuber(const std::vector<Eigen::Vector3d>& point
   };
   Eigen::Vector4d x;
   x << start.center_mm - mean, start.radius_mm;
-  double f = cost(x);
+  double f = cost(x), lambda = 1e-4;
   for (int it = 0; it < max_iterations; ++it) {
     // The weighted normal equations: weight 1 within the loss's scale, k / |e| beyond (the
     // Huber loss's own second-order model along the residual, as Ceres' Corrector makes it).
@@ -300,21 +302,29 @@ std::optional<Sphere> RefitSphereHuber(const std::vector<Eigen::Vector3d>& point
       H.selfadjointView<Eigen::Upper>().rankUpdate(j, w);
       g += w * e * j;
     }
-    const Eigen::LDLT<Eigen::Matrix4d> ldlt(H.selfadjointView<Eigen::Upper>());
-    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
-    Eigen::Vector4d step = -ldlt.solve(g);
-    if (!step.allFinite()) return std::nullopt;
-    // A step that does not lower the loss is halved (the weights' model is exact only within k).
-    double f_try = cost(x + step);
-    for (int halve = 0; halve < 20 && !(f_try <= f); ++halve) step *= 0.5, f_try = cost(x + step);
-    if (!(f_try <= f)) return std::nullopt;
-    x += step, f = f_try;
-    if (step.cwiseAbs().maxCoeff() < tolerance_mm) {
-      Sphere s;
-      s.center_mm = x.head<3>() + mean;
-      s.radius_mm = std::abs(x[3]);
-      return s;
+    H = H.selfadjointView<Eigen::Upper>();
+    // Levenberg-Marquardt's damping, as Ceres': a small cap of a large sphere leaves the centre
+    // along its axis and the radius nearly one parameter, and Gauss-Newton's step there is
+    // rounding.
+    bool stepped = false;
+    for (int tries = 0; tries < 10 && !stepped; ++tries) {
+      Eigen::Matrix4d Hd = H;
+      Hd.diagonal() += lambda * H.diagonal().cwiseMax(1e-12);
+      const Eigen::Vector4d step = -Hd.ldlt().solve(g);
+      const double f_try = step.allFinite() ? cost(x + step) : std::numeric_limits<double>::infinity();
+      if (f_try <= f) {
+        x += step, f = f_try, lambda = std::max(1e-9, lambda / 3), stepped = true;
+        if (step.cwiseAbs().maxCoeff() < tolerance_mm) {
+          Sphere s;
+          s.center_mm = x.head<3>() + mean;
+          s.radius_mm = std::abs(x[3]);
+          return s;
+        }
+      } else {
+        lambda *= 4;
+      }
     }
+    if (!stepped) return std::nullopt;
   }
   return std::nullopt;
 }

@@ -46,10 +46,10 @@ std::optional<Sphere> RefitSphereGeometric(const std::vector<Eigen::Vector3d>& p
                                            int max_iterations = 20);
 
 /// The same with Ceres' HuberLoss(`huber_mm`) (FitSphereGeometric with RobustLoss::kHuber and that
-/// scale, no covariance), by reweighted Gauss-Newton with step halving: the robust refit a search
-/// repeats hundreds of times per cloud (`find`'s ball hypotheses), a tenth of Ceres' cost there.
-/// nullopt for fewer than 4 points, a singular system or no settling to 1e-6 mm within
-/// `max_iterations` (then use FitSphereGeometric's damped search).
+/// scale, no covariance), by reweighted Levenberg-Marquardt in closed form: the robust refit a
+/// search repeats hundreds of times per cloud (`find`'s ball hypotheses), without Ceres' set-up
+/// for each. nullopt for fewer than 4 points, no loss scale, or no step under `tolerance_mm`
+/// within `max_iterations` (a cap too small to pin a sphere, as Ceres' would not converge).
 std::optional<Sphere> RefitSphereHuber(const std::vector<Eigen::Vector3d>& points_mm, const Sphere& start, double huber_mm,
                                        int max_iterations = 50, double tolerance_mm = 1e-6);
 

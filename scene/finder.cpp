@@ -306,22 +306,13 @@ class BallFinder {
         if (std::abs(res[k] - med) <= keep) shell.push_back(pts_[j.shell[k]]);
       }
       if (shell.size() < 10) break;
-      fitting::GeometricFitOptions g;
-      g.loss = fitting::RobustLoss::kHuber;
-      g.loss_scale_mm = j.band / 2;
-      g.compute_covariance = false;
-      g.num_threads = 1;
-      // Reweighted Gauss-Newton first (a tenth of Ceres' cost, to 1e-3 mm: the shell and the
-      // judgement read the sphere to millimetres); Ceres' damped search where it does not settle.
-      fitting::SphereFitResult fit;
-      if (const auto quick = fitting::RefitSphereHuber(shell, j.sphere, g.loss_scale_mm, 100, 1e-3)) {
-        fit.sphere = *quick, fit.converged = true;
-      } else {
-        fit = fitting::FitSphereGeometric(shell, g, &j.sphere);
-      }
+      // Huber's loss at half the band; settled to 1e-3 mm (the shell and the judgement read the
+      // sphere to millimetres) within Ceres' default 100 iterations, or not at all (a cap too
+      // small to pin a sphere).
+      const auto fit = fitting::RefitSphereHuber(shell, j.sphere, j.band / 2, 100, 1e-3);
       // A refit that leaves the radius limits keeps the last sphere within them.
-      if (!fit.converged || fit.sphere.radius_mm < o_.min_radius_mm || fit.sphere.radius_mm > o_.max_radius_mm) break;
-      j.sphere = fit.sphere;
+      if (!fit || fit->radius_mm < o_.min_radius_mm || fit->radius_mm > o_.max_radius_mm) break;
+      j.sphere = *fit;
     }
   }
 

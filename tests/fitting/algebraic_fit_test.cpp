@@ -153,7 +153,7 @@ TEST(Refit, GaussNewtonFromACloseStartReachesTheGeometricFit) {
 // start 30 mm off, it must reach FitSphereGeometric's Huber fit. It stops within 1e-3 mm of a step
 // (its tolerance here, as in `find`), Ceres within 1e-6 mm; reweighting converges linearly, so 0.01
 // mm separates the same minimum from another one (the plain least squares' lies millimetres out).
-TEST(Refit, HuberReweightedGaussNewtonReachesCeresHuberFit) {
+TEST(Refit, HuberReweightedLevenbergMarquardtReachesCeresHuberFit) {
   std::mt19937_64 rng(9);
   const Eigen::Vector3d center(-120.0, 60.0, 1800.0);
   auto pts = Cap(center, 450.0, 70.0, Eigen::Vector3d(0, 0, -1), 2000, 3.0, rng);
