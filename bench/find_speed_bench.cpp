@@ -182,5 +182,9 @@ int main(int argc, char** argv) {
               found.Topiary());
   std::printf("ratios: PCL approximate PMF / hedgefit ground %.1f; PCL PMF + Euclidean clusters + spheres / hedgefit find %.2f\n",
               ms_apmf / ms_ground, (ms_apmf + ms_euclid + ms_sac) / ms_find);
+  // Where find's time went, step by step (its last run; FindResult::timings_ms).
+  std::printf("hedgefit find's steps (last run, ms):");
+  for (const auto& [step, ms] : found.timings_ms) std::printf(" %s %.0f;", step.c_str(), ms);
+  std::printf("\n");
   return 0;
 }
