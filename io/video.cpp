@@ -2,10 +2,10 @@
 
 #include <dlfcn.h>
 
-#include <filesystem>
 #include <mutex>
 
 #include "pipeline/error.hpp"
+#include "pipeline/module.hpp"
 
 namespace hedgefit::io {
 
@@ -13,26 +13,14 @@ namespace {
 
 using OpenFn = Video* (*)(const char*, int);
 
-// Loaded once, never unloaded (a Video's code lives in it). Looked up beside this library (the
-// build tree's io/, or the installed lib/), then on the run path, then beside the executable.
+// Loaded once, never unloaded (a Video's code lives in it; pipeline::OpenOwnModule).
 OpenFn LoadModule() {
   static std::once_flag once;
   static OpenFn open = nullptr;
   static std::string why;
   std::call_once(once, [] {
     const char* name = "libhedgefit_video.so";
-    void* handle = nullptr;
-    Dl_info self;
-    if (dladdr(reinterpret_cast<const void*>(&OpenVideo), &self) != 0 && self.dli_fname != nullptr) {
-      handle = dlopen((std::filesystem::path(self.dli_fname).parent_path() / name).c_str(), RTLD_NOW | RTLD_LOCAL);
-    }
-    if (handle == nullptr) handle = dlopen(name, RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) {
-      why = dlerror();
-      std::error_code ec;
-      const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-      if (!ec) handle = dlopen((exe.parent_path() / name).c_str(), RTLD_NOW | RTLD_LOCAL);
-    }
+    void* handle = pipeline::OpenOwnModule(name, reinterpret_cast<const void*>(&OpenVideo), &why);
     if (handle == nullptr) return;
     open = reinterpret_cast<OpenFn>(dlsym(handle, HEDGEFIT_VIDEO_ENTRY_SYMBOL));
     if (open == nullptr) why = std::string(name) + " has no " + HEDGEFIT_VIDEO_ENTRY_SYMBOL;

@@ -17,6 +17,7 @@
 
 #include "cloud/cloud_io.hpp"
 #include "pipeline/error.hpp"
+#include "pipeline/module.hpp"
 #include "stereo/image_codecs_module.hpp"
 
 namespace hedgefit::stereo {
@@ -245,25 +246,14 @@ struct CodecModule {
   std::string why;
 };
 
-// Loaded once and never unloaded. Looked up beside this library (the build tree's stereo/, or
-// the install's lib/), then on the loader's path.
+// Loaded once and never unloaded (pipeline::OpenOwnModule).
 const CodecModule& Codecs() {
   static std::once_flag once;
   static CodecModule m;
   std::call_once(once, [] {
     const char* name = "libhedgefit_imgcodecs.so";
-    void* handle = nullptr;
-    Dl_info self;
-    if (dladdr(reinterpret_cast<const void*>(&SniffImageFormat), &self) != 0 && self.dli_fname != nullptr) {
-      const std::filesystem::path beside = std::filesystem::path(self.dli_fname).parent_path() / name;
-      handle = dlopen(beside.c_str(), RTLD_NOW | RTLD_LOCAL);
-    }
-    if (handle == nullptr) handle = dlopen(name, RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) {
-      const char* e = dlerror();
-      m.why = e ? e : "not found";
-      return;
-    }
+    void* handle = pipeline::OpenOwnModule(name, reinterpret_cast<const void*>(&SniffImageFormat), &m.why);
+    if (handle == nullptr) return;
     m.read = reinterpret_cast<ImageReadFn>(dlsym(handle, HEDGEFIT_IMAGE_READ_SYMBOL));
     m.encode = reinterpret_cast<ImageEncodeFn>(dlsym(handle, HEDGEFIT_IMAGE_ENCODE_SYMBOL));
     if (m.read == nullptr || m.encode == nullptr) m.why = std::string(name) + " lacks its entry points";
