@@ -1,7 +1,7 @@
-// PCD: read by hand into PCL's blob layout (PCL's reader trusts its input), written by PCL.
+// PCD: read by hand into PCL's blob layout (PCL's reader trusts its input), written by PCL's
+// writer (from libhedgefit_pclio.so, pcl_io.hpp).
 
-#include <pcl/io/lzf.h>
-#include <pcl/io/pcd_io.h>
+#include <pcl/PCLPointCloud2.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "cloud/formats/formats.hpp"
+#include "cloud/formats/pcl_io.hpp"
 #include "pipeline/error.hpp"
 #include "cloud/pcl_adapter.hpp"
 
@@ -248,8 +249,9 @@ void ReadCompressedPcd(std::istream& in, const std::string& path, std::uint64_t 
   std::vector<char> packed(sizes[0]), unpacked(sizes[1]);
   in.read(packed.data(), std::streamsize(packed.size()));
   if (!in) throw Error(path + ": truncated: compressed point data ends early");
-  const unsigned int got = pcl::lzfDecompress(packed.data(), sizes[0], unpacked.data(), sizes[1]);
-  if (got != sizes[1]) throw Error(path + ": corrupt: the compressed point data do not unpack (LZF)");
+  if (LoadPclIo(path).lzf_decompress(packed.data(), sizes[0], unpacked.data(), sizes[1]) != 0) {
+    throw Error(path + ": corrupt: the compressed point data do not unpack (LZF)");
+  }
   // Stored field by field (all points' x, then all y, ...): back to one record per point.
   blob->data.resize(std::size_t(points * point_size));
   std::uint64_t src = 0;
@@ -311,16 +313,9 @@ void WritePcd(const std::string& path, const PointCloud& cloud, const WriteOptio
   // TYPE F SIZE 8, as PCL reads them), with the digits they need in text.
   const pcl::PCLPointCloud2 blob = ToPclBlob(cloud, true);
   const int precision = cloud.offset.isZero() ? options.ascii_precision : std::max(options.ascii_precision, 15);
-  const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
-  const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
-  pcl::PCDWriter writer;
-  int status = 0;
-  switch (options.pcd_encoding) {
-    case PcdEncoding::kAscii: status = writer.writeASCII(path, blob, origin, orientation, precision); break;
-    case PcdEncoding::kBinary: status = writer.writeBinary(path, blob, origin, orientation); break;
-    case PcdEncoding::kBinaryCompressed: status = writer.writeBinaryCompressed(path, blob, origin, orientation); break;
-  }
-  if (status < 0) throw Error(path + ": write failed; check free space and permissions");
+  const int encoding = options.pcd_encoding == PcdEncoding::kAscii ? 0 : options.pcd_encoding == PcdEncoding::kBinary ? 1 : 2;
+  const int status = LoadPclIo(path).write_pcd(path.c_str(), &blob, encoding, precision);
+  if (status != 0) throw Error(path + ": write failed; check free space and permissions");
 }
 
 }  // namespace

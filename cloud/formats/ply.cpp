@@ -1,7 +1,7 @@
 // PLY: read by hand (PCL's reader aborts on malformed headers); binary written through PCL's
-// writer, ASCII by hand (PCL's prints 6 digits).
+// writer (from libhedgefit_pclio.so, pcl_io.hpp), ASCII by hand (PCL's prints 6 digits).
 
-#include <pcl/io/ply_io.h>
+#include <pcl/PCLPointCloud2.h>
 
 #include <algorithm>
 #include <cstring>
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "cloud/formats/formats.hpp"
+#include "cloud/formats/pcl_io.hpp"
 #include "pipeline/error.hpp"
 #include "cloud/pcl_adapter.hpp"
 
@@ -353,8 +354,8 @@ void WritePlyAscii(const std::string& path, const PointCloud& cloud, int precisi
 void WritePly(const std::string& path, const PointCloud& cloud, const WriteOptions& options) {
   // A shifted cloud is written as text with its shift added back: PCL's binary writer stores floats.
   if (!options.ply_binary || !cloud.offset.isZero()) return WritePlyAscii(path, cloud, options.ascii_precision);
-  pcl::PLYWriter writer;
-  if (writer.writeBinary(path, ToPclBlob(cloud), Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), false) < 0) {
+  const pcl::PCLPointCloud2 blob = ToPclBlob(cloud);
+  if (LoadPclIo(path).write_ply(path.c_str(), &blob) != 0) {
     throw Error(path + ": write failed; check free space and permissions");
   }
 }
