@@ -1,3 +1,6 @@
+// libhedgefit_vtk.so's charts (render/vtk_module.hpp): fit errors drawn with VTK's charts and
+// written to PNG. plot.cpp checks the request and calls in here.
+
 #include "render/plot.hpp"
 
 #include <vtkAxis.h>
@@ -19,24 +22,20 @@
 #include <vtkVector.h>
 #include <vtkWindowToImageFilter.h>
 
-#include <filesystem>
-#include <unistd.h>
+#include <cstdio>
+#include <exception>
 
 #include "pipeline/error.hpp"
 #include "render/render.hpp"
 #include "render/virtual_display.hpp"
+#include "render/vtk_module.hpp"
 
 namespace hedgefit::render {
 
-void PlotErrors(const std::vector<ErrorSeries>& series, const std::string& x_title, int width, int height,
-                const std::string& png_path) {
-  namespace fs = std::filesystem;
-  const fs::path target(png_path);
-  std::error_code ec;
-  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-  if (!fs::is_directory(dir, ec)) throw Error(png_path + ": directory '" + dir.string() + "' does not exist; create it first");
-  if (series.empty()) throw Error(png_path + ": nothing to plot; give clouds with truth (CLOUD.truth.json or --truth)");
-  if (width < 100 || height < 100) throw Error("plot size: at least 100 x 100 px");
+namespace {
+
+void DrawPlot(const std::vector<ErrorSeries>& series, const std::string& x_title, int width, int height,
+              const std::string& png_path) {
   EnsureDisplay();
   vtkObject::GlobalWarningDisplayOff();
 
@@ -84,4 +83,16 @@ void PlotErrors(const std::vector<ErrorSeries>& series, const std::string& x_tit
   WriteWindowPng(view->GetRenderWindow(), png_path);
 }
 
+}  // namespace
 }  // namespace hedgefit::render
+
+extern "C" int hedgefit_vtk_plot_errors_v1(const std::vector<hedgefit::render::ErrorSeries>* series, const char* x_title,
+                                            int width, int height, const char* png_path, char* why, std::size_t why_size) {
+  try {
+    hedgefit::render::DrawPlot(*series, x_title, width, height, png_path);
+    return 0;
+  } catch (const std::exception& e) {
+    std::snprintf(why, why_size, "%s", e.what());
+    return 1;
+  }
+}

@@ -1,6 +1,7 @@
 #pragma once
-/// Off-screen VTK pictures of clouds and fitted spheres, written to PNG. Works without a
-/// display (see virtual_display.hpp). The same input gives the same image.
+/// Off-screen VTK pictures of clouds and fitted spheres, written to PNG: drawn by
+/// libhedgefit_vtk.so, loaded on the first picture (vtk_module.hpp). Works without a display (see
+/// virtual_display.hpp). The same input gives the same image.
 
 #include <array>
 #include <optional>

@@ -28,3 +28,13 @@ err=$("$scratch/prefix/bin/hedgefit" measure --left "$source_dir/fuzz/corpus/cap
 echo "$err" | grep -q "images are 16x12 but the rig was calibrated at" || {
   echo "installed hedgefit did not read a BMP through its image module:"; echo "$err"; exit 1; }
 echo "installed hedgefit reads BMP through its image module: ok"
+# PCL's I/O (cloud/formats/pcl_io_module.hpp: a compressed PCD's LZF) and VTK (render/vtk_module.hpp)
+# are modules found beside the installed library: the installed hedgefit reads a sample cloud and
+# draws it. Neither loads at start-up: the executable does not need VTK's libraries.
+"$scratch/prefix/bin/hedgefit" render "$source_dir/sample_clouds/cap_z2300_a60_o10.pcd" -o "$scratch/cap.png" > /dev/null || {
+  echo "installed hedgefit could not read a compressed PCD and draw it through its modules"; exit 1; }
+[ -s "$scratch/cap.png" ] || { echo "installed hedgefit render wrote no picture"; exit 1; }
+if ldd "$scratch/prefix/bin/hedgefit" | grep -q "libvtk\|libpcl_io"; then
+  echo "the installed hedgefit loads VTK or pcl_io at start-up; they belong in its modules"; exit 1
+fi
+echo "installed hedgefit reads PCD and draws through its modules, and loads neither at start: ok"
