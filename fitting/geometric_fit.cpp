@@ -4,7 +4,6 @@
 
 #include <chrono>
 #include <limits>
-#include <cstdio>
 #include <cmath>
 #include <thread>
 
