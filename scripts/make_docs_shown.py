@@ -141,6 +141,7 @@ def main():
     def needs_absent_data(command):
         # the commands that read real data: a data/ path, or a script that looks for it itself
         reads = ("data/" in command or "find_real_table.py" in command or "find_perturbed.py" in command
+                 or "startup_time.py" in command
                  or "accuracy_tables.py find" in command
                  or "accuracy_tables.py real" in command)
         if reads and not has_data:
