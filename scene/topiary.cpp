@@ -282,6 +282,32 @@ std::string Unpinned(const TopiaryShape& s, const TopiaryOptions& o) {
                           "within %.0f %%", s.shape.c_str(), s.axes_mm(k), s.axes_ci95_mm(k), 100 * o.max_axis_uncertainty);
 }
 
+// The points the measured fit reads: those the shape was judged on (`upper`, the upper three
+// quarters of the object's height) and, where those stop above the shape's equator
+// (`equator_unjudged`: its centre lies below the lowest judged height), the object's points below
+// them (`below`) that lie within 2.5 ground noises of the judged surface carried down. The judged
+// points of a dome cut by the lawn near its equator are its upper half alone, whose centre's
+// height and vertical semi-axis trade against each other (only the top's curvature tells them
+// apart, and the radial distance reads it long under noise): on the held-back photogrammetry
+// beds, domes of 315-344 mm with centres 83-92 mm above the lawn read 4.6-7.7 mm tall and their
+// centres 2.8-5.1 mm low; with their sides down to the lawn, 2.0-2.4 mm tall. The reach is the
+// sensor's noise, not the shape's roughness: on the real garden half (roughness 2-3 noises) 2.5
+// roughnesses took in a tree's low leaves about the sparsest topiary, and its spheroid of 330 mm
+// became a dome of 482. Strays about a foot that would widen a footprint lie off the carried-down
+// surface. A shape whose judged points reach below its equator is pinned by them: given its sides
+// too, the drone's beds pinned their footprints tighter than the leaf layer's offset, which it
+// reads 1-2 mm short, and their intervals held 379 of 504 semi-axes instead of 402.
+std::vector<Eigen::Vector3d> MeasuredPoints(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& points,
+                                            const std::vector<bool>& below, const TopiaryShape& s, double noise,
+                                            bool equator_unjudged, std::vector<Eigen::Vector3d> upper) {
+  if (!equator_unjudged) return upper;
+  const double reach = 2.5 * noise;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (below[k] && std::abs(fitting::DistanceOutside(s, pts[points[k]])) <= reach) upper.push_back(pts[points[k]]);
+  }
+  return upper;
+}
+
 // The top view of the footprint: the share of the ellipse within 0.8 of its semi-axes that lies
 // within a disc of the cell's area (radius cell / sqrt(pi)) of one of the points `p`. For points
 // scattered at random it is a cell's chance of holding one; unlike cells, it is the same wherever
@@ -361,11 +387,18 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
   }
   const double from = std::max(band, 0.25 * peak_mm);
   std::vector<Eigen::Vector3d> p;
+  // The object's points below the judged ones, above the ground's band: the measured fit's
+  // candidates (MeasuredPoints).
+  std::vector<bool> below(points.size(), false);
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Eigen::Vector3d& v = pts[points[k]];
     const double h = v.z() - ground.HeightAt(v.x(), v.y());
-    if (h >= band && (cell_height_mm ? double((*cell_height_mm)[k]) : h) >= from) p.push_back(v), mean += v.head<2>();
+    if (h >= band && (cell_height_mm ? double((*cell_height_mm)[k]) : h) >= from) {
+      p.push_back(v), mean += v.head<2>();
+    } else {
+      below[k] = h >= band;
+    }
   }
   mean /= double(std::max<std::size_t>(1, p.size()));
   c.points = std::move(points);
@@ -447,7 +480,8 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     // Judged on 800 points; measured on up to 4000 (the vertical semi-axis of a shape whose
     // lower half no sensor saw is pinned by the top's curvature alone, and wants them all), and
     // to its envelope: where its outer leaves end (fitting/shape_fit.hpp).
-    const TopiaryShape fine = FitTopiaryShape(p, ground_mm, noise, widest_mm, 4000, true, true, o.max_roughness * noise, round);
+    const TopiaryShape fine = FitTopiaryShape(MeasuredPoints(pts, c.points, below, s, noise, s.center_mm.z() - ground_mm < from, p),
+                                              ground_mm, noise, widest_mm, 4000, true, true, o.max_roughness * noise, round);
     if (fine.converged) c.shape = fine;
     // Measured with the block jackknife, a shape the judging fit's own interval let pass may
     // still not be pinned down.
