@@ -547,6 +547,44 @@ std::vector<TopiaryCandidate> JudgeSplitting(const std::vector<Eigen::Vector3d>&
   return peeled;
 }
 
+// A box hedge row that the height model parts at a low saddle leaves an end that passes for a
+// clipped box or ellipsoid: held-back drone bed 102 (simulated) called a 766 x 460 mm piece of a
+// row's end a cuboid, its 3.6 m remainder refused as a row. A topiary whose footprint is stretched
+// along a row refused for its length (within 20 degrees), as wide as that row within a third,
+// centred within the row's half-width of its axis and within the row's length (its fitted shape,
+// which a box's points stretch past their end: 2,106 mm for the row's 1.6-1.8 m half, whose end
+// the piece lay inside) or beyond its end by at most half its own length or two cells, is refused
+// as that row's end. A ball or round dome at a row's end has no direction to continue it in and
+// is not touched, nor is a shape across a row's end or beside it.
+void RefuseRowEnds(std::vector<TopiaryCandidate>* out, const TopiaryOptions& o, double cell) {
+  std::vector<const TopiaryShape*> rows;
+  for (const auto& c : *out) {
+    if (!c.topiary && c.shape.converged && c.shape.footprint_mm.x() > o.max_elongation * c.shape.footprint_mm.y()) {
+      rows.push_back(&c.shape);
+    }
+  }
+  for (auto& c : *out) {
+    const TopiaryShape& s = c.shape;
+    if (!c.topiary || !s.converged || s.footprint_mm.x() < 1.15 * s.footprint_mm.y()) continue;
+    for (const TopiaryShape* row : rows) {
+      const double turn = (s.heading_deg - row->heading_deg) * M_PI / 180;
+      if (std::abs(std::sin(turn)) > std::sin(20 * M_PI / 180)) continue;
+      const double h = row->heading_deg * M_PI / 180;
+      const Eigen::Vector2d u(std::cos(h), std::sin(h)), d = s.center_mm.head<2>() - row->center_mm.head<2>();
+      const double width = row->footprint_mm.y(), across = std::abs(d.x() * u.y() - d.y() * u.x());
+      const double beyond = std::abs(d.dot(u)) - row->footprint_mm.x() - s.footprint_mm.x();
+      if (across > width || std::abs(s.footprint_mm.y() - width) > width / 3 ||
+          beyond > std::max(2 * cell, 0.5 * s.footprint_mm.x())) {
+        continue;
+      }
+      c.topiary = false;
+      c.reason = pipeline::Format("the end of a row %.0f mm wide, as wide as it and along it: a hedge row the height "
+                                  "model parted, not one shape", 2 * width);
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& idx,
@@ -565,6 +603,7 @@ std::vector<TopiaryCandidate> FindTopiary(const std::vector<Eigen::Vector3d>& pt
   });
   std::vector<TopiaryCandidate> out;
   for (auto& j : judged) std::move(j.begin(), j.end(), std::back_inserter(out));
+  RefuseRowEnds(&out, o, cell);
   return out;
 }
 
