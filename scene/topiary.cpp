@@ -295,8 +295,9 @@ std::string Unpinned(const TopiaryShape& s, const TopiaryOptions& o) {
 // roughnesses took in a tree's low leaves about the sparsest topiary, and its spheroid of 330 mm
 // became a dome of 482. Strays about a foot that would widen a footprint lie off the carried-down
 // surface. A shape whose judged points reach below its equator is pinned by them: given its sides
-// too, the drone's beds pinned their footprints tighter than the leaf layer's offset, which it
-// reads 1-2 mm short, and their intervals held 379 of 504 semi-axes instead of 402.
+// too, the drone's beds pinned their footprints tighter than the leaf layer's offset, which then
+// read 1-2 mm short (its noise held at the lawn's all round, before LeafLayerNll's horizontal
+// part), and their intervals held 379 of 504 semi-axes instead of 402.
 std::vector<Eigen::Vector3d> MeasuredPoints(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::size_t>& points,
                                             const std::vector<bool>& below, const TopiaryShape& s, double noise,
                                             bool equator_unjudged, std::vector<Eigen::Vector3d> upper) {
@@ -552,8 +553,9 @@ std::vector<TopiaryCandidate> JudgeSplitting(const std::vector<Eigen::Vector3d>&
 // row's end a cuboid, its 3.6 m remainder refused as a row. A topiary whose footprint is stretched
 // along a row refused for its length (within 20 degrees), as wide as that row within a third,
 // centred within the row's half-width of its axis and within the row's length (its fitted shape,
-// which a box's points stretch past their end: 2,106 mm for the row's 1.6-1.8 m half, whose end
-// the piece lay inside) or beyond its end by at most half its own length or two cells, is refused
+// which an ellipse fitted to a box's points stretches past their end: bed 102's row read a
+// 2,106 mm semi-axis whose tip lay beyond the piece's centre) or beyond its end by at most half
+// its own length or two cells, is refused
 // as that row's end. A ball or round dome at a row's end has no direction to continue it in and
 // is not touched, nor is a shape across a row's end or beside it.
 void RefuseRowEnds(std::vector<TopiaryCandidate>* out, const TopiaryOptions& o, double cell) {
