@@ -3,6 +3,7 @@
 // scene::FindHedges; the reports are scene/find_report.hpp's.
 
 #include <iostream>
+#include <sstream>
 
 #include "apps/commands.hpp"
 #include "cli/parse.hpp"
@@ -30,9 +31,33 @@ struct FindArgs {
   std::string format = "table";
   std::string labelled;
   std::string plot, plot_marks;
+  std::vector<std::string> viewpoint;  // "x,y,z", the cloud's units
+  std::string viewpoints;              // a cloud file of them (a trajectory)
   std::uint64_t seed = 42;
   StageFlags flags;
 };
+
+// --viewpoint's "x,y,z" and --viewpoints' points, in the cloud's units and frame.
+std::vector<Eigen::Vector3d> Viewpoints(const FindArgs& a) {
+  std::vector<Eigen::Vector3d> at;
+  for (const std::string& text : a.viewpoint) {
+    Eigen::Vector3d v;
+    char c1 = 0, c2 = 0, rest = 0;
+    std::istringstream in(text);
+    if (!(in >> v.x() >> c1 >> v.y() >> c2 >> v.z()) || c1 != ',' || c2 != ',' || (in >> rest) || !v.allFinite()) {
+      throw Error("--viewpoint '" + text + "': give the sensor's position as X,Y,Z in the cloud's units (e.g. 2.5,-1.5,1.6)");
+    }
+    at.push_back(v);
+  }
+  if (!a.viewpoints.empty()) {
+    const cloud::PointCloud c = cloud::ReadCloud(a.viewpoints);
+    for (const auto& p : c.points_mm) {
+      if (p.allFinite()) at.push_back(p.cast<double>() + c.offset);
+    }
+    if (at.empty()) throw Error("--viewpoints " + a.viewpoints + ": holds no position; give one 'x y z' line per station");
+  }
+  return at;
+}
 
 int RunFind(const FindArgs& a) {
   fitting::QuietSolverWarnings();
@@ -51,12 +76,13 @@ int RunFind(const FindArgs& a) {
   if (!a.plot.empty()) pipeline::CheckImageOutput("--plot", a.plot, {".png"}, a.clouds);
   if (!a.plot_marks.empty() && a.plot.empty()) throw Error("--plot-marks draws on --plot's picture: give --plot PNG too");
   if (!a.plot_marks.empty()) render::ReadTopViewMarks(a.plot_marks, 1.0);  // a bad file fails before any work
+  const std::vector<Eigen::Vector3d> viewpoints = Viewpoints(a);
   std::vector<scene::FindReport> reports;
   int failed = 0;
   for (const std::string& file : a.clouds) {
     try {
       cloud::PointCloud cloud;
-      scene::FindReport rep = scene::FindInCloudFile(file, a.scale, o, &cloud);
+      scene::FindReport rep = scene::FindInCloudFile(file, a.scale, o, &cloud, viewpoints);
       if (!a.labelled.empty()) cloud::WriteCloud(a.labelled, scene::LabelCloud(cloud, rep.result));
       if (!a.plot.empty()) {
         render::WriteTopView(cloud, rep.result, a.plot, 1200, a.plot_marks.empty() ? std::vector<Eigen::Vector2d>{} : ShiftedMarks(render::ReadTopViewMarks(a.plot_marks, rep.scale), rep.offset_mm));
@@ -92,7 +118,8 @@ void AddFindCommand(CLI::App& app, CommandFn* run) {
       "Each object is a ball, a dome (a ball cut by the ground), an ellipsoid, or not a ball, with the reason; what\n"
       "no ball takes is searched for clipped topiary by height (a dome, a spheroid, an ellipsoid, a drum, a box or a cone with\n"
       "a vertical axis: squat box seen from above), with its semi-axes and heading; --no-topiary turns that off. One too\n"
-      "sparse to show a solid top is undecided, with the spacing that would decide.\n"
+      "sparse to show a solid top is undecided, with the spacing that would decide. A scanner's cloud seen from the\n"
+      "side is judged over the part of each top that faces where it stood: give --viewpoint (repeatable) or --viewpoints.\n"
       "--labelled writes the cloud with hedge_id (balls and topiary), object_id and ground fields: compare, trim\n"
       "and render then work on each.\n");
   auto a = std::make_shared<FindArgs>();
@@ -106,7 +133,11 @@ void AddFindCommand(CLI::App& app, CommandFn* run) {
   cmd->add_option("--plot", a->plot, "draw the top view with each ball's circle, each topiary's footprint and each other object's outline to this PNG");
   cmd->add_option("--plot-marks", a->plot_marks,
                   "also draw these places on --plot as crosses (a text file of 'x y' per line, the cloud's units: a map's topiary)");
-  GroupFlags(cmd, {{"Inputs", {"CLOUD", "--scale"}}, {"Finding", {"--seed"}}, {"Output", {"--format", "--labelled", "--plot", "--plot-marks"}}});
+  cmd->add_option("--viewpoint", a->viewpoint,
+                  "where the sensor stood, X,Y,Z in the cloud's units (repeatable: a scanner's stations)");
+  cmd->add_option("--viewpoints", a->viewpoints, "a cloud file of where the sensor stood (e.g. a trajectory as 'x y z' lines, .xyz)")
+      ->check(CLI::ExistingFile);
+  GroupFlags(cmd, {{"Inputs", {"CLOUD", "--scale", "--viewpoint", "--viewpoints"}}, {"Finding", {"--seed"}}, {"Output", {"--format", "--labelled", "--plot", "--plot-marks"}}});
   cmd->callback([=]() { *run = [=]() { return RunFind(*a); }; });
 }
 

@@ -30,7 +30,9 @@ const pipeline::OptionTable<FindBenchOptions>& FindBenchOptions::Table() {
                                 .Range(1, 1000000)
                                 .Add("height", &O::height_mm, "the LiDAR's and the tripod's height above the lawn", "mm")
                                 .Range(200, 5000)
-                                .Add("dir", &O::dir, "also write each scan (PLY, metres) and its truth here");
+                                .Add("dir", &O::dir, "also write each scan (PLY, metres) and its truth here")
+                                .Add("viewpoints", &O::viewpoints,
+                                     "tell find where the sensor stood (each scan's stations; written beside it with --dir, .viewpoints.xyz)");
   return table;
 }
 
@@ -145,15 +147,22 @@ FindBenchResult RunFindBench(const FindBenchOptions& o) {
       so.noise_mm = sensor == sim::Sensor::kTerrestrial ? 3
                     : (sensor == sim::Sensor::kPhotogrammetry || sensor == sim::Sensor::kAerial ? 5 : 10);
       const cloud::PointCloud cloud = sim::ScanGarden(scene, so);
+      scene::FindOptions fo;
+      if (o.viewpoints) fo.viewpoints_mm = sim::ScanStations(scene, so);
       if (!o.dir.empty()) {
         const std::string stem = o.dir + "/" + name + "_" + job.scene + std::to_string(seed);
         cloud::PointCloud metres = cloud;
         for (auto& p : metres.points_mm) p /= 1000.f;
         cloud::WriteCloud(stem + ".ply", metres);
         sim::WriteScanTruth(stem + ".truth.json", scene);
+        if (o.viewpoints) {
+          std::string text;
+          for (const auto& v : fo.viewpoints_mm) text += pipeline::Format("%.4f %.4f %.4f\n", v.x() / 1000, v.y() / 1000, v.z() / 1000);
+          cloud::WriteTextFileAtomic(stem + ".viewpoints.xyz", text);
+        }
       }
       const auto t0 = std::chrono::steady_clock::now();
-      const scene::FindResult found = scene::FindHedges(cloud);
+      const scene::FindResult found = scene::FindHedges(cloud, fo);
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       FindBenchRow row = Score(scene, found);
       row.sensor = name;

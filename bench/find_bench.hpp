@@ -24,6 +24,9 @@ struct FindBenchOptions {
   int first_seed = 1;
   double height_mm = 1500;      ///< the LiDAR's and the tripod's height above the lawn
   std::string dir;              ///< when set, each scan and its truth are written here (PLY, metres: as a user's scan)
+  /// Tell find where the sensor stood (sim::ScanStations, as FindOptions::viewpoints_mm); with
+  /// `dir`, also written beside each scan (.viewpoints.xyz, metres) for find's --viewpoints.
+  bool viewpoints = false;
   static const pipeline::OptionTable<FindBenchOptions>& Table();
 };
 

@@ -367,7 +367,7 @@ void AddFindFunctions(py::module_& m) {
   m.def(
       "find",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& xyz, double scale, std::uint64_t seed,
-         const py::kwargs& options) {
+         const py::object& viewpoints, const py::kwargs& options) {
         std::map<std::string, pipeline::OptionValue> given;
         const auto specs = scene::FindOptions::Table().Specs();
         for (const auto& [key, value] : options) {
@@ -388,6 +388,14 @@ void AddFindFunctions(py::module_& m) {
           c.offset *= rep.scale;
         }
         rep.offset_mm = c.offset;
+        if (!viewpoints.is_none()) {
+          const auto v = viewpoints.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+          if (v.ndim() != 2 || v.shape(1) != 3) throw Error("find: viewpoints must be a (K, 3) array of where the sensor stood, in xyz's units");
+          const auto r = v.unchecked<2>();
+          for (py::ssize_t i = 0; i < r.shape(0); ++i) {
+            o.viewpoints_mm.push_back(Eigen::Vector3d(r(i, 0), r(i, 1), r(i, 2)) * rep.scale - c.offset);
+          }
+        }
         std::ostringstream text;
         std::vector<float> hedge_id;
         {
@@ -400,9 +408,10 @@ void AddFindFunctions(py::module_& m) {
         out["hedge_id"] = py::array_t<float>(py::ssize_t(hedge_id.size()), hedge_id.data());
         return out;
       },
-      py::arg("xyz"), py::arg("scale") = 0.0, py::arg("seed") = 42,
+      py::arg("xyz"), py::arg("scale") = 0.0, py::arg("seed") = 42, py::arg("viewpoints") = py::none(),
       "`hedgefit find` on (N, 3) points: the ground, the objects on it, every hedge ball and every clipped topiary "
       "shape among them. scale: multiplies the points (1000 for metres; 0 = guessed from their span and spacing). "
+      "viewpoints: (K, 3) positions the sensor stood at, in xyz's units (find's --viewpoint). "
       "Keyword arguments are segment.hedges' options (min_radius=300, up='-y', max_roughness=3.5, ...). Returns the "
       "dict `find --format json` gives per cloud ('hedges': id, verdict, ball, topiary, shape, center_mm, radius_mm, "
       "...) and 'hedge_id', each point's ball or topiary (0: none).");

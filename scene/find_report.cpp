@@ -13,7 +13,8 @@
 
 namespace hedgefit::scene {
 
-FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options, cloud::PointCloud* cloud) {
+FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options, cloud::PointCloud* cloud,
+                           const std::vector<Eigen::Vector3d>& viewpoints) {
   FindReport rep;
   cloud::PointCloud c = cloud::ReadCloud(file);
   if (scale > 0) {
@@ -30,7 +31,9 @@ FindReport FindInCloudFile(const std::string& file, double scale, const FindOpti
     c.offset *= rep.scale;
   }
   rep.offset_mm = c.offset;
-  rep.result = FindHedges(c, options);
+  FindOptions o = options;
+  for (const auto& v : viewpoints) o.viewpoints_mm.push_back(v * rep.scale - c.offset);
+  rep.result = FindHedges(c, o);
   rep.result.file = file;
   if (cloud) *cloud = std::move(c);
   return rep;
@@ -132,6 +135,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
     c["up"] = Vec(r.up);
     c["up_source"] = r.up_source;
     c["spacing_mm"] = r.spacing_mm;
+    c["viewpoints"] = r.viewpoints;
     c["ground"] = {{"points", r.ground_points}, {"noise_mm", r.ground.noise_mm}, {"cell_mm", r.ground.cell_mm}};
     c["object_points"] = r.object_points;
     c["balls"] = r.Balls();
@@ -198,6 +202,10 @@ void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
           "topiary by height, of %zu object%s\n",
           r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
           r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.Topiary() - r.Balls() - TopiaryFromBallSearch(r), r.objects.size(), r.objects.size() == 1 ? "" : "s");
+    if (r.viewpoints > 0) {
+      Print(out, "  topiary judged over the part of each top facing the %zu viewpoint%s given\n", r.viewpoints,
+            r.viewpoints == 1 ? "" : "s");
+    }
     if (!rep.offset_mm.isZero()) {
       Print(out, "  its coordinates were shifted by (%.0f, %.0f, %.0f) mm on reading, for single precision; the "
                  "positions below are in the file's frame\n",

@@ -24,9 +24,11 @@ struct FindReport {
 
 /// `find` on one cloud file: read (cloud/cloud_io.hpp), scaled to mm by `scale` (0: guessed from
 /// its span and spacing, as `info` guesses), and searched with `options`. `cloud`, when given,
-/// gets the cloud as searched (in mm), for the outputs drawn or written from it.
+/// gets the cloud as searched (in mm), for the outputs drawn or written from it. `viewpoints`:
+/// where the sensor stood, in the file's own units and frame (FindOptions::viewpoints_mm gets
+/// them scaled and shifted as the points are).
 FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options,
-                           cloud::PointCloud* cloud = nullptr);
+                           cloud::PointCloud* cloud = nullptr, const std::vector<Eigen::Vector3d>& viewpoints = {});
 
 void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports);
 void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports);

@@ -1008,8 +1008,9 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
 
 }  // namespace
 
-FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
-  o.Check();
+FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& given) {
+  given.Check();
+  FindOptions o = given;
   FindResult res;
   res.points = cloud.size();
   auto t0 = Clock::now();
@@ -1022,6 +1023,8 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& o) {
   res.up = sc.up;
   res.up_source = sc.up_source;
   res.scene_from_cloud = sc.turn;
+  for (const auto& v : given.viewpoints_mm) o.topiary.viewpoints_mm.push_back(sc.turn * v);
+  res.viewpoints = given.viewpoints_mm.size();
   res.ground_points = sc.ground.ground_points;
   lap("up and ground");
   // Objects: what stands above the ground's band, in the top view.

@@ -59,6 +59,10 @@ struct FindOptions {
   bool envelope = true;           ///< fit the leafy envelope too (the outer surface; off: the geometric fit only)
   GroundOptions ground;
   TopiaryOptions topiary;         ///< clipped shapes among what no ball takes
+  /// Where the sensor stood, in the cloud's frame (mm, less its offset): a scanner's stations or
+  /// trajectory, a PCD's VIEWPOINT. A topiary's cover is then judged over the part of its top that
+  /// faces one of them (TopiaryOptions::viewpoints_mm). Empty: seen from above.
+  std::vector<Eigen::Vector3d> viewpoints_mm;
   std::uint64_t seed = 42;
   void Check() const;
   static const pipeline::OptionTable<FindOptions>& Table();  ///< the options, declared once (with the ground's)
@@ -111,6 +115,7 @@ struct FindResult {
   Eigen::Matrix3d scene_from_cloud = Eigen::Matrix3d::Identity();  ///< rotation: up to +z
   double spacing_mm = 0;          ///< median distance between neighbouring points (cloud::MedianSpacing)
   std::size_t points = 0, ground_points = 0, object_points = 0;
+  std::size_t viewpoints = 0;     ///< where the sensor stood, given (FindOptions::viewpoints_mm); 0: judged from above
   GroundModel ground;             ///< in the scene frame
   std::vector<FoundObject> objects;
   std::vector<std::pair<std::string, double>> timings_ms;  ///< per step

@@ -58,8 +58,13 @@ struct TopiaryOptions {
   /// pinned to 0.07-0.34 of each (up to 0.62 turned, docs/accuracy.md: 0.5 lost one there), a box
   /// fitted to a slice of a bench's seat not at all
   double max_axis_uncertainty = 1.0;
-  double min_noise_mm = 5;
-  double min_width_mm = 150;     ///< smallest horizontal semi-axis, mm (set from FindOptions::min_radius_mm by FindHedges)       ///< the noise roughness is judged against is at least this, mm
+  double min_noise_mm = 5;       ///< the noise roughness is judged against is at least this, mm
+  double min_width_mm = 150;     ///< smallest horizontal semi-axis, mm (set from FindOptions::min_radius_mm by FindHedges)
+  /// Where the sensor stood (scene frame, mm; set by FindHedges from FindOptions::viewpoints_mm):
+  /// when given, the cover is read over the part of the footprint whose top faces one of them,
+  /// on cells sized by the shape's own points (TopViewCover). Empty: the whole footprint, on
+  /// cells of twice the cloud's spacing.
+  std::vector<Eigen::Vector3d> viewpoints_mm;
   void Check() const;
   static const pipeline::OptionTable<TopiaryOptions>& Table();
 };

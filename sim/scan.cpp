@@ -416,9 +416,47 @@ Sensor ParseSensor(const std::string& name) {
   throw Error("unknown sensor '" + name + "'; choose lidar16, lidar32, terrestrial, photogrammetry or aerial");
 }
 
+namespace {
+// The aerial cameras' ground target: the garden's middle.
+Eigen::Vector3d Middle(const ScanScene& scene) {
+  const double ex = scene.extent_mm.x(), ey = scene.extent_mm.y();
+  return Eigen::Vector3d(ex / 2, ey / 2, scene.ground.Height(ex / 2, ey / 2));
+}
+}  // namespace
+
+std::vector<Eigen::Vector3d> ScanStations(const ScanScene& scene, const ScanOptions& o) {
+  std::vector<Eigen::Vector3d> at;
+  const double ex = scene.extent_mm.x(), ey = scene.extent_mm.y();
+  const Eigen::Vector3d middle = Middle(scene);
+  switch (o.sensor) {
+    case Sensor::kLidar16:
+    case Sensor::kLidar32:
+      // Driving past along y = -1.5 m, a sweep every metre.
+      for (double px = -2000; px <= ex + 2000; px += 1000) at.emplace_back(px, -1500, scene.ground.Height(px, -1500) + o.height_mm);
+      break;
+    case Sensor::kTerrestrial:
+      for (double sx : {0.3 * ex, 0.7 * ex}) at.emplace_back(sx, -2500, scene.ground.Height(sx, -2500) + o.height_mm);
+      break;
+    case Sensor::kAerial:
+      // A drone: 3 x 3 stations 6 m above the lawn over the garden.
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) at.emplace_back(ex * (0.1 + 0.4 * i), ey * (0.1 + 0.4 * j), middle.z() + 6000);
+      }
+      break;
+    case Sensor::kPhotogrammetry:
+      // 10 cameras on an ellipse around the garden, 4 m up.
+      for (int k = 0; k < 10; ++k) {
+        const double a = 2 * M_PI * k / 10;
+        at.emplace_back(middle.x() + (ex / 2 + 4000) * std::cos(a), middle.y() + (ey / 2 + 4000) * std::sin(a), middle.z() + 4000);
+      }
+      break;
+  }
+  return at;
+}
+
 cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
   std::vector<Ray> rays;
-  const double ex = scene.extent_mm.x(), ey = scene.extent_mm.y();
+  const std::vector<Eigen::Vector3d> stations = ScanStations(scene, o);
   if (o.sensor == Sensor::kLidar16 || o.sensor == Sensor::kLidar32) {
     std::vector<double> elevations;
     if (o.sensor == Sensor::kLidar16) {
@@ -427,9 +465,7 @@ cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
       for (int k = 0; k < 32; ++k) elevations.push_back((-30.67 + 1.333 * k) * kDeg);
     }
     const double step = (o.step_deg > 0 ? o.step_deg : 0.2) * kDeg;
-    // Driving past along y = -1.5 m, a sweep every metre.
-    for (double px = -2000; px <= ex + 2000; px += 1000) {
-      const Eigen::Vector3d origin(px, -1500, scene.ground.Height(px, -1500) + o.height_mm);
+    for (const auto& origin : stations) {
       for (double az = 0; az < 2 * M_PI; az += step) {
         for (double el : elevations) rays.push_back({origin, Direction(az, el), o.noise_mm});
       }
@@ -438,8 +474,7 @@ cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
   }
   if (o.sensor == Sensor::kTerrestrial) {
     const double step = (o.step_deg > 0 ? o.step_deg : 0.15) * kDeg;
-    for (double sx : {0.3 * ex, 0.7 * ex}) {
-      const Eigen::Vector3d origin(sx, -2500, scene.ground.Height(sx, -2500) + o.height_mm);
+    for (const auto& origin : stations) {
       // Facing the garden: azimuth 0-180 deg (the half behind holds no garden).
       for (double az = 0; az < M_PI; az += step) {
         for (double el = -50 * kDeg; el < 30 * kDeg; el += step) rays.push_back({origin, Direction(az, el), o.noise_mm});
@@ -447,33 +482,26 @@ cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& o) {
     }
     return CastAll(scene, rays, o, 60000);
   }
+  const Eigen::Vector3d middle = Middle(scene);
   if (o.sensor == Sensor::kAerial) {
-    // A drone: 3 x 3 stations 6 m above the lawn over the garden, each looking down 25 degrees off
-    // nadir towards the garden's middle (the centre one straight down); 90-degree field of view.
-    const Eigen::Vector3d middle(ex / 2, ey / 2, scene.ground.Height(ex / 2, ey / 2));
+    // Each camera looks down 25 degrees off nadir towards the garden's middle (the centre one
+    // straight down); 90-degree field of view.
     const int width = 400, height = 400;
     const double f = 200 * (o.step_deg > 0 ? 0.15 / o.step_deg : 1.0);
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) {
-        const Eigen::Vector3d eye(ex * (0.1 + 0.4 * i), ey * (0.1 + 0.4 * j), middle.z() + 6000);
-        Eigen::Vector3d toward = Eigen::Vector3d(middle.x() - eye.x(), middle.y() - eye.y(), 0);
-        Eigen::Vector3d forward(0, 0, -1);
-        if (toward.norm() > 1) forward = (std::cos(25 * kDeg) * forward + std::sin(25 * kDeg) * toward.normalized()).normalized();
-        const Eigen::Vector3d right = (std::abs(forward.z()) > 0.999 ? Eigen::Vector3d::UnitX()
-                                                                    : forward.cross(Eigen::Vector3d::UnitZ()).normalized());
-        CameraRays(eye, forward, right, width, height, f, o.noise_mm, &rays);
-      }
+    for (const auto& eye : stations) {
+      Eigen::Vector3d toward = Eigen::Vector3d(middle.x() - eye.x(), middle.y() - eye.y(), 0);
+      Eigen::Vector3d forward(0, 0, -1);
+      if (toward.norm() > 1) forward = (std::cos(25 * kDeg) * forward + std::sin(25 * kDeg) * toward.normalized()).normalized();
+      const Eigen::Vector3d right = (std::abs(forward.z()) > 0.999 ? Eigen::Vector3d::UnitX()
+                                                                  : forward.cross(Eigen::Vector3d::UnitZ()).normalized());
+      CameraRays(eye, forward, right, width, height, f, o.noise_mm, &rays);
     }
     return CastAll(scene, rays, o, 30000);
   }
-  // Photogrammetry: 10 cameras on an ellipse around the garden, 4 m up, looking at its middle.
-  const Eigen::Vector3d middle(ex / 2, ey / 2, scene.ground.Height(ex / 2, ey / 2));
+  // Photogrammetry: the cameras look at the garden's middle.
   const int width = 480, height = 300;
   const double f = 300 * (o.step_deg > 0 ? 0.15 / o.step_deg : 1.0);
-  for (int k = 0; k < 10; ++k) {
-    const double a = 2 * M_PI * k / 10;
-    const Eigen::Vector3d eye(middle.x() + (ex / 2 + 4000) * std::cos(a), middle.y() + (ey / 2 + 4000) * std::sin(a),
-                              middle.z() + 4000);
+  for (const auto& eye : stations) {
     const Eigen::Vector3d forward = (middle - eye).normalized();
     CameraRays(eye, forward, forward.cross(Eigen::Vector3d::UnitZ()).normalized(), width, height, f, o.noise_mm, &rays);
   }

@@ -110,6 +110,10 @@ struct ScanOptions {
 /// Scans `scene`; the cloud is unorganised, mm, z up.
 cloud::PointCloud ScanGarden(const ScanScene& scene, const ScanOptions& options);
 
+/// Where ScanGarden's sensor stands (mm, the scene's frame): the LiDAR's sweeps along its drive,
+/// the tripod's stations, the cameras' centres.
+std::vector<Eigen::Vector3d> ScanStations(const ScanScene& scene, const ScanOptions& options);
+
 /// The scene's truth: {"hedges": [{"center_mm", "radius_mm", "shell_mm", "ground_mm"}, ...],
 /// "topiary": [{"center_mm", "axes_mm", "heading_deg", "shell_mm", "ground_mm"}, ...],
 /// "others": [{"kind", "center_mm"}], "frame": "world, z up, mm"}; written atomically.

@@ -185,6 +185,11 @@ class Find(unittest.TestCase):
         self.assertEqual(len(found["hedge_id"]), len(xyz))
         with self.assertRaises(hedgefit.Error):
             hedgefit.find(xyz, min_radus=100)
+        # Viewpoints in xyz's units (metres here) leave balls to the ball search: the same two.
+        told = hedgefit.find(xyz, viewpoints=np.array([[5.0, -2.5, 1.5], [5.0, 8.5, 1.5]]))
+        self.assertEqual(sum(h["ball"] for h in told["hedges"]), 2)
+        with self.assertRaises(hedgefit.Error):
+            hedgefit.find(xyz, viewpoints=np.array([5.0, -2.5, 1.5]))
 
 
 class Measure(unittest.TestCase):

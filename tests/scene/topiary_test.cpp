@@ -831,5 +831,57 @@ TEST(RealData, TheWestHalfTurnedKeepsItsTopiary) {
   }
 }
 
+// A bed scanned by a terrestrial scanner from two tripods 2.5 m in front of it, 1.5 m up (3 mm
+// of range noise, as bench find's): each top is seen from one side only, the far side hidden by
+// its own curvature, and the scanner's lines leave cells of twice the cloud's spacing empty on a
+// solid top. Judged from above (no viewpoints) 1-3 of 5 topiary a bed were found on such beds
+// (bench find --bed-sensors terrestrial, seeds 101-104: 9 of 21; on these two, 6 of 10). Told where the tripods stood,
+// the cover is read over the part of each top facing them on cells sized by its own points:
+// every topiary found, and nothing else in the bed (roses, a low box hedge row, a post) called
+// one. The axes: the noise is 3 mm and the leaf layer 15-40 mm deep; the bench's held-back
+// beds read within 1 % (worst 0.97 %), so 2 %, the target, is the bound. Seeds 31-32
+// are neither the tuning beds nor the held-back ones.
+TEST(FindHedges, TopiarySeenFromTheSideIsJudgedWhereItFacesTheScanner) {
+  for (std::uint64_t seed : {31u, 32u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const sim::ScanScene scene = sim::RandomTopiaryBed(seed);
+    sim::ScanOptions so;
+    so.sensor = sim::Sensor::kTerrestrial;
+    so.seed = seed;
+    so.noise_mm = 3;
+    fitting::QuietSolverWarnings();
+    const cloud::PointCloud cloud = sim::ScanGarden(scene, so);
+    FindOptions told;
+    told.viewpoints_mm = sim::ScanStations(scene, so);
+    ASSERT_EQ(told.viewpoints_mm.size(), 2u);
+    auto found_of = [&](const FindResult& r, std::size_t* other) {
+      std::size_t found = 0;
+      *other = 0;
+      for (const auto& o : r.objects) {
+        if (!o.topiary || !o.shape) continue;
+        const sim::ScanSpheroid* match = nullptr;
+        for (const auto& t : scene.topiary) {
+          if ((o.shape->center_mm.head<2>() - t.center_mm.head<2>()).norm() < 100) match = &t;
+        }
+        if (!match) {
+          // The bed's small free ball is a ball, not a false topiary.
+          bool ball = false;
+          for (const auto& b : scene.balls) ball |= (o.shape->center_mm.head<2>() - b.center_mm.head<2>()).norm() < 100;
+          *other += !ball;
+          continue;
+        }
+        ++found;
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_NEAR(o.shape->axes_mm[k], match->axes_mm[k], 0.02 * match->axes_mm[k]) << "axis " << k;
+        }
+      }
+      return found;
+    };
+    std::size_t other = 0;
+    EXPECT_EQ(found_of(FindHedges(cloud, told), &other), scene.topiary.size());
+    EXPECT_EQ(other, 0u);
+  }
+}
+
 }  // namespace
 }  // namespace hedgefit::scene
