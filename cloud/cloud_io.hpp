@@ -5,6 +5,7 @@
 /// never leaves a half-written output.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,9 @@ struct CloudFileHeader {
   std::string format;               ///< "pcd", "ply", "xyz": the CloudFormat's name
   std::vector<std::string> fields;  ///< field names as stored ("x", "y", "z", "rgb", ...)
   std::string encoding;             ///< "ascii", "binary", "binary_compressed", ...
+  /// Where the sensor stood, in the file's own units and frame: a PCD's VIEWPOINT translation
+  /// when it is not the origin (PCL writes the origin when it does not know).
+  std::optional<Eigen::Vector3d> viewpoint;
 };
 
 /// Reads a cloud; throws Error with a one-line message naming the file on any problem.

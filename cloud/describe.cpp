@@ -113,6 +113,7 @@ std::string DescriptionJson(const CloudDescription& d) {
     j["bounds"] = {{"min", {d.min.x(), d.min.y(), d.min.z()}}, {"max", {d.max.x(), d.max.y(), d.max.z()}}};
   }
   if (!d.offset.isZero()) j["offset"] = {d.offset.x(), d.offset.y(), d.offset.z()};
+  if (d.header.viewpoint) j["viewpoint"] = {d.header.viewpoint->x(), d.header.viewpoint->y(), d.header.viewpoint->z()};
   j["spacing"] = d.spacing;
   j["units_guess"] = GuessUnits(d.extent, d.spacing);
   return j.dump(2);
@@ -140,6 +141,11 @@ void PrintDescription(std::ostream& out, const CloudDescription& d) {
   if (!d.offset.isZero()) {
     std::snprintf(buf, sizeof(buf), "shift       (%.0f, %.0f, %.0f) subtracted on reading, for single precision\n",
                   d.offset.x(), d.offset.y(), d.offset.z());
+    out << buf;
+  }
+  if (d.header.viewpoint) {
+    std::snprintf(buf, sizeof(buf), "viewpoint   (%.4g, %.4g, %.4g): where the sensor stood (find judges topiary from it)\n",
+                  d.header.viewpoint->x(), d.header.viewpoint->y(), d.header.viewpoint->z());
     out << buf;
   }
   std::snprintf(buf, sizeof(buf), "spacing     %.4g (median distance to the nearest point)\n", d.spacing);

@@ -16,7 +16,8 @@ namespace hedgefit::scene {
 FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options, cloud::PointCloud* cloud,
                            const std::vector<Eigen::Vector3d>& viewpoints) {
   FindReport rep;
-  cloud::PointCloud c = cloud::ReadCloud(file);
+  cloud::CloudFileHeader header;
+  cloud::PointCloud c = cloud::ReadCloud(file, {}, &header);
   if (scale > 0) {
     rep.scale = scale, rep.scale_source = pipeline::Format("scale %g given", scale);
   } else {
@@ -32,7 +33,10 @@ FindReport FindInCloudFile(const std::string& file, double scale, const FindOpti
   }
   rep.offset_mm = c.offset;
   FindOptions o = options;
-  for (const auto& v : viewpoints) o.viewpoints_mm.push_back(v * rep.scale - c.offset);
+  std::vector<Eigen::Vector3d> at = viewpoints;
+  if (at.empty() && header.viewpoint) at.push_back(*header.viewpoint);
+  rep.viewpoint_source = !viewpoints.empty() ? "given" : (at.empty() ? "" : "the PCD's VIEWPOINT");
+  for (const auto& v : at) o.viewpoints_mm.push_back(v * rep.scale - c.offset);
   rep.result = FindHedges(c, o);
   rep.result.file = file;
   if (cloud) *cloud = std::move(c);
@@ -136,6 +140,7 @@ void WriteFindJson(std::ostream& out, const std::vector<FindReport>& reports) {
     c["up_source"] = r.up_source;
     c["spacing_mm"] = r.spacing_mm;
     c["viewpoints"] = r.viewpoints;
+    c["viewpoint_source"] = rep.viewpoint_source;
     c["ground"] = {{"points", r.ground_points}, {"noise_mm", r.ground.noise_mm}, {"cell_mm", r.ground.cell_mm}};
     c["object_points"] = r.object_points;
     c["balls"] = r.Balls();
@@ -203,8 +208,8 @@ void WriteFindTable(std::ostream& out, const std::vector<FindReport>& reports) {
           r.file.c_str(), r.points, rep.scale_source.c_str(), r.up_source.c_str(), r.spacing_mm, r.ground_points,
           r.ground.noise_mm, r.Balls(), r.Balls() == 1 ? "" : "s", r.Topiary() - r.Balls() - TopiaryFromBallSearch(r), r.objects.size(), r.objects.size() == 1 ? "" : "s");
     if (r.viewpoints > 0) {
-      Print(out, "  topiary judged over the part of each top facing the %zu viewpoint%s given\n", r.viewpoints,
-            r.viewpoints == 1 ? "" : "s");
+      Print(out, "  topiary judged over the part of each top facing the %zu viewpoint%s (%s)\n", r.viewpoints,
+            r.viewpoints == 1 ? "" : "s", rep.viewpoint_source.empty() ? "given" : rep.viewpoint_source.c_str());
     }
     if (!rep.offset_mm.isZero()) {
       Print(out, "  its coordinates were shifted by (%.0f, %.0f, %.0f) mm on reading, for single precision; the "

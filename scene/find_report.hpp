@@ -20,13 +20,16 @@ struct FindReport {
   /// The cloud's global shift (cloud::PointCloud::offset, mm after scaling): the result's
   /// positions are in the shifted frame, and the reports add it back.
   Eigen::Vector3d offset_mm = Eigen::Vector3d::Zero();
+  /// Where the viewpoints came from: "" (none), "given", or "the PCD's VIEWPOINT".
+  std::string viewpoint_source;
 };
 
 /// `find` on one cloud file: read (cloud/cloud_io.hpp), scaled to mm by `scale` (0: guessed from
 /// its span and spacing, as `info` guesses), and searched with `options`. `cloud`, when given,
 /// gets the cloud as searched (in mm), for the outputs drawn or written from it. `viewpoints`:
 /// where the sensor stood, in the file's own units and frame (FindOptions::viewpoints_mm gets
-/// them scaled and shifted as the points are).
+/// them scaled and shifted as the points are); none given, a PCD's VIEWPOINT is taken when it is
+/// not the origin.
 FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options,
                            cloud::PointCloud* cloud = nullptr, const std::vector<Eigen::Vector3d>& viewpoints = {});
 

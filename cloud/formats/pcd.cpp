@@ -263,11 +263,28 @@ void ReadCompressedPcd(std::istream& in, const std::string& path, std::uint64_t 
   }
 }
 
-void ParsePcd(const std::string& path, pcl::PCLPointCloud2* blob, std::string* encoding) {
+// The VIEWPOINT's translation (tx ty tz of tx ty tz qw qx qy qz), when given, finite and not the
+// origin; else nothing.
+std::optional<Eigen::Vector3d> ViewpointOf(const PcdHeader& h) {
+  const auto it = h.entries.find("VIEWPOINT");
+  if (it == h.entries.end() || it->second.size() < 3) return std::nullopt;
+  Eigen::Vector3d v;
+  for (int k = 0; k < 3; ++k) {
+    char* end = nullptr;
+    v[k] = std::strtod(it->second[std::size_t(k)].c_str(), &end);
+    if (end == it->second[std::size_t(k)].c_str() || *end != '\0') return std::nullopt;
+  }
+  if (!v.allFinite() || v.isZero()) return std::nullopt;
+  return v;
+}
+
+void ParsePcd(const std::string& path, pcl::PCLPointCloud2* blob, std::string* encoding,
+              std::optional<Eigen::Vector3d>* viewpoint) {
   std::ifstream in(path, std::ios::binary);
   const auto file_size = static_cast<std::uintmax_t>(fs::file_size(path));
   std::size_t line_no = 0;
   PcdHeader h = ReadPcdHeader(in, path, &line_no);
+  *viewpoint = ViewpointOf(h);
   const std::string& data = h.data;
   const PcdLayout l = LayoutOf(h, path, blob);
   const std::uint64_t width = l.width, height = l.height, points = l.points, point_size = l.point_size;
@@ -304,7 +321,7 @@ void ParsePcd(const std::string& path, pcl::PCLPointCloud2* blob, std::string* e
 
 PointCloud ReadPcd(const std::string& path, CloudFileHeader* header) {
   pcl::PCLPointCloud2 blob;
-  ParsePcd(path, &blob, &header->encoding);
+  ParsePcd(path, &blob, &header->encoding, &header->viewpoint);
   return FromBlob(blob, path, header);
 }
 

@@ -264,6 +264,25 @@ std::string Las14Format7(const std::vector<std::array<std::int32_t, 3>>& xyz, co
 // times a scale plus an offset, read in double precision and shifted as the other readers do;
 // 16-bit colour to 8 bits; intensity and classification as fields. A LAZ file is refused with
 // what to do, a truncated one says so.
+// A PCD's VIEWPOINT (tx ty tz qw qx qy qz) says where the sensor stood; PCL writes the origin
+// when it does not know, so only a translation away from it is taken, in the file's units.
+TEST(CloudIo, APcdsViewpointIsReadWhenItIsNotTheOrigin) {
+  const fs::path dir = testing::ScratchDir();
+  auto header_of = [&](const std::string& viewpoint) {
+    WriteText(dir / "v.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n" + viewpoint +
+                                 "POINTS 2\nDATA ascii\n1 2 3\n4 5 6\n");
+    CloudFileHeader h;
+    ReadCloud((dir / "v.pcd").string(), {}, &h);
+    return h;
+  };
+  const CloudFileHeader at = header_of("VIEWPOINT 2.5 -1.5 1.6 1 0 0 0\n");
+  ASSERT_TRUE(at.viewpoint.has_value());
+  EXPECT_EQ(*at.viewpoint, Eigen::Vector3d(2.5, -1.5, 1.6));
+  EXPECT_FALSE(header_of("VIEWPOINT 0 0 0 1 0 0 0\n").viewpoint.has_value());
+  EXPECT_FALSE(header_of("").viewpoint.has_value());
+  EXPECT_FALSE(header_of("VIEWPOINT 2.5 x 1.6 1 0 0 0\n").viewpoint.has_value());
+}
+
 TEST(CloudIo, LasIsReadToItsScaleAndWrittenBack) {
   const auto dir = hedgefit::testing::ScratchDir();
   const Eigen::Vector3d scale(0.001, 0.001, 0.01), offset(500000, 5700000, 0);
