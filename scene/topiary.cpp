@@ -312,28 +312,20 @@ std::vector<Eigen::Vector3d> MeasuredPoints(const std::vector<Eigen::Vector3d>& 
   return upper;
 }
 
-// The top view of the footprint: the share of the ellipse within 0.8 of its semi-axes that lies
-// within a disc of the cell's area (radius cell / sqrt(pi)) of one of the points `p`. For points
-// scattered at random it is a cell's chance of holding one; unlike cells, it is the same wherever
-// the cloud lies and however it is turned. Read on a lattice of quarter cells (`step`) in the
-// shape's frame, `samples` of them inside; each point marks the lattice points within its reach,
-// which is the same as asking each lattice point for a point within reach. A footprint of more
-// than 16 million lattice points (tens of metres at millimetre spacing: refused for its size)
-// is read on a coarser lattice.
 // Whether the top of shape `s` above the footprint's point (u, v) (its own frame: along the
 // heading, across) faces one of `viewpoints`: its outward normal lies within 70 degrees of the
 // line to one of them. A sensor's samples on a surface thin as the cosine of that angle: beyond
 // 70 degrees a solid top holds under a third of the points it would face on, and cells sized by
 // the shape's mean density (CoverCell) show holes there on a solid top; on the tuning beds
 // (bench find --beds 3 --bed-sensors lidar16,terrestrial --viewpoints, seeds 1-3) any line of
-// sight in front of the surface (0 degrees of margin) left 9 of the terrestrial scanner's 16
-// topiary undecided at 70-76 % cover, 78 degrees found 15, 70 and 60 degrees 16. The shape is
-// read as its ellipsoid (a prism's flat top as up).
+// sight in front of the surface (0 degrees of margin) found 5 of the terrestrial scanner's 16
+// topiary and left 8 undecided at 70-76 % cover, 78 degrees found 15, 70 and 60 degrees 16. The
+// shape is read as its ellipsoid (a prism's flat top as up: `prism`).
 const double kFacing = std::cos(70 * M_PI / 180);
 
-bool TopFaces(const TopiaryShape& s, double u, double v, double ct, double st, const std::vector<Eigen::Vector3d>& viewpoints) {
+bool TopFaces(const TopiaryShape& s, bool prism, double u, double v, double ct, double st,
+              const std::vector<Eigen::Vector3d>& viewpoints) {
   const double a = s.axes_mm.x(), b = s.axes_mm.y(), c = s.axes_mm.z();
-  const bool prism = s.family == "cylinder" || s.family == "cuboid" || s.family == "cone";
   const double w = prism ? c : c * std::sqrt(std::max(0.0, 1 - (u / a) * (u / a) - (v / b) * (v / b)));
   const Eigen::Vector3d q(s.center_mm.x() + u * ct - v * st, s.center_mm.y() + u * st + v * ct, s.center_mm.z() + w);
   const double nu = prism ? 0 : u / (a * a), nv = prism ? 0 : v / (b * b), nw = prism ? 1 : w / (c * c);
@@ -344,11 +336,21 @@ bool TopFaces(const TopiaryShape& s, double u, double v, double ct, double st, c
   return false;
 }
 
+// The top view of the footprint: the share of the ellipse within 0.8 of its semi-axes that lies
+// within a disc of the cell's area (radius cell / sqrt(pi)) of one of the points `p`. For points
+// scattered at random it is a cell's chance of holding one; unlike cells, it is the same wherever
+// the cloud lies and however it is turned. Read on a lattice of quarter cells (`step`) in the
+// shape's frame, `samples` of them inside; each point marks the lattice points within its reach,
+// which is the same as asking each lattice point for a point within reach. A footprint of more
+// than 16 million lattice points (tens of metres at millimetre spacing: refused for its size)
+// is read on a coarser lattice. With `viewpoints`, only the lattice points whose top faces one of
+// them (TopFaces) count.
 double TopViewCover(const std::vector<Eigen::Vector3d>& p, const TopiaryShape& s, double cell, double* step, std::size_t* samples,
                     const std::vector<Eigen::Vector3d>& viewpoints = {}) {
   const double reach = cell / std::sqrt(M_PI), reach2 = reach * reach;
   const double fa = s.footprint_mm.x(), fb = s.footprint_mm.y(), th = s.heading_deg * M_PI / 180;
   const double ct = std::cos(th), st = std::sin(th);
+  const bool prism = s.family == "cylinder" || s.family == "cuboid" || s.family == "cone";
   *step = std::max(cell / 4, std::sqrt(4 * fa * fb / double(1 << 24)));
   const double h = *step;
   const long nu = long(std::floor(2 * fa / h)) + 1, nv = long(std::floor(2 * fb / h)) + 1;
@@ -372,7 +374,7 @@ double TopViewCover(const std::vector<Eigen::Vector3d>& p, const TopiaryShape& s
     for (long j = 0; j < nv; ++j) {
       const double v = -fb + double(j) * h;
       if ((u / fa) * (u / fa) + (v / fb) * (v / fb) > 0.64) continue;
-      if (!viewpoints.empty() && !TopFaces(s, u, v, ct, st, viewpoints)) continue;
+      if (!viewpoints.empty() && !TopFaces(s, prism, u, v, ct, st, viewpoints)) continue;
       ++inside;
       hits += hit[std::size_t(i * nv + j)];
     }
