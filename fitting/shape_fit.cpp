@@ -512,6 +512,15 @@ FamilyFit FitFamily(const std::vector<Eigen::Vector3d>& p, Family f, const Full&
 // part of that normal at each, |n_z| (0 on a side, 1 on the top).
 struct LayerSample {
   std::vector<double> r, nz;
+  std::vector<double> ray;  // with the stations (Beams): RayShare at each, else empty
+  double lawn_share = 0;    // ... and at the lawn under the shape, straight up
+};
+
+// Where the sensor stood (the shape's frame, mm; empty: not known), and the share of a beam's
+// travel the lawn under the shape shows straight up (RayShare; 0 when not known).
+struct Beams {
+  std::vector<Eigen::Vector3d> viewpoints;
+  double lawn_share = 0;
 };
 
 // The leaf layer's model (envelope_fit.hpp's, along the surface's normal): a residual r (outward
@@ -532,6 +541,16 @@ struct LayerSample {
 // ring of cameras looking along the level (simulated, s 5-7 against the lawn's 4 mm) would gain
 // from it, but no cloud says which it is. Without `vertical` (0) the noise is one number, s,
 // fitted with the rest.
+// Where the stations are known (`l.ray`), it is told: a beam's range noise and how deep it goes
+// among the leaves before it stops on one (Beer-Lambert: exponential along the ray) both lie
+// along the ray, and the normal sees the share c = |n . u| of each, so at each point the noise
+// is s c and the depth's mean mu c, s then the range noise itself. Nothing is held at the lawn's
+// but s's upper end: the lawn shows the noise's share at its own c (RayShare straight up), plus
+// its grass, so s is at most `vertical` / that. On the simulated truth's own surfaces (tuning
+// beds 2-3, numpy) this reads the range noise as the simulator's (LiDAR 9-12 mm against 10,
+// terrestrial 2.4-3.2 against 3) and the envelope within 1 mm for all four sensors, where the
+// axisymmetric noise put the LiDAR's 0.2-3.5 mm out and the terrestrial scanner's 1-2.4 mm in:
+// a scanner looking along the level sees its noise on the sides and its rays graze the top.
 double LeafLayerNll(const LayerSample& l, const Eigen::Vector4d& x, double vertical) {
   // The share, the depth and the noise held to where they still mean something (w 0.25 % to
   // 99.75 %, mu 0.5 mm to 20 noise widths, the noise at least 0.5 mm): beyond, the likelihood is
@@ -541,18 +560,23 @@ double LeafLayerNll(const LayerSample& l, const Eigen::Vector4d& x, double verti
   const double delta = x(0), w = 1 / (1 + std::exp(-std::clamp(x(1), -6.0, 6.0)));
   const double mu = 0.5 + std::exp(std::min(x(2), std::log(20 * width))), lambda = 1 / mu;
   const double lw0 = std::log(0.98 * w) - std::log(std::sqrt(2 * M_PI)), l1w = std::log(0.98 * (1 - w) * lambda / 2);
+  // Told the stations: the range noise, at most what the lawn allows.
+  const double range_s = std::exp(std::min(x(3), std::log(vertical > 0 && l.lawn_share > 0 ? vertical / l.lawn_share : 20 * width)));
   double total = 0;
   for (std::size_t i = 0; i < l.r.size(); ++i) {
-    double sigma = s;
-    if (vertical > 0) {
+    double sigma = s, mu_i = mu, lambda_i = lambda, l1w_i = l1w;
+    if (!l.ray.empty()) {
+      sigma = std::max(0.5, range_s * l.ray[i]);
+      mu_i = std::max(0.5, mu * l.ray[i]), lambda_i = 1 / mu_i, l1w_i = std::log(0.98 * (1 - w) * lambda_i / 2);
+    } else if (vertical > 0) {
       const double nz2 = l.nz[i] * l.nz[i];
       sigma = std::max(0.5, std::sqrt(vertical * vertical * nz2 + s * s * (1 - nz2)));
     }
-    const double out = std::log(0.02 / (20 * sigma + 10 * mu));
+    const double out = std::log(0.02 / (20 * sigma + 10 * mu_i));
     const double t = l.r[i] - delta;
     const double a = lw0 - std::log(sigma) - 0.5 * t * t / (sigma * sigma);
-    const double b = l1w + lambda * t + 0.5 * lambda * lambda * sigma * sigma +
-                     LogErfc((t + lambda * sigma * sigma) / (std::sqrt(2.0) * sigma));
+    const double b = l1w_i + lambda_i * t + 0.5 * lambda_i * lambda_i * sigma * sigma +
+                     LogErfc((t + lambda_i * sigma * sigma) / (std::sqrt(2.0) * sigma));
     const double m = std::max({a, b, out});
     total -= m + std::log(std::exp(a - m) + std::exp(b - m) + std::exp(out - m));
   }
@@ -561,7 +585,8 @@ double LeafLayerNll(const LayerSample& l, const Eigen::Vector4d& x, double verti
 
 // Nelder-Mead on LeafLayerNll from the residuals' median: delta is the envelope's offset from the
 // fitted surface (mm, outward +). With the sensor's `vertical` noise (> 0, from the lawn) the
-// noise's horizontal part is fitted with the rest, starting from it; without (0), the noise
+// noise's horizontal part (told the stations, the range noise) is fitted with the rest, starting
+// from it; without (0), the noise
 // is one number estimated from the residuals' own spread. Returns the whole solution (delta,
 // logit w, log mu, log s). `start`: a solution on much the same residuals (the jackknife's),
 // which the simplex leaves in small steps.
@@ -607,11 +632,30 @@ Eigen::Vector4d FitLeafLayer(const LayerSample& l, double vertical, const Eigen:
   return v[std::size_t(std::min_element(f.begin(), f.end()) - f.begin())];
 }
 
+// The share of a beam's travel a surface's normal `n` (outward, unit) at `x` sees, |n . u| for
+// the ray u from the station that saw the point, at least 0.1. Which station saw it is not known:
+// each facing one samples the surface at a density of |n . u| over its squared distance, and the
+// share is the mean over the facing stations weighted by that (at most 256 of `viewpoints`,
+// evenly spread); with none facing, the nearest's.
+double RayShare(const Eigen::Vector3d& x, const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& viewpoints) {
+  const std::size_t every = viewpoints.size() / 256 + 1;
+  double sum = 0, weight = 0, nearest = 0, nearest_d2 = std::numeric_limits<double>::infinity();
+  for (std::size_t j = 0; j < viewpoints.size(); j += every) {
+    const Eigen::Vector3d to = viewpoints[j] - x;
+    const double d2 = std::max(1.0, to.squaredNorm()), c = to.dot(n) / std::sqrt(d2);
+    if (d2 < nearest_d2) nearest_d2 = d2, nearest = std::abs(c);
+    if (c <= 0) continue;
+    sum += c * c / d2, weight += c / d2;
+  }
+  return std::max(0.1, weight > 0 ? sum / weight : nearest);
+}
+
 // The residuals FitLeafLayer reads: about `count` of `p`'s distances from `surface` along its
 // normal, plus `shift` (an envelope's offset: then they are the distances from the surface that
 // far inside it, as FitLeafLayer's model reads them), with the normal's vertical part at each.
 LayerSample LayerResiduals(const std::vector<Eigen::Vector3d>& p, const Surface& surface, std::size_t count,
-                           double shift = 0) {
+                           double shift = 0, const Beams& beams = {}) {
+  const std::vector<Eigen::Vector3d>& viewpoints = beams.viewpoints;
   LayerSample l;
   const std::size_t every = p.size() / count + 1;
   Eigen::Matrix<double, 1, 7> g;
@@ -621,7 +665,9 @@ LayerSample LayerResiduals(const std::vector<Eigen::Vector3d>& p, const Surface&
     // a prism's sides and top alike).
     const double gn = g.head<3>().norm();
     l.nz.push_back(gn > 0 ? std::min(1.0, std::abs(g(2)) / gn) : 1.0);
+    if (!viewpoints.empty()) l.ray.push_back(gn > 0 ? RayShare(p[i], -g.head<3>() / gn, viewpoints) : 1.0);
   }
+  if (!viewpoints.empty()) l.lawn_share = beams.lawn_share;
   return l;
 }
 
@@ -635,7 +681,8 @@ LayerSample LayerResiduals(const std::vector<Eigen::Vector3d>& p, const Surface&
 // With `radial`, `q` is a quadric's envelope (MeasureEnvelope), its points `envelope_offset`
 // inside it, and `radial` the radial fit it started from.
 Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family family, const Full& q, const Bounds& bounds,
-                              const Eigen::Vector4d* layer, double noise_mm, const Full* radial, double envelope_offset) {
+                              const Eigen::Vector4d* layer, double noise_mm, const Full* radial, double envelope_offset,
+                              const Beams& beams) {
   std::vector<Eigen::Vector3d> q_pts;
   const std::size_t q_step = p.size() / 800 + 1;
   for (std::size_t i = 0; i < p.size(); i += q_step) q_pts.push_back(p[i]);
@@ -662,7 +709,7 @@ Eigen::VectorXd JackknifeCi95(const std::vector<Eigen::Vector3d>& p, Family fami
     if (layer) {
       // 300 residuals: the offset to a millimetre or two, 16 times over. An envelope's moves by
       // what this patch's residuals say less what it holds (to first order in a few millimetres).
-      const LayerSample r = LayerResiduals(kept, Surface(f.q, family), 300, envelope ? envelope_offset : 0);
+      const LayerSample r = LayerResiduals(kept, Surface(f.q, family), 300, envelope ? envelope_offset : 0, beams);
       const double offset = std::max(0.0, FitLeafLayer(r, noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0, layer)(0));
       // The semi-axes among the free parameters (and a prism's top) move out by the offset.
       const int first = Prism(family) ? 2 : 3;
@@ -803,11 +850,16 @@ struct Measured {
   std::optional<Full> radial_q;       // a quadric's radial fit on `kept`, whose footprint it holds
   Eigen::VectorXd radial_variance;    // ... and its parameters' variances (the held ones' intervals)
   std::optional<Eigen::Vector4d> layer;  // FitLeafLayer's solution, once measured
+  Beams beams;                           // the stations it was measured with
 };
 
 Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, const FamilyFit& chosen, const Bounds& bounds,
-                         double noise_mm) {
+                         double noise_mm, const std::vector<Eigen::Vector3d>& viewpoints) {
   Measured m;
+  if (!viewpoints.empty()) {
+    m.beams.viewpoints = viewpoints;
+    m.beams.lawn_share = RayShare(Eigen::Vector3d(chosen.q(0), chosen.q(1), bounds.ground), Eigen::Vector3d::UnitZ(), viewpoints);
+  }
   const double spread = std::max({1.0, 0.5 * noise_mm, RobustSpread(chosen.residuals)}), med = MedianOf(chosen.residuals);
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (std::abs(chosen.residuals[i] - med) <= kTrimDeviations * spread) m.kept.push_back(p[i]);
@@ -825,7 +877,7 @@ Measured MeasureEnvelope(const std::vector<Eigen::Vector3d>& p, Family family, c
   const Full& q = m.refit.ok ? m.refit.q : chosen.q;
   // 600 residuals settle three parameters to about a millimetre under 6 mm noise.
   const double sigma = noise_mm > 0 ? std::max(1.0, noise_mm) : 0.0;
-  m.layer = FitLeafLayer(LayerResiduals(p, Surface(q, family), 600), sigma, nullptr);
+  m.layer = FitLeafLayer(LayerResiduals(p, Surface(q, family), 600, 0, m.beams), sigma, nullptr);
   m.offset_mm = std::max(0.0, (*m.layer)(0));
   if (!m.radial_q) return m;
   Full start = q;
@@ -878,7 +930,8 @@ void FitPrisms(const std::vector<Eigen::Vector3d>& p, const FamilyFit& spheroid,
 }  // namespace
 
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double ground_mm, double noise_mm, double widest_mm,
-                             std::size_t max_points, bool jackknife, bool envelope, double max_spread_mm, bool round) {
+                             std::size_t max_points, bool jackknife, bool envelope, double max_spread_mm, bool round,
+                             const std::vector<Eigen::Vector3d>& viewpoints) {
   ClippedShape s;
   s.points = all.size();
   if (all.size() < 20) return s;
@@ -937,7 +990,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
       ChooseFamily(p, ball, spheroid, ellipsoid, &cylinder, &cuboid, &cone, noise_mm, max_spread_mm, round, &s, &family);
   s.roughness_mm = RobustSpread(best->residuals);
   Measured measured;
-  if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm);
+  if (envelope) measured = MeasureEnvelope(p, family, *best, bounds, noise_mm, viewpoints);
   if (measured.refit.ok) best = &measured.refit;
   const std::vector<Eigen::Vector3d>& fitted = measured.refit.ok ? measured.kept : p;
   s.envelope_offset_mm = measured.offset_mm;
@@ -961,7 +1014,7 @@ ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& all, double gro
   Eigen::VectorXd sd = variance.cwiseMax(0).cwiseSqrt() * 1.96 * std::sqrt(double(p.size()) / double(all.size()));
   if (jackknife) {
     const Eigen::VectorXd jk = JackknifeCi95(fitted, family, best->q, bounds, measured.layer ? &*measured.layer : nullptr, noise_mm,
-                                             measured.envelope_fitted ? &*measured.radial_q : nullptr, measured.offset_mm);
+                                             measured.envelope_fitted ? &*measured.radial_q : nullptr, measured.offset_mm, measured.beams);
     if (jk.size() == sd.size()) sd = sd.cwiseMax(jk), s.jackknifed = true;
   }
   s.center_ci95_mm = sd.head<3>();

@@ -87,9 +87,13 @@ struct ClippedShape {
 /// the class is chosen among those that do (a caller that refuses a rougher shape asks whether
 /// any of the families is smooth enough, not only the one the criterion prefers). `round`: only
 /// the families whose footprint is a circle are candidates (ball, spheroid, cylinder, cone).
+/// `viewpoints` (the points' frame, mm): where the sensor stood; the envelope's leaf layer then
+/// reads its noise and its leaves' depth along each point's rays (with none, the noise is held
+/// about the vertical).
 ClippedShape FitClippedShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                              double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
-                             bool envelope = false, double max_spread_mm = 0, bool round = false);
+                             bool envelope = false, double max_spread_mm = 0, bool round = false,
+                             const std::vector<Eigen::Vector3d>& viewpoints = {});
 
 /// How far `p` lies outside the shape `s` (mm; negative inside), along the shape's normal: the
 /// exact distance to the nearest point of a quadric's surface (a prism's: the signed distance

@@ -533,7 +533,8 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
     // lower half no sensor saw is pinned by the top's curvature alone, and wants them all), and
     // to its envelope: where its outer leaves end (fitting/shape_fit.hpp).
     const TopiaryShape fine = FitTopiaryShape(MeasuredPoints(pts, c.points, below, s, noise, s.center_mm.z() - ground_mm < from, p),
-                                              ground_mm, noise, widest_mm, 4000, true, true, o.max_roughness * noise, round);
+                                              ground_mm, noise, widest_mm, 4000, true, true, o.max_roughness * noise, round,
+                                              o.viewpoints_mm);
     if (fine.converged) c.shape = fine;
     // Measured with the block jackknife, a shape the judging fit's own interval let pass may
     // still not be pinned down.

@@ -62,8 +62,9 @@ struct TopiaryOptions {
   double min_width_mm = 150;     ///< smallest horizontal semi-axis, mm (set from FindOptions::min_radius_mm by FindHedges)
   /// Where the sensor stood (scene frame, mm; set by FindHedges from FindOptions::viewpoints_mm):
   /// when given, the cover is read over the part of the footprint whose top faces one of them,
-  /// on cells sized by the shape's own points (TopViewCover). Empty: the whole footprint, on
-  /// cells of twice the cloud's spacing.
+  /// on cells sized by the shape's own points (TopViewCover), and a topiary's envelope is measured
+  /// with its noise and leaves' depth along the rays (fitting::FitClippedShape). Empty: the whole
+  /// footprint, on cells of twice the cloud's spacing, and the noise about the vertical.
   std::vector<Eigen::Vector3d> viewpoints_mm;
   void Check() const;
   static const pipeline::OptionTable<TopiaryOptions>& Table();
@@ -115,8 +116,10 @@ std::vector<HeightPart> SplitByHeight(const std::vector<Eigen::Vector3d>& pts,
 /// fitting::FitClippedShape (step 3), as the finder calls it.
 inline TopiaryShape FitTopiaryShape(const std::vector<Eigen::Vector3d>& points, double ground_mm, double noise_mm,
                                     double widest_mm = 0, std::size_t max_points = 800, bool jackknife = false,
-                                    bool envelope = false, double max_spread_mm = 0, bool round = false) {
-  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points, jackknife, envelope, max_spread_mm, round);
+                                    bool envelope = false, double max_spread_mm = 0, bool round = false,
+                                    const std::vector<Eigen::Vector3d>& viewpoints = {}) {
+  return fitting::FitClippedShape(points, ground_mm, noise_mm, widest_mm, max_points, jackknife, envelope, max_spread_mm, round,
+                                  viewpoints);
 }
 
 /// The lawn's points per mm^2 about a place, from the points within the ground's band on a grid

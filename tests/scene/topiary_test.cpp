@@ -832,6 +832,25 @@ TEST(RealData, TheWestHalfTurnedKeepsItsTopiary) {
   }
 }
 
+// A simulated bed (sim::RandomTopiaryBed) as `sensor` scans it, with its range noise, and the
+// stations it stood at.
+struct ScannedBed {
+  sim::ScanScene scene;
+  cloud::PointCloud cloud;
+  std::vector<Eigen::Vector3d> stations;
+};
+ScannedBed ScanBed(std::uint64_t seed, sim::Sensor sensor, double noise_mm) {
+  ScannedBed b{sim::RandomTopiaryBed(seed), {}, {}};
+  sim::ScanOptions so;
+  so.sensor = sensor;
+  so.seed = seed;
+  so.noise_mm = noise_mm;
+  fitting::QuietSolverWarnings();
+  b.cloud = sim::ScanGarden(b.scene, so);
+  b.stations = sim::ScanStations(b.scene, so);
+  return b;
+}
+
 // A bed scanned by a terrestrial scanner from two tripods 2.5 m in front of it, 1.5 m up (3 mm
 // of range noise, as bench find's): each top is seen from one side only, the far side hidden by
 // its own curvature, and the scanner's lines leave cells of twice the cloud's spacing empty on a
@@ -845,15 +864,11 @@ TEST(RealData, TheWestHalfTurnedKeepsItsTopiary) {
 TEST(FindHedges, TopiarySeenFromTheSideIsJudgedWhereItFacesTheScanner) {
   for (std::uint64_t seed : {31u, 32u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
-    const sim::ScanScene scene = sim::RandomTopiaryBed(seed);
-    sim::ScanOptions so;
-    so.sensor = sim::Sensor::kTerrestrial;
-    so.seed = seed;
-    so.noise_mm = 3;
-    fitting::QuietSolverWarnings();
-    const cloud::PointCloud cloud = sim::ScanGarden(scene, so);
+    const ScannedBed bed = ScanBed(seed, sim::Sensor::kTerrestrial, 3);
+    const sim::ScanScene& scene = bed.scene;
+    const cloud::PointCloud& cloud = bed.cloud;
     FindOptions told;
-    told.viewpoints_mm = sim::ScanStations(scene, so);
+    told.viewpoints_mm = bed.stations;
     ASSERT_EQ(told.viewpoints_mm.size(), 2u);
     auto found_of = [&](const FindResult& r, std::size_t* other) {
       std::size_t found = 0;
@@ -884,6 +899,42 @@ TEST(FindHedges, TopiarySeenFromTheSideIsJudgedWhereItFacesTheScanner) {
   }
 }
 
+// A 16-beam LiDAR driving past a bed 4.3-4.7 m away, 1.5 m up, sees each topiary's upper part
+// from one side, its rays within 15 degrees of the level: they meet the sides face on and graze
+// the tops. Its 10 mm of range noise, and how deep each beam goes among the leaves, lie along
+// them. Told the stations, the leaf layer reads both along the rays. With the noise held at the
+// lawn's about the vertical (the stations not passed to the measuring fit) it read the sides'
+// scatter as leaves: over these ten beds (seeds 31-40; 43 topiary measured, 129 semi-axes) the
+// semi-axes read +1.1, +1.4 and +2.0 mm long on average, their rms error 3.2 mm, and the 95 %
+// intervals held 95 of them (74 %); told, -1.5, -1.2 and -0.6 mm, 2.4 mm and 117 (91 %).
+// 10 mm of range noise on a shape's 300-900 points scatters a semi-axis by about 2.5 mm (the
+// intervals' typical half-width here, 4.8 mm, over 1.96): an rms of 2.8 mm leaves about a
+// millimetre of offset beside it. The intervals hold under 95 %: the far half no station saw is
+// pinned by the near half alone (docs/accuracy.md, "Beds seen from the side"); 85 % is asked.
+TEST(FindHedges, ALidarsNoiseAndLeavesAreReadAlongItsRays) {
+  std::size_t axes = 0, held = 0;
+  double squares = 0;
+  for (std::uint64_t seed = 31; seed <= 40; ++seed) {
+    const ScannedBed bed = ScanBed(seed, sim::Sensor::kLidar16, 10);
+    FindOptions told;
+    told.viewpoints_mm = bed.stations;
+    const FindResult r = FindHedges(bed.cloud, told);
+    for (const auto& o : r.objects) {
+      if (!o.topiary || !o.shape) continue;
+      for (const auto& t : bed.scene.topiary) {
+        if ((o.shape->center_mm.head<2>() - t.center_mm.head<2>()).norm() > 100) continue;
+        for (int k = 0; k < 3; ++k) {
+          const double e = o.shape->axes_mm[k] - t.axes_mm[k];
+          squares += e * e, ++axes, held += std::abs(e) <= o.shape->axes_ci95_mm[k];
+        }
+      }
+    }
+  }
+  ASSERT_GE(axes, 3u * 40);  // 43 of the 49 topiary are measured (a sparse bed's smallest are not found)
+  EXPECT_LE(std::sqrt(squares / double(axes)), 2.8);
+  EXPECT_GE(double(held), 0.85 * double(axes));
+}
+
 // The stations as a user gives them: in the file's units and frame. The second bed above (seed
 // 32) turned 180 degrees (its scanner to the north) in UTM metres, as a survey exports it, read
 // with a global shift; the stations in UTM metres too. They must reach the finder scaled and
@@ -891,12 +942,9 @@ TEST(FindHedges, TopiarySeenFromTheSideIsJudgedWhereItFacesTheScanner) {
 // tops' hidden sides (3 of 5 found so); as in mm (test above) all 5 topiary are found. (Seed 31
 // turned so has all 5 found by the ball search, which no viewpoint touches.)
 TEST(FindHedges, ViewpointsAreReadInTheCloudsOwnUnitsAndFrame) {
-  const sim::ScanScene scene = sim::RandomTopiaryBed(32);
-  sim::ScanOptions so;
-  so.sensor = sim::Sensor::kTerrestrial;
-  so.seed = 32;
-  so.noise_mm = 3;
-  const cloud::PointCloud c = sim::ScanGarden(scene, so);
+  const ScannedBed bed = ScanBed(32, sim::Sensor::kTerrestrial, 3);
+  const sim::ScanScene& scene = bed.scene;
+  const cloud::PointCloud& c = bed.cloud;
   const Eigen::Vector3d utm_m(500000.0, 5700000.0, 50.0);
   const std::string file = (hedgefit::testing::ScratchDir() / "bed.xyz").string();
   {
@@ -908,7 +956,7 @@ TEST(FindHedges, ViewpointsAreReadInTheCloudsOwnUnitsAndFrame) {
     }
   }
   std::vector<Eigen::Vector3d> stations;
-  for (const auto& v : sim::ScanStations(scene, so)) stations.push_back(Eigen::Vector3d(-v.x(), -v.y(), v.z()) / 1000.0 + utm_m);
+  for (const auto& v : bed.stations) stations.push_back(Eigen::Vector3d(-v.x(), -v.y(), v.z()) / 1000.0 + utm_m);
   fitting::QuietSolverWarnings();
   const FindReport rep = FindInCloudFile(file, 0, FindOptions{}, nullptr, stations);
   ASSERT_EQ(rep.scale, 1000.0);
