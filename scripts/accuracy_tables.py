@@ -389,14 +389,19 @@ def depth():
         print(f"| {label} | {len(cells['as measured'])} | " + " | ".join(row) + " |")
 
 
-def find():
+def bench_find(name, flags):
+    """`hedgefit bench find FLAGS` on held-back seeds (101 on; 1-3 chose find's defaults), its rows
+    from OUT/NAME.json, stamped with today's build."""
     OUT.mkdir(parents=True, exist_ok=True)
-    out = OUT / "find.json"
-    # Held-back gardens: seeds 1-3 chose find's defaults (bench find --help).
-    subprocess.run([str(HEDGEFIT), "bench", "find", "--gardens", "4", "--beds", "0", "--first-seed", "101", "--json", str(out)],
+    out = OUT / f"{name}.json"
+    subprocess.run([str(HEDGEFIT), "bench", "find", "--first-seed", "101", *flags, "--json", str(out)],
                    cwd=ROOT, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     stamp(out)
-    rows = load(out)
+    return load(out)
+
+
+def find():
+    rows = bench_find("find", ["--gardens", "4", "--beds", "0"])
     print("| data | clouds | points per cloud | balls found | other objects called balls or topiary | radius error, mean / worst | "
           "centre error, worst | ground error, worst | time per cloud, mean / worst |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -450,14 +455,8 @@ BED_SENSORS = {"lidar16": "16-beam LiDAR driving past, 1.5 m up", "terrestrial":
 
 
 def beds():
-    OUT.mkdir(parents=True, exist_ok=True)
-    out = OUT / "beds.json"
-    # Held-back beds, each told where its sensor stood: seeds 1-3 chose find's defaults.
-    subprocess.run([str(HEDGEFIT), "bench", "find", "--gardens", "0", "--beds", "4", "--first-seed", "101", "--bed-sensors",
-                    ",".join(BED_SENSORS), "--viewpoints", "--json", str(out)],
-                   cwd=ROOT, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    stamp(out)
-    rows = load(out)
+    # Each bed told where its sensor stood.
+    rows = bench_find("beds", ["--gardens", "0", "--beds", "4", "--bed-sensors", ",".join(BED_SENSORS), "--viewpoints"])
     print("| simulated topiary beds, told the stations | beds | topiary found | others called topiary | "
           "semi-axis error along / across / up, mean signed | 95 % intervals holding (mean half-width) | beyond 2 % | worst |")
     print("|---|---|---|---|---|---|---|---|")
