@@ -935,6 +935,42 @@ TEST(FindHedges, ALidarsNoiseAndLeavesAreReadAlongItsRays) {
   EXPECT_GE(double(held), 0.85 * double(axes));
 }
 
+// A ball or dome the ball search reports over a clipped shape must hold that shape's semi-axes
+// within its radius's 95 % interval and the 2 % the axes are asked to (a ball's three semi-axes
+// are its radius). On LiDAR bed 31 a 337 x 337 x 265 mm spheroid, seen from the side down to
+// about its widest part, fits a dome about the ground (r 362.6 +- 12.2 mm, the centre 90 mm low)
+// and an oblate spheroid equally (BIC 974.5 against 972.9), with axes not apart: the points
+// tell neither the class nor the size, and it must say so (undecided, both readings in its
+// reason) rather than report the dome. Fails with ShapesOfBalls keeping such a dome as a ball.
+TEST(FindHedges, ADomeThePointsCannotTellFromASpheroidIsUndecidedNotABall) {
+  std::size_t balls_over_shapes = 0, tied = 0;
+  for (std::uint64_t seed = 31; seed <= 40; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const ScannedBed bed = ScanBed(seed, sim::Sensor::kLidar16, 10);
+    FindOptions told;
+    told.viewpoints_mm = bed.stations;
+    const FindResult r = FindHedges(bed.cloud, told);
+    for (const auto& o : r.objects) {
+      for (const auto& t : bed.scene.topiary) {
+        const Eigen::Vector2d at = o.ball    ? Eigen::Vector2d(o.fit.sphere.center_mm.head<2>())
+                                   : o.shape ? Eigen::Vector2d(o.shape->center_mm.head<2>())
+                                             : o.top_center_mm;
+        if ((at - t.center_mm.head<2>()).norm() > 100) continue;
+        if (o.verdict == "undecided" && o.reason.find("tell neither") != std::string::npos) ++tied;
+        if (!o.ball || !o.fit.converged || !o.fit.std_error_mm) continue;
+        ++balls_over_shapes;
+        const double ci = 1.96 * (*o.fit.std_error_mm)[3];
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_LE(std::abs(o.fit.sphere.radius_mm - t.axes_mm[k]), ci + 0.02 * t.axes_mm[k])
+              << "a " << o.verdict << " of r " << o.fit.sphere.radius_mm << " +- " << ci << " over semi-axis " << k << " of "
+              << t.axes_mm[k];
+        }
+      }
+    }
+  }
+  EXPECT_GE(tied, 1u);  // bed 31's spheroid
+}
+
 // The stations as a user gives them: in the file's units and frame. The second bed above (seed
 // 32) turned 180 degrees (its scanner to the north) in UTM metres, as a survey exports it, read
 // with a global shift; the stations in UTM metres too. They must reach the finder scaled and
