@@ -196,6 +196,13 @@ int main(int argc, char** argv) {
     std::vector<std::pair<std::string, std::string>> files;
     BoardSpec spec;
     const Truth truth = ReadTruth(dir, last, &files, &spec);
+    if (files.size() < 3) {
+      std::fprintf(stderr,
+                   "bench_calibrate: %s: %zu board pairs with a truth file (board_01 .. board_%02d); calibrating needs at "
+                   "least 3: render the lab's boards there first (hedgefit simulate --preset paper-lab -o DIR)\n",
+                   dir.string().c_str(), files.size(), last);
+      return 2;
+    }
     CalibrationOptions co;
     co.board = spec;
     std::vector<Row> rows;
