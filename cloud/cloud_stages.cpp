@@ -48,6 +48,9 @@ void AddReader(Registry& r, const std::string& name, const std::string& what, st
     ctx.Note("nonfinite", static_cast<std::int64_t>(CountNonFinite(cloud)));
     ctx.Note("organized", cloud.IsOrganized());
     ctx.Note("encoding", header.encoding);
+    // Where the sensor stood (a PCD's VIEWPOINT), in the frame of the points as read: scaled, and
+    // shifted as they were. segment.hedges reads it when given no viewpoints.
+    if (header.viewpoint) ctx.Put("viewpoint", Eigen::Vector3d(*header.viewpoint * ro.scale - cloud.offset));
     ctx.Put("cloud", std::move(cloud));
   }));
 }

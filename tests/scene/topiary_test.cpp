@@ -18,8 +18,10 @@
 #include "cloud/describe.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/shape_fit.hpp"
+#include "pipeline/pipeline.hpp"
 #include "scene/find_report.hpp"
 #include "scene/finder.hpp"
+#include "scene/scene_stages.hpp"
 #include "scene/topiary.hpp"
 #include "sim/scan.hpp"
 #include "tests/test_data.hpp"
@@ -933,6 +935,39 @@ TEST(FindHedges, ALidarsNoiseAndLeavesAreReadAlongItsRays) {
   ASSERT_GE(axes, 3u * 40);  // 43 of the 49 topiary are measured (a sparse bed's smallest are not found)
   EXPECT_LE(std::sqrt(squares / double(axes)), 2.8);
   EXPECT_GE(double(held), 0.85 * double(axes));
+}
+
+// The segment.hedges stage takes the stations as find does (option `viewpoints`, x,y,z each in
+// the cloud's frame as read), or a reader's PCD VIEWPOINT: told, the terrestrial bed 32 above has
+// every topiary found in a pipeline as by FindHedges told; not told, as judged from above (fewer:
+// the far side of each top is hidden). A count that is not three per station is refused by name.
+TEST(FindHedges, TheStageTakesTheStations) {
+  const ScannedBed bed = ScanBed(32, sim::Sensor::kTerrestrial, 3);
+  pipeline::Registry registry;
+  RegisterSceneStages(registry);
+  auto topiary_of = [&](const nlohmann::json& stage) {
+    pipeline::Pipeline p = pipeline::Pipeline::FromJson(nlohmann::json::array({stage}).dump(), "test", registry, {}, {"cloud"});
+    pipeline::Context ctx;
+    ctx.Put("cloud", bed.cloud);
+    const pipeline::RunReport rep = p.Run(ctx);
+    return std::get<std::int64_t>(rep.stages.at(0).notes.at("topiary"));
+  };
+  FindOptions told;
+  told.viewpoints_mm = bed.stations;
+  const std::int64_t direct = std::int64_t(FindHedges(bed.cloud, told).Topiary());
+  const std::int64_t above = std::int64_t(FindHedges(bed.cloud, FindOptions{}).Topiary());
+  ASSERT_GT(direct, above) << "the bed must need the stations for this test to mean anything";
+  std::vector<double> at;
+  for (const auto& v : bed.stations) at.insert(at.end(), {v.x(), v.y(), v.z()});
+  EXPECT_EQ(topiary_of({{"type", "segment.hedges"}, {"viewpoints", at}}), direct);
+  EXPECT_EQ(topiary_of({{"type", "segment.hedges"}}), above);
+  at.pop_back();
+  try {
+    topiary_of({{"type", "segment.hedges"}, {"viewpoints", at}});
+    ADD_FAILURE() << "5 numbers taken as stations";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'viewpoints'"), std::string::npos) << e.what();
+  }
 }
 
 // A ball or dome the ball search reports over a clipped shape must hold that shape's semi-axes
