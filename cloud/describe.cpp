@@ -74,6 +74,51 @@ double MedianSpacing(const PointCloud& cloud) {
   return d[d.size() / 2] / std::sqrt(double(step));
 }
 
+int ScannerRings(const PointCloud& cloud) {
+  // Elevations in 0.05 degree bins about each axis (the spin axis is the frame's z for a Velodyne
+  // or an Ouster, but a driver may turn it); a group is a run of occupied bins.
+  constexpr double kBin = 0.05;
+  constexpr int kBins = int(180 / kBin);
+  std::size_t used = 0;
+  int best = 0;
+  for (int axis = 2; axis >= 0; --axis) {
+    std::vector<std::size_t> hist(kBins, 0);
+    used = 0;
+    for (const auto& p : cloud.points_mm) {
+      if (!p.allFinite()) continue;
+      const Eigen::Vector3d v = p.cast<double>() + cloud.offset;
+      const double range = v.norm();
+      if (!(range > 0)) continue;
+      const double el = std::asin(std::clamp(v[axis] / range, -1.0, 1.0)) * 180 / M_PI;
+      ++hist[std::size_t(std::clamp(int((el + 90) / kBin), 0, kBins - 1))];
+      ++used;
+    }
+    if (used < 1000) return 0;
+    // Groups of occupied bins (empty bins part them), largest first.
+    std::vector<std::pair<std::size_t, int>> groups;  // points, width in bins
+    for (int b = 0; b < kBins;) {
+      if (hist[std::size_t(b)] == 0) {
+        ++b;
+        continue;
+      }
+      std::size_t n = 0;
+      int w = 0;
+      for (; b < kBins && hist[std::size_t(b)] > 0; ++b) n += hist[std::size_t(b)], ++w;
+      groups.emplace_back(n, w);
+    }
+    std::sort(groups.begin(), groups.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::size_t held = 0;
+    int rings = 0;
+    for (const auto& [n, w] : groups) {
+      if (held >= 0.95 * double(used) || rings > 128) break;
+      if (w * kBin > 0.3) break;  // a spread of elevations, not a laser's cone
+      held += n, ++rings;
+    }
+    if (held >= 0.95 * double(used) && rings >= 4 && rings <= 128) best = std::max(best, rings);
+  }
+  return best;
+}
+
 double GuessScale(const PointCloud& cloud) {
   return GuessUnits(LargestExtent(cloud), MedianSpacing(cloud)) == "m" ? 1000.0 : 1.0;
 }

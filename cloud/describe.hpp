@@ -42,6 +42,15 @@ double GuessScale(const PointCloud& cloud);
 /// unless --scale was given, the fit stages refuse such points (so does Python's fit).
 std::string MetresReason(double extent, const std::string& fix);
 
+/// The rings of a spinning LiDAR's scan in its own frame: each laser sweeps a cone of one
+/// elevation about the scanner, so seen from the file's origin (points plus `offset`) almost all
+/// points lie at a few elevations. Returns the number of rings when at least 95 % of the finite
+/// points (1000 or more, away from the origin) fall in 4 to 128 groups of elevations, each at
+/// most 0.3 degrees across; 0 otherwise (a scan moved into a map's frame, a terrestrial
+/// scanner's fine steps, a photogrammetry model: their elevations spread). The origin is then
+/// where the scanner stood.
+int ScannerRings(const PointCloud& cloud);
+
 /// The largest side of the bounds of the finite points of `cloud` (0 when none).
 double LargestExtent(const PointCloud& cloud);
 double LargestExtent(const std::vector<Eigen::Vector3d>& points_mm);

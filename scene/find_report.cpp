@@ -37,6 +37,13 @@ FindReport FindInCloudFile(const std::string& file, double scale, const FindOpti
   if (at.empty() && header.viewpoint) at.push_back(*header.viewpoint);
   rep.viewpoint_source = !viewpoints.empty() ? "given" : (at.empty() ? "" : "the PCD's VIEWPOINT");
   for (const auto& v : at) o.viewpoints_mm.push_back(v * rep.scale - c.offset);
+  // A spinning LiDAR's scan in its own frame stood at its origin.
+  if (at.empty()) {
+    if (const int rings = cloud::ScannerRings(c); rings > 0) {
+      o.viewpoints_mm.push_back(-c.offset);
+      rep.viewpoint_source = pipeline::Format("the origin: a spinning scanner's %d rings about it", rings);
+    }
+  }
   rep.result = FindHedges(c, o);
   rep.result.file = file;
   if (cloud) *cloud = std::move(c);

@@ -20,7 +20,8 @@ struct FindReport {
   /// The cloud's global shift (cloud::PointCloud::offset, mm after scaling): the result's
   /// positions are in the shifted frame, and the reports add it back.
   Eigen::Vector3d offset_mm = Eigen::Vector3d::Zero();
-  /// Where the viewpoints came from: "" (none), "given", or "the PCD's VIEWPOINT".
+  /// Where the viewpoints came from: "" (none), "given", "the PCD's VIEWPOINT", or "the origin: a
+  /// spinning scanner's N rings about it".
   std::string viewpoint_source;
 };
 
@@ -29,7 +30,8 @@ struct FindReport {
 /// gets the cloud as searched (in mm), for the outputs drawn or written from it. `viewpoints`:
 /// where the sensor stood, in the file's own units and frame (FindOptions::viewpoints_mm gets
 /// them scaled and shifted as the points are); none given, a PCD's VIEWPOINT is taken when it is
-/// not the origin.
+/// not the origin, else the file's origin when the points lie on a spinning scanner's rings about
+/// it (cloud::ScannerRings: a LiDAR's scan in its own frame).
 FindReport FindInCloudFile(const std::string& file, double scale, const FindOptions& options,
                            cloud::PointCloud* cloud = nullptr, const std::vector<Eigen::Vector3d>& viewpoints = {});
 

@@ -42,4 +42,8 @@ done
 for i in 1 2 3 4 5; do
   get $GH/tothtekla/SphereCalib/HEAD/examples/example2/data3D/L1_S$i.xyz data/sphere_scans/example2/L1_S$i.xyz
 done
+# The same sphere on a stand in another room (example 3).
+for i in 1 2 3 4 5 6 7 8; do
+  get $GH/tothtekla/SphereCalib/HEAD/examples/example3/data3D/L1_S$i.xyz data/sphere_scans/example3/L1_S$i.xyz
+done
 echo "get_data: done; see docs/data.md for each set's licence"

@@ -13,6 +13,7 @@
 
 #include "cloud/cloud_io.hpp"
 #include "pipeline/error.hpp"
+#include "pipeline/print.hpp"
 
 namespace hedgefit::sim {
 
@@ -450,6 +451,12 @@ std::vector<Eigen::Vector3d> ScanStations(const ScanScene& scene, const ScanOpti
         at.emplace_back(middle.x() + (ex / 2 + 4000) * std::cos(a), middle.y() + (ey / 2 + 4000) * std::sin(a), middle.z() + 4000);
       }
       break;
+  }
+  if (o.station >= 0) {
+    if (std::size_t(o.station) >= at.size()) {
+      throw Error(pipeline::Format("scan station %d: this sensor stands at %zu stations (0-%zu)", o.station, at.size(), at.size() - 1));
+    }
+    at = {at[std::size_t(o.station)]};
   }
   return at;
 }

@@ -104,6 +104,7 @@ struct ScanOptions {
   double dropout = 0.05;       ///< share of beams that return nothing
   double outlier_share = 0.01; ///< photogrammetry: share of points flung along their ray
   double step_deg = 0;         ///< angular step; 0 = the sensor's own
+  int station = -1;            ///< scan from this one of ScanStations only (a LiDAR parked); -1: all
   std::uint64_t seed = 1;
 };
 
