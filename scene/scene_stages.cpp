@@ -1,5 +1,6 @@
 #include "scene/scene_stages.hpp"
 
+#include "cloud/describe.hpp"
 #include "cloud/point_cloud.hpp"
 #include "pipeline/error.hpp"
 #include "pipeline/print.hpp"
@@ -16,7 +17,7 @@ void RegisterSceneStages(pipeline::Registry& r) {
                                  pipeline::ListOption("viewpoints", {}, 0,
                                                       "where the sensor stood, x,y,z for each station in the cloud's frame "
                                                       "(mm, as read: after the reader's scale); none: a PCD's VIEWPOINT "
-                                                      "when the reader found one, else the cloud is judged as seen from above",
+                                                      "when the reader found one, else the origin of a spinning LiDAR's scan in its own frame (its rings), else the cloud is judged as seen from above",
                                                       "mm")}),
                             {"cloud"},
                             {"cloud"},
@@ -41,6 +42,8 @@ void RegisterSceneStages(pipeline::Registry& r) {
           if (run.viewpoints_mm.empty()) {
             if (const auto* v = ctx.Find<Eigen::Vector3d>("viewpoint")) run.viewpoints_mm.push_back(*v);
           }
+          // A spinning LiDAR's scan in its own frame stood at its origin, as `find` reads it.
+          if (run.viewpoints_mm.empty() && cloud::ScannerRings(cloud) > 0) run.viewpoints_mm.push_back(-cloud.offset);
           ctx.Note("viewpoints", static_cast<std::int64_t>(run.viewpoints_mm.size()));
           const FindResult found = FindHedges(cloud, run);
           cloud = LabelCloud(cloud, found);

@@ -20,6 +20,8 @@
 #include "scene/find_report.hpp"
 #include "scene/finder.hpp"
 #include "scene/ground.hpp"
+#include "scene/scene_stages.hpp"
+#include "pipeline/pipeline.hpp"
 #include "sim/scan.hpp"
 #include "tests/test_data.hpp"
 
@@ -324,6 +326,17 @@ TEST(FindHedges, ASphereTheBeamsPassThroughIsNoBallWhenTheScannerIsKnown) {
     const int rings = cloud::ScannerRings(own);
     EXPECT_GE(rings, 4) << "station " << so.station;
     EXPECT_LE(rings, 16) << "station " << so.station;
+    // The pipeline's stage reads the scan in its own frame as `find` does: the cage no ball.
+    pipeline::Registry registry;
+    RegisterSceneStages(registry);
+    pipeline::Pipeline p =
+        pipeline::Pipeline::FromJson(R"([{"type": "segment.hedges"}])", "test", registry, {}, {"cloud"});
+    pipeline::Context ctx;
+    ctx.Put("cloud", own);
+    const pipeline::RunReport run = p.Run(ctx);
+    EXPECT_EQ(std::get<std::int64_t>(run.stages.at(0).notes.at("viewpoints")), 1) << "station " << so.station;
+    EXPECT_EQ(std::get<std::int64_t>(run.stages.at(0).notes.at("balls")), std::int64_t(true_balls(seen).size()))
+        << "station " << so.station;
     EXPECT_EQ(cloud::ScannerRings(c), 0) << "station " << so.station;
   }
 }
