@@ -139,6 +139,7 @@ CloudDescription DescribeCloud(const std::string& path) {
   d.min = lo.cast<double>() + c.offset, d.max = hi.cast<double>() + c.offset;
   d.extent = d.has_bounds ? double((hi - lo).maxCoeff()) : 0.0;
   d.spacing = MedianSpacing(c);
+  d.scanner_rings = ScannerRings(c);
   return d;
 }
 
@@ -159,6 +160,7 @@ std::string DescriptionJson(const CloudDescription& d) {
   }
   if (!d.offset.isZero()) j["offset"] = {d.offset.x(), d.offset.y(), d.offset.z()};
   if (d.header.viewpoint) j["viewpoint"] = {d.header.viewpoint->x(), d.header.viewpoint->y(), d.header.viewpoint->z()};
+  if (d.scanner_rings > 0) j["scanner_rings"] = d.scanner_rings;
   j["spacing"] = d.spacing;
   j["units_guess"] = GuessUnits(d.extent, d.spacing);
   return j.dump(2);
@@ -192,6 +194,10 @@ void PrintDescription(std::ostream& out, const CloudDescription& d) {
     std::snprintf(buf, sizeof(buf), "viewpoint   (%.4g, %.4g, %.4g): where the sensor stood (find judges topiary from it)\n",
                   d.header.viewpoint->x(), d.header.viewpoint->y(), d.header.viewpoint->z());
     out << buf;
+  }
+  if (d.scanner_rings > 0) {
+    out << "scanner     a spinning LiDAR's scan in its own frame: " << d.scanner_rings
+        << " rings about the origin, where it stood (find judges from it)\n";
   }
   std::snprintf(buf, sizeof(buf), "spacing     %.4g (median distance to the nearest point)\n", d.spacing);
   out << buf;

@@ -67,6 +67,7 @@ struct CloudDescription {
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< the shift applied on reading
   double extent = 0;        ///< the bounds' largest side
   double spacing = 0;       ///< MedianSpacing
+  int scanner_rings = 0;    ///< ScannerRings: a spinning LiDAR's scan in its own frame when > 0
 };
 
 /// Reads `path` and describes it; throws Error as ReadCloud does.

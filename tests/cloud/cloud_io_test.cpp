@@ -3,6 +3,7 @@
 // that never leave half a file behind. PCL's own loader is the reference on real data.
 
 #include "cloud/cloud_io.hpp"
+#include "cloud/describe.hpp"
 #include "cloud/outline_io.hpp"
 
 #include <gtest/gtest.h>
@@ -281,6 +282,44 @@ TEST(CloudIo, APcdsViewpointIsReadWhenItIsNotTheOrigin) {
   EXPECT_FALSE(header_of("VIEWPOINT 0 0 0 1 0 0 0\n").viewpoint.has_value());
   EXPECT_FALSE(header_of("").viewpoint.has_value());
   EXPECT_FALSE(header_of("VIEWPOINT 2.5 x 1.6 1 0 0 0\n").viewpoint.has_value());
+}
+
+// A spinning LiDAR's scan in its own frame: 16 lasers at -15..15 degrees, every 0.2 degrees about
+// a room 4 x 6 m and 3 m high, 1.2 m above its floor, with 10 mm of range noise. Its rings are
+// seen from the origin; the same points moved 2 m, or points spread over the same room, show none.
+TEST(CloudIo, AScannersRingsAreSeenFromItsOrigin) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.010);
+  PointCloud scan;
+  for (int k = 0; k < 16; ++k) {
+    const double el = (-15 + 2 * k) * M_PI / 180;
+    for (double az = 0; az < 2 * M_PI; az += 0.2 * M_PI / 180) {
+      const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+      // The nearest of the room's walls, floor and ceiling along the beam.
+      double t = 1e9;
+      for (int a = 0; a < 3; ++a) {
+        const double lo[3] = {-2.0, -3.0, -1.2}, hi[3] = {2.0, 3.0, 1.8};
+        if (d[a] > 1e-9) t = std::min(t, hi[a] / d[a]);
+        if (d[a] < -1e-9) t = std::min(t, lo[a] / d[a]);
+      }
+      scan.points_mm.push_back(((t + noise(rng)) * d).cast<float>());
+    }
+  }
+  EXPECT_EQ(ScannerRings(scan), 16);
+  PointCloud moved = scan;
+  for (auto& p : moved.points_mm) p += Eigen::Vector3f(2.0f, -1.0f, 0.3f);
+  EXPECT_EQ(ScannerRings(moved), 0);
+  // The reader's shift is undone: the origin is the file's.
+  PointCloud shifted = scan;
+  shifted.offset = Eigen::Vector3d(100, 200, 10);
+  for (auto& p : shifted.points_mm) p -= shifted.offset.cast<float>();
+  EXPECT_EQ(ScannerRings(shifted), 16);
+  std::uniform_real_distribution<double> u(0, 1);
+  PointCloud spread;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    spread.points_mm.emplace_back(float(-2 + 4 * u(rng)), float(-3 + 6 * u(rng)), float(-1.2 + 3 * u(rng)));
+  }
+  EXPECT_EQ(ScannerRings(spread), 0);
 }
 
 TEST(CloudIo, LasIsReadToItsScaleAndWrittenBack) {
