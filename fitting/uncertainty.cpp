@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include <Eigen/Geometry>
@@ -173,6 +174,58 @@ std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Ve
   std::vector<int> band(subset.size());
   for (std::size_t k = 0; k < order.size(); ++k) band[order[k]] = int(k * std::size_t(bands) / order.size());
   return GroupJackknife(subset, band, bands, sphere);
+}
+
+double StudentT95(int dof) {
+  // Tabulated to 30 degrees of freedom; beyond, the Cornish-Fisher series about 1.96.
+  static constexpr double kT[] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+                                  2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
+                                  2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
+  if (dof < 1) return std::numeric_limits<double>::infinity();
+  if (dof <= 30) return kT[dof - 1];
+  const double z = 1.959964, n = double(dof);
+  return z + (z * z * z + z) / (4 * n) + (5 * std::pow(z, 5) + 16 * z * z * z + 3 * z) / (96 * n * n);
+}
+
+std::optional<Eigen::Vector4d> RingJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                     const Eigen::Vector3d& scanner, const Eigen::Vector3d& spin_axis,
+                                                     std::size_t max_points) {
+  if (support.size() < 64 || !(spin_axis.norm() > 0)) return std::nullopt;
+  const std::vector<Eigen::Vector3d> subset = EvenSubset(support, max_points);
+  const Eigen::Vector3d a = spin_axis.normalized();
+  std::vector<std::pair<double, std::size_t>> el;  // degrees, index
+  for (std::size_t i = 0; i < subset.size(); ++i) {
+    const Eigen::Vector3d v = subset[i] - scanner;
+    const double range = v.norm();
+    if (range > 0) el.emplace_back(std::asin(std::clamp(v.dot(a) / range, -1.0, 1.0)) * 180 / M_PI, i);
+  }
+  if (el.size() < 64) return std::nullopt;
+  std::sort(el.begin(), el.end());
+  // Rings part where consecutive elevations lie more than 0.08 degrees apart (the finest
+  // 128-laser heads space their lasers 0.1 degrees or more); a ring wider than 0.3 degrees is a
+  // spread of elevations, not a laser's cone (cloud::ScannerRings' test).
+  constexpr double kGap = 0.08, kWidest = 0.3;
+  std::vector<int> ring(subset.size(), -1);
+  int rings = 0;
+  double first = el.front().first;
+  for (std::size_t k = 0; k < el.size(); ++k) {
+    if (k > 0 && el[k].first - el[k - 1].first > kGap) {
+      ++rings;
+      first = el[k].first;
+    }
+    if (el[k].first - first > kWidest) return std::nullopt;
+    ring[el[k].second] = rings;
+  }
+  ++rings;
+  if (rings < 4) return std::nullopt;
+  std::vector<Eigen::Vector3d> kept;
+  std::vector<int> group;
+  for (std::size_t i = 0; i < subset.size(); ++i) {
+    if (ring[i] >= 0) kept.push_back(subset[i]), group.push_back(ring[i]);
+  }
+  const auto se = GroupJackknife(kept, group, rings, sphere);
+  if (!se) return std::nullopt;
+  return Eigen::Vector4d(*se * (StudentT95(rings - 1) / 1.959964));
 }
 
 std::optional<Eigen::Vector4d> PerturbationStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,

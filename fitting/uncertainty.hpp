@@ -42,6 +42,24 @@ std::optional<Eigen::Vector4d> BandJackknifeStdError(const std::vector<Eigen::Ve
                                                      const Eigen::Vector3d& up, int bands = 8,
                                                      std::size_t max_points = 3000);
 
+/// Standard errors of (cx, cy, cz, r) by a delete-a-ring jackknife: `support` grouped by the
+/// rings a spinning scanner at `scanner` laid it in (its elevation about `spin_axis`: a laser
+/// sweeps a cone, so a ring's points share one elevation to a few hundredths of a degree, and
+/// rings lie tenths of a degree to degrees apart), refitting by geometric least squares from
+/// `sphere` without each ring in turn. A laser's own range and angle offsets move its whole ring,
+/// so a ball's error is its rings', a handful, not its hundreds of points'. With so few groups the
+/// jackknife's variance has (rings - 1) degrees of freedom: the errors returned are scaled so that
+/// 1.96 of them is Student's 95 % interval (x 1.25 with 7 rings). nullopt when the elevations do
+/// not fall in rings (a gap-parted group wider than 0.3 degrees: not a spinning scanner's, or
+/// not about this axis), with fewer than 4 rings, or fewer than 64 points. On up to `max_points`.
+std::optional<Eigen::Vector4d> RingJackknifeStdError(const std::vector<Eigen::Vector3d>& support, const Sphere& sphere,
+                                                     const Eigen::Vector3d& scanner, const Eigen::Vector3d& spin_axis,
+                                                     std::size_t max_points = 3000);
+
+/// Student's t distribution's two-sided 95 % quantile for `dof` degrees of freedom (12.71 at 1,
+/// 2.45 at 6, 1.96 as dof grows).
+double StudentT95(int dof);
+
 /// Standard deviations of (cx, cy, cz, r) over the perturbation's draws: each draw moves (up to
 /// `max_points` of, evenly taken) `support`, and a geometric least-squares fit from `sphere`
 /// is refitted. nullopt with fewer than 2 draws or points.

@@ -957,17 +957,25 @@ void GroundUnderBalls(const ScenePoints& s, const GroundModel& ground, const Fin
 // jackknife (whose patches cut across the rings) count as independent. On the five real
 // Velodyne scans of one sphere (sphere_scans/example2) the envelope read 286.9-301.2 mm with 95 %
 // intervals of +-5-14 mm that shared no radius. The fit's standard errors become the larger of
-// theirs and a jackknife over horizontal bands of the ball's supporting points (a level
-// scanner's rings, at a distance; BandJackknifeStdError), `up` in the cloud's frame.
+// theirs and a jackknife over the ball's rings: when the scanner's one station is known and the
+// supporting points fall in rings about it, over those rings (RingJackknifeStdError, with
+// Student's t for their few degrees of freedom); else over horizontal bands (a level scanner's
+// rings, at a distance; BandJackknifeStdError). `up` and `station` in the cloud's frame. On
+// SphereCalib's example 3 (eight VLP-16 scans of one sphere) the bands, 8 of equal counts, cut
+// the ball's 7-12 rings of unequal counts across, and the radii (285.4-307.8 mm) shared no value
+// within their intervals.
 void WidenForRings(const cloud::PointCloud& cloud, const std::vector<std::size_t>& shell, const Eigen::Vector3d& up,
-                   fitting::SphereFitResult* fit) {
+                   const std::optional<Eigen::Vector3d>& station, fitting::SphereFitResult* fit) {
   if (!fit->converged) return;
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(shell.size());
   for (std::size_t i : shell) pts.push_back(cloud.points_mm[i].cast<double>());
-  const auto bands = fitting::BandJackknifeStdError(fitting::SupportingPoints(pts, fit->sphere), fit->sphere, up);
-  if (!bands) return;
-  fit->std_error_mm = fit->std_error_mm ? Eigen::Vector4d(fit->std_error_mm->cwiseMax(*bands)) : *bands;
+  const auto support = fitting::SupportingPoints(pts, fit->sphere);
+  std::optional<Eigen::Vector4d> rings;
+  if (station) rings = fitting::RingJackknifeStdError(support, fit->sphere, *station, up);
+  if (!rings) rings = fitting::BandJackknifeStdError(support, fit->sphere, up);
+  if (!rings) return;
+  fit->std_error_mm = fit->std_error_mm ? Eigen::Vector4d(fit->std_error_mm->cwiseMax(*rings)) : *rings;
 }
 
 // A ball's final fits (MeasureBall), checked to pin its sphere down, and its ground and height.
@@ -1002,8 +1010,10 @@ void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& 
   // Then what a scanner's rings share: reported, not judged (a ball a scanner's rings pin less
   // well than its patches say is still found, with the wider interval).
   const Eigen::Vector3d up = back * Eigen::Vector3d::UnitZ();
-  WidenForRings(cloud, shell, up, &obj->fit);
-  if (obj->geometric) WidenForRings(cloud, shell, up, &*obj->geometric);
+  std::optional<Eigen::Vector3d> station;
+  if (o.topiary.viewpoints_mm.size() == 1 && !sc.camera) station = back * o.topiary.viewpoints_mm.front();
+  WidenForRings(cloud, shell, up, station, &obj->fit);
+  if (obj->geometric) WidenForRings(cloud, shell, up, station, &*obj->geometric);
   if (!c.ground_seen) {
     // No lawn about it: its height and whether the ground cuts it are unknown.
     obj->ground_seen = false;

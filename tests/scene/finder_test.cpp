@@ -344,11 +344,15 @@ TEST(FindHedges, ASphereTheBeamsPassThroughIsNoBallWhenTheScannerIsKnown) {
 // The same sphere in another room (SphereCalib's example 3: eight real VLP-16 scans, the sphere on
 // a stand), read as `find` reads a file: each scan's rings put the scanner at its origin, and the
 // sphere is the one ball of every scan. Without the rays, scan 1's stand (a rim and legs under the
-// sphere, 101 points) passed for a dome of r 335 mm. The scans' radii (285-308 mm) do not share
-// one value within all their intervals, as example 2's do: not asserted, and open.
+// sphere, 101 points) passed for a dome of r 335 mm. The eight radii must agree within their
+// intervals: their chi-square about the weighted mean (each standard error its 95 % half-width
+// over 1.96) under its 95 % quantile for 7 degrees of freedom, 14.07. With the intervals widened
+// over 8 equal-count height bands (which cut the ball's 7-12 rings across) it was 18.0, radii
+// 285.4-307.8 mm; over the scanner's own rings with Student's t (RingJackknifeStdError), 11.2.
 TEST(RealData, FindsTheSphereOnItsStandInEveryScanOfAnotherRoom) {
   HEDGEFIT_REQUIRE_DATA("sphere_scans/example3/L1_S1.xyz");
   fitting::QuietSolverWarnings();
+  std::vector<double> radius, sd;
   for (int i = 1; i <= 8; ++i) {
     const FindReport rep =
         FindInCloudFile(hedgefit::testing::DataPath("sphere_scans/example3/L1_S" + std::to_string(i) + ".xyz"), 0, {});
@@ -358,10 +362,19 @@ TEST(RealData, FindsTheSphereOnItsStandInEveryScanOfAnotherRoom) {
       // "Around 0.3 m", its owners say; example 2's test allows the same.
       if (o.ball) {
         EXPECT_NEAR(o.fit.sphere.radius_mm, 300.0, 15.0) << "scan " << i;
+        const auto se = fitting::TotalStdError(o.fit);
+        ASSERT_TRUE(se.has_value()) << "scan " << i;
+        radius.push_back(o.fit.sphere.radius_mm);
+        sd.push_back((*se)[3]);
       }
       EXPECT_FALSE(o.topiary && !o.ball) << "scan " << i << ": a room holds no clipped shape, but " << o.verdict;
     }
   }
+  double sw = 0, swr = 0;
+  for (std::size_t k = 0; k < radius.size(); ++k) sw += 1 / (sd[k] * sd[k]), swr += radius[k] / (sd[k] * sd[k]);
+  double chi2 = 0;
+  for (std::size_t k = 0; k < radius.size(); ++k) chi2 += std::pow((radius[k] - swr / sw) / sd[k], 2);
+  EXPECT_LT(chi2, 14.07) << "the eight scans' radii disagree beyond their intervals (weighted mean " << swr / sw << " mm)";
 }
 
 // PCL's test clouds (a table with a mug, people, a lamppost, milk cartons, the bunny, planes):

@@ -265,6 +265,26 @@ TEST(BlockJackknife, CountsErrorsNeighboursShare) {
   EXPECT_LT(inside_scatter, 0.6 * cases);
 }
 
+// A 16-laser scanner at the origin (lasers 2 degrees apart from -15 degrees up, a point every
+// 0.2 degrees over the 40 degrees about azimuth `az0`) scanning a ball: each laser's own range
+// offset (6 mm, the spread of a Velodyne's per-laser calibration) moves its whole ring, beside
+// 5 mm of noise per point.
+std::vector<Eigen::Vector3d> ScanBallByRings(cv::RNG& rng, const Eigen::Vector3d& centre, double radius, double az0) {
+  std::vector<Eigen::Vector3d> pts;
+  for (int ring = 0; ring < 16; ++ring) {
+    const double el = (-15 + 2 * ring) * CV_PI / 180, offset = rng.gaussian(6.0);
+    for (double az_deg = -20; az_deg <= 20; az_deg += 0.2) {
+      const double az = az0 + az_deg * CV_PI / 180;
+      const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+      // The ray's first meeting with the sphere, if any.
+      const double b = d.dot(centre), disc = b * b - (centre.squaredNorm() - radius * radius);
+      if (disc <= 0) continue;
+      pts.push_back((b - std::sqrt(disc) + offset + rng.gaussian(5.0)) * d);
+    }
+  }
+  return pts;
+}
+
 // A ball 2.6 m from a 16-laser scanner (lasers 2 degrees apart, a point every 0.2 degrees): each
 // laser's own range offset (6 mm, the spread of a Velodyne's per-laser calibration) moves its
 // whole ring, beside 5 mm of noise per point. The ball holds six or seven rings, so their offsets
@@ -281,18 +301,7 @@ TEST(BandJackknife, AScannersRingsAreCounted) {
   int inside_bands = 0, cases = 0, ring_cases = 0, ring_inside_before = 0;
   for (int t = 0; t < 40; ++t) {
     cv::RNG rng(500 + t);
-    std::vector<Eigen::Vector3d> pts;
-    for (int ring = 0; ring < 16; ++ring) {
-      const double el = (-15 + 2 * ring) * CV_PI / 180, offset = rng.gaussian(6.0);
-      for (double az_deg = -20; az_deg <= 20; az_deg += 0.2) {
-        const double az = az_deg * CV_PI / 180;
-        const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
-        // The ray's first meeting with the sphere, if any.
-        const double b = d.dot(centre), disc = b * b - (centre.squaredNorm() - radius * radius);
-        if (disc <= 0) continue;
-        pts.push_back((b - std::sqrt(disc) + offset + rng.gaussian(5.0)) * d);
-      }
-    }
+    const std::vector<Eigen::Vector3d> pts = ScanBallByRings(rng, centre, radius, 0.0);
     const fitting::SphereFitResult f = fitting::FitSphereGeometric(pts);
     ASSERT_TRUE(f.converged && f.std_error_mm);
     const auto support = fitting::SupportingPoints(pts, f.sphere);
@@ -312,6 +321,58 @@ TEST(BandJackknife, AScannersRingsAreCounted) {
               ring_inside_before, ring_cases);
   EXPECT_GE(inside_bands, 0.88 * cases);
   EXPECT_LE(ring_inside_before, 0.80 * ring_cases);
+}
+
+// The same scanner and balls, now at 1.8-3.2 m and turned about the scanner, so that a ball holds
+// 5 to 10 rings of unequal counts (few points at its top and bottom). A jackknife over the rings
+// themselves, found from the points' elevations about the scanner, deletes one laser's offset at
+// a time; with Student's t for its few degrees of freedom its 95 % intervals should hold about
+// 95 % of coordinates. Equal-count bands cut the rings across. Over 300 balls: at least 93.1 % of
+// the 1200 coordinates inside the rings' intervals (95 % less 3 standard errors of a share of
+// 1200), and more than inside the bands'. Here 96.7 % with Student's t, 92.3 % with 1.96 (the
+// t is what passes), 91.4 % with the bands. A camera's cloud (elevations spread evenly) has no rings.
+TEST(RingJackknife, AScannersOwnRingsAreTheGroups) {
+  const double radius = 300;
+  int inside_rings = 0, inside_bands = 0, cases = 0;
+  for (int t = 0; t < 300; ++t) {
+    cv::RNG rng(900 + t);
+    const double range = rng.uniform(1800.0, 3200.0), az0 = rng.uniform(-CV_PI, CV_PI);
+    const Eigen::Vector3d centre(range * std::cos(az0), range * std::sin(az0), rng.uniform(-400.0, 100.0));
+    const std::vector<Eigen::Vector3d> pts = ScanBallByRings(rng, centre, radius, az0);
+    const fitting::SphereFitResult f = fitting::FitSphereGeometric(pts);
+    ASSERT_TRUE(f.converged && f.std_error_mm);
+    const auto support = fitting::SupportingPoints(pts, f.sphere);
+    const auto rings =
+        fitting::RingJackknifeStdError(support, f.sphere, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+    const auto bands = fitting::BandJackknifeStdError(support, f.sphere, Eigen::Vector3d::UnitZ());
+    ASSERT_TRUE(rings.has_value() && bands.has_value()) << "ball " << t;
+    const Eigen::Vector4d error(f.sphere.center_mm.x() - centre.x(), f.sphere.center_mm.y() - centre.y(),
+                                f.sphere.center_mm.z() - centre.z(), f.sphere.radius_mm - radius);
+    for (int k = 0; k < 4; ++k) {
+      ++cases;
+      inside_rings += std::abs(error[k]) <= 1.96 * std::max((*rings)[k], (*f.std_error_mm)[k]);
+      inside_bands += std::abs(error[k]) <= 1.96 * std::max((*bands)[k], (*f.std_error_mm)[k]);
+    }
+    if (t == 0) {
+      // Seen from a camera 2 m off the scanner's axis the same points hold no rings.
+      EXPECT_FALSE(fitting::RingJackknifeStdError(support, f.sphere, Eigen::Vector3d(0, 2000, 1500),
+                                                  Eigen::Vector3d::UnitZ())
+                       .has_value());
+    }
+  }
+  std::printf("with the rings: %d of %d inside; with the bands: %d of %d\n", inside_rings, cases, inside_bands, cases);
+  EXPECT_GE(inside_rings, 0.931 * cases);
+  EXPECT_GT(inside_rings, inside_bands);
+}
+
+// Student's t quantiles: the table's ends and the series beyond it.
+TEST(RingJackknife, StudentsQuantiles) {
+  EXPECT_NEAR(fitting::StudentT95(1), 12.706, 1e-3);
+  EXPECT_NEAR(fitting::StudentT95(6), 2.447, 1e-3);
+  EXPECT_NEAR(fitting::StudentT95(30), 2.042, 1e-3);
+  EXPECT_NEAR(fitting::StudentT95(40), 2.021, 2e-3);   // tables: 2.021
+  EXPECT_NEAR(fitting::StudentT95(120), 1.980, 2e-3);  // tables: 1.980
+  EXPECT_TRUE(std::isinf(fitting::StudentT95(0)));
 }
 
 // A ball on a lawn: RANSAC's sphere rests on a tenth of the cloud. The points that support it
