@@ -8,6 +8,8 @@
 // For topiary, a PCL user would then fit a sphere to each cluster by sample consensus
 // (SACSegmentation, SACMODEL_SPHERE, with find's radius limits): timed too.
 // Usage: bench_find [--sensor photogrammetry|terrestrial|lidar16|lidar32|aerial] [--garden N] [--repeats N]
+//        bench_find --sensor lidar16 --station K [--garden N]   (the LiDAR parked at its K-th station
+//        only, and find told where: the see-through check on each ball runs, and its time is shown)
 //        bench_find --cloud FILE [--copies N] [--repeats N]   (a real cloud; units guessed as find guesses
 //        them; --copies: the cloud N times side by side along x, every other copy turned half a turn
 //        about the vertical, a stand-in for a larger garden of the same kind)
@@ -36,7 +38,8 @@
 namespace {
 
 // The cloud the bench runs on: a file (units guessed), or a simulated scan.
-hedgefit::cloud::PointCloud BenchCloud(const std::string& file, int copies, const std::string& sensor, int garden) {
+hedgefit::cloud::PointCloud BenchCloud(const std::string& file, int copies, const std::string& sensor, int garden,
+                                       int station, std::vector<Eigen::Vector3d>* viewpoints) {
   using namespace hedgefit;
   if (!file.empty()) {
     cloud::PointCloud c = cloud::ReadCloud(file);
@@ -71,10 +74,17 @@ hedgefit::cloud::PointCloud BenchCloud(const std::string& file, int copies, cons
   so.noise_mm = so.sensor == sim::Sensor::kTerrestrial ? 3 : (so.sensor == sim::Sensor::kLidar16 || so.sensor == sim::Sensor::kLidar32 ? 10 : 5);
   const sim::ScanScene scene = so.sensor == sim::Sensor::kAerial ? sim::RandomTopiaryBed(std::uint64_t(garden))
                                                                  : sim::RandomScanGarden(std::uint64_t(garden));
+  std::string parked;
+  if (station >= 0) {
+    const std::vector<Eigen::Vector3d> stations = sim::ScanStations(scene, so);
+    so.station = std::min(station, int(stations.size()) - 1);
+    viewpoints->push_back(stations[std::size_t(so.station)]);
+    parked = pipeline::Format(" from station %d of %zu only (find told where)", so.station, stations.size());
+  }
   cloud::PointCloud c = sim::ScanGarden(scene, so);
-  std::printf("cloud: simulated %s scan of %s %d, %zu points (mm); %u hardware threads, used where a step can\n",
-              sensor.c_str(), so.sensor == sim::Sensor::kAerial ? "topiary bed" : "garden", garden, c.size(),
-              std::thread::hardware_concurrency());
+  std::printf("cloud: simulated %s scan of %s %d%s, %zu points (mm); %u hardware threads, used where a step can\n",
+              sensor.c_str(), so.sensor == sim::Sensor::kAerial ? "topiary bed" : "garden", garden, parked.c_str(),
+              c.size(), std::thread::hardware_concurrency());
   return c;
 }
 
@@ -83,25 +93,27 @@ hedgefit::cloud::PointCloud BenchCloud(const std::string& file, int copies, cons
 int main(int argc, char** argv) {
   using namespace hedgefit;
   std::string sensor = "photogrammetry", file;
-  int garden = 1, repeats = 3, copies = 1;
+  int garden = 1, repeats = 3, copies = 1, station = -1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--sensor" && i + 1 < argc) sensor = argv[++i];
     else if (a == "--cloud" && i + 1 < argc) file = argv[++i];
     else if (a == "--copies" && i + 1 < argc) copies = std::max(1, std::atoi(argv[++i]));
     else if (a == "--garden" && i + 1 < argc) garden = std::atoi(argv[++i]);
+    else if (a == "--station" && i + 1 < argc) station = std::max(0, std::atoi(argv[++i]));
     else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
   }
   cloud::QuietPcl();
   fitting::QuietSolverWarnings();
-  const cloud::PointCloud c = BenchCloud(file, copies, sensor, garden);
+  scene::FindOptions told;
+  const cloud::PointCloud c = BenchCloud(file, copies, sensor, garden, station, &told.viewpoints_mm);
 
   // hedgefit: the ground alone, and the whole of find.
   const scene::GroundOptions go;
   std::vector<std::uint8_t> is_ground;
   const double ms_ground = bench::MedianMs(repeats, [&] { scene::FitGround(c.points_mm, go, &is_ground); });
   scene::FindResult found;
-  const double ms_find = bench::MedianMs(repeats, [&] { found = scene::FindHedges(c); });
+  const double ms_find = bench::MedianMs(repeats, [&] { found = scene::FindHedges(c, told); });
 
   // PCL: the approximate PMF with the same cell, window, slope and step.
   auto pcl_cloud = cloud::ToPclXyz(c).makeShared();
