@@ -56,6 +56,7 @@ struct FindOptions {
   double min_seen = 0.1;          ///< share of a ball's sphere its points must cover
   double max_radius_uncertainty = 0.08;  ///< a ball's radius is pinned down to this share of it (95 % interval)
   double max_axis_ratio = 1.3;    ///< vertical over horizontal semi-axis (or its inverse) above this: an ellipsoid
+  double max_leaf_depth = 0.1;    ///< a ball's leaves lie within this share of its radius under its envelope
   bool envelope = true;           ///< fit the leafy envelope too (the outer surface; off: the geometric fit only)
   GroundOptions ground;
   TopiaryOptions topiary;         ///< clipped shapes among what no ball takes

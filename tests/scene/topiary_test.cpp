@@ -834,6 +834,26 @@ TEST(RealData, TheWestHalfTurnedKeepsItsTopiary) {
   }
 }
 
+// The same half turned 5, 15 and 45 degrees: `find` called 1, 3 and 1 balls none of which is in
+// the map (a blob by one low fence, pieces along another), their points lying a mean 12-44 %
+// of their radii under their envelopes, where a clipped ball's leaves lie within 7.4 % (the
+// simulated balls and the real Velodyne sphere: FindOptions::max_leaf_depth). No ball now, and
+// the six topiary kept. Not asserted, as they are still called balls: turned 10, 55, 75 or 100
+// degrees, the blob by the one fence (3.0-7.7 %) and a piece along the other (9.8 %).
+TEST(RealData, TheWestHalfTurnedHoldsNoBallItsLeavesDoNotBound) {
+  HEDGEFIT_REQUIRE_DATA("gardens/wageningen_west/garden_west.ply");
+  for (const double deg : {5.0, 15.0, 45.0}) {
+    int other = 0;
+    FindResult r;
+    EXPECT_EQ(FoundInTheWestHalf(Eigen::AngleAxisd(deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
+                                 &other, &r),
+              6)
+        << deg << " degrees";
+    EXPECT_EQ(r.Balls(), 0u) << deg << " degrees";
+    EXPECT_EQ(other, 0) << deg << " degrees";
+  }
+}
+
 // A simulated bed (sim::RandomTopiaryBed) as `sensor` scans it, with its range noise, and the
 // stations it stood at.
 struct ScannedBed {
