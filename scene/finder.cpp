@@ -982,6 +982,14 @@ void WidenForRings(const cloud::PointCloud& cloud, const std::vector<std::size_t
   fit->std_error_mm = fit->std_error_mm ? Eigen::Vector4d(fit->std_error_mm->cwiseMax(*rings)) : *rings;
 }
 
+// A ball its final fits refuse: no ball, with the reason.
+void RefuseFound(const std::string& reason, FoundObject* obj) {
+  obj->ball = false;
+  obj->verdict = "not_a_ball";
+  obj->reason = reason;
+  obj->fit.not_a_ball = reason;
+}
+
 // A ball's final fits (MeasureBall), checked to pin its sphere down, and its ground and height.
 void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& cloud, const FindOptions& o,
                   FoundObject* obj) {
@@ -1003,13 +1011,11 @@ void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& 
   // correlated errors of patches of the shell, which a shrub's lumps are).
   const auto total = fitting::TotalStdError(obj->fit);
   if (obj->ball && (!obj->fit.converged || !total || 1.96 * (*total)[3] > o.max_radius_uncertainty * obj->fit.sphere.radius_mm)) {
-    obj->ball = false;
-    obj->verdict = "not_a_ball";
-    obj->reason = obj->fit.converged && total
-                      ? pipeline::Format("its points do not pin a sphere down: radius %.0f mm +- %.0f mm (95 %%)",
-                                         obj->fit.sphere.radius_mm, 1.96 * (*total)[3])
-                      : "no sphere fits its shell: " + obj->fit.message;
-    obj->fit.not_a_ball = obj->reason;
+    RefuseFound(obj->fit.converged && total
+                    ? pipeline::Format("its points do not pin a sphere down: radius %.0f mm +- %.0f mm (95 %%)",
+                                       obj->fit.sphere.radius_mm, 1.96 * (*total)[3])
+                    : "no sphere fits its shell: " + obj->fit.message,
+                obj);
   }
   // A clipped ball's leaves end on its envelope and lie in a thin layer under it: the mean leaf
   // (the envelope fit's surface) within max_leaf_depth of the radius below it. Measured (the
@@ -1021,12 +1027,10 @@ void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& 
   if (obj->ball && obj->fit.converged && obj->fit.method == "envelope") {
     const double depth = obj->fit.Extra("leaf_depth_mm").value_or(0);
     if (depth > o.max_leaf_depth * obj->fit.sphere.radius_mm) {
-      obj->ball = false;
-      obj->verdict = "not_a_ball";
-      obj->reason = pipeline::Format("not clipped: its points lie a mean %.0f mm (%.0f %% of its radius) under its "
-                                     "envelope; a clipped ball's leaves lie within %.0f %%",
-                                     depth, 100 * depth / obj->fit.sphere.radius_mm, 100 * o.max_leaf_depth);
-      obj->fit.not_a_ball = obj->reason;
+      RefuseFound(pipeline::Format("not clipped: its points lie a mean %.0f mm (%.0f %% of its radius) under its "
+                                   "envelope; a clipped ball's leaves lie within %.0f %%",
+                                   depth, 100 * depth / obj->fit.sphere.radius_mm, 100 * o.max_leaf_depth),
+                  obj);
     }
   }
   // Then what a scanner's rings share: reported, not judged (a ball a scanner's rings pin less
