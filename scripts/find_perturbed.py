@@ -7,6 +7,9 @@ Each case moves, turns, thins, roughens or re-units the cloud (and the map with 
 within 200 mm in the top view, and other objects called topiary; and the objects left undecided
 (too few points to show a solid top), those within 200 mm of a map's topiary and the others. Nothing here is tuned: it asks
 whether the verdicts hang on this half's pose, density or units. Needs numpy.
+--turns: the half turned about the vertical in 5-degree steps (0-355), each turn scored alike, and
+a summary: how many turns found each count of the map's topiary, how many called others topiary
+(balls among them), and which turns those were.
 """
 import json
 import os
@@ -16,7 +19,8 @@ import sys
 import numpy as np
 
 why = "--why" in sys.argv
-sys.argv = [a for a in sys.argv if a != "--why"]
+turns = "--turns" in sys.argv
+sys.argv = [a for a in sys.argv if a not in ("--why", "--turns")]
 exe = sys.argv[1] if len(sys.argv) > 1 else "build/apps/hedgefit"
 data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = sys.argv[2] if len(sys.argv) > 2 else os.path.join(data, "gardens", "wageningen_west")
@@ -72,6 +76,37 @@ def turned(deg):
     a = np.radians(deg)
     return np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
 
+
+if turns:
+    found_in, others_in, balls_in = {}, {}, {}
+    for deg in range(0, 360, 5):
+        R = turned(deg)
+        path = os.path.join(out_dir, "turned.xyz")
+        write_xyz(path, xyz @ R.T)
+        run = subprocess.run([exe, "find", path, "--format", "json"], capture_output=True, text=True)
+        if run.returncode != 0:
+            sys.exit(f"turned {deg} degrees: find exited {run.returncode}: {run.stderr.strip()[:200]}")
+        hedges = json.loads(run.stdout)["clouds"][0]["hedges"]
+        shapes = [h for h in hedges if h["topiary"]]
+        at = [np.array(h["shape"]["center_mm"] if "shape" in h else h["center_mm"])[:2] for h in shapes]
+        used = set()
+        for tx, ty in truth @ R[:2, :2].T * 1000:
+            k = next((k for k, c in enumerate(at) if k not in used and np.hypot(c[0] - tx, c[1] - ty) < 200), None)
+            if k is not None:
+                used.add(k)
+        found_in.setdefault(len(used), []).append(deg)
+        others_in.setdefault(len(shapes) - len(used), []).append(deg)
+        balls_in.setdefault(sum(1 for k, h in enumerate(shapes) if k not in used and h["ball"]), []).append(deg)
+    def row(what, counts, total):
+        for n in sorted(counts, reverse=what.startswith("map")):
+            listed = ", ".join(map(str, counts[n])) if len(counts[n]) <= 12 else "-"
+            print(f"| {what} | {f'{n} of {total}' if total else n} | {len(counts[n])} | {listed} |")
+    print("| turned 0-355 degrees in 5-degree steps | count | turns | which (degrees) |")
+    print("|---|---|---|---|")
+    row("map's topiary found", found_in, len(truth))
+    row("other objects called topiary", others_in, 0)
+    row("of them balls or domes", balls_in, 0)
+    sys.exit(0)
 
 # name, transform of points (metres, z up) -> written cloud, map (x, y) in the written frame,
 # extra find flags
