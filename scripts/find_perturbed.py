@@ -78,7 +78,7 @@ def turned(deg):
 
 
 if turns:
-    found_in, others_in, balls_in = {}, {}, {}
+    found_in, others_in, balls_in, lost, other_at = {}, {}, {}, {}, {}
     for deg in range(0, 360, 5):
         R = turned(deg)
         path = os.path.join(out_dir, "turned.xyz")
@@ -94,6 +94,13 @@ if turns:
             k = next((k for k, c in enumerate(at) if k not in used and np.hypot(c[0] - tx, c[1] - ty) < 200), None)
             if k is not None:
                 used.add(k)
+        for k, (tx, ty) in enumerate(truth):
+            if not any(np.hypot(*(c @ R[:2, :2] / 1000 - (tx, ty))) < 0.2 for j, c in enumerate(at) if j in used):
+                lost.setdefault(f"({tx:.2f}, {ty:.2f})", []).append(deg)
+        for k, c in enumerate(at):
+            if k not in used:
+                x, y = c @ R[:2, :2] / 1000
+                other_at.setdefault(f"({x:.1f}, {y:.1f})", []).append(deg)
         found_in.setdefault(len(used), []).append(deg)
         others_in.setdefault(len(shapes) - len(used), []).append(deg)
         balls_in.setdefault(sum(1 for k, h in enumerate(shapes) if k not in used and h["ball"]), []).append(deg)
@@ -106,6 +113,10 @@ if turns:
     row("map's topiary found", found_in, len(truth))
     row("other objects called topiary", others_in, 0)
     row("of them balls or domes", balls_in, 0)
+    for where, degs in sorted(lost.items()):
+        print(f"| map's topiary at {where} m lost | | {len(degs)} | {', '.join(map(str, degs))} |")
+    for where, degs in sorted(other_at.items()):
+        print(f"| other called topiary at {where} m (map frame) | | {len(degs)} | {', '.join(map(str, degs))} |")
     sys.exit(0)
 
 # name, transform of points (metres, z up) -> written cloud, map (x, y) in the written frame,
