@@ -94,6 +94,7 @@ json ObjectJson(const FindResult& r, const FoundObject& o, const Eigen::Vector3d
   h["center_height_radii"] = sphere ? number(o.base_height_mm) : json(nullptr);
   h["lumpiness"] = o.lumpiness;
   h["crowding"] = o.crowding;
+  if (std::isfinite(o.seen_through)) h["seen_through"] = o.seen_through;
   h["axis_ratio"] = o.axis_ratio;
   h["topiary"] = o.topiary;
   h["undecided"] = o.undecided;

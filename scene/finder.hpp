@@ -33,6 +33,7 @@
 
 #include <cstdint>
 #include <map>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -100,6 +101,9 @@ struct FoundObject {
   double seen_share = 0;        ///< share of the sphere's directions its points cover
   double lumpiness = 0;         ///< robust spread of the outermost points' radius per patch, over the radius
   double crowding = 0;          ///< points just outside the shell, per point on it (a neighbour pressed against it)
+  /// Of the points the see-through check read (over a ball's core: from its one station, or from
+  /// above), the share that passed through it; NaN when it was not read (fewer than 20 points).
+  double seen_through = std::numeric_limits<double>::quiet_NaN();
   double axis_ratio = 1;        ///< vertical over horizontal semi-axis (1 when not judged)
   bool ground_seen = true;      ///< lawn was seen within a metre of a ball's foot (else the next three are NaN)
   double ground_mm = 0;         ///< the ground's height under the centre (along up; scene frame)

@@ -18,6 +18,9 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from garden_ply import read_garden_xyz  # noqa: E402
+
 why = "--why" in sys.argv
 turns = "--turns" in sys.argv
 sys.argv = [a for a in sys.argv if a not in ("--why", "--turns")]
@@ -26,19 +29,6 @@ data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shar
 garden = sys.argv[2] if len(sys.argv) > 2 else os.path.join(data, "gardens", "wageningen_west")
 out_dir = sys.argv[3] if len(sys.argv) > 3 else "build/perturb"
 os.makedirs(out_dir, exist_ok=True)
-
-
-def read_ply(path):
-    with open(path, "rb") as f:
-        n = 0
-        while True:
-            line = f.readline().decode().strip()
-            if line.startswith("element vertex"):
-                n = int(line.split()[-1])
-            if line == "end_header":
-                break
-        dt = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")])
-        return np.frombuffer(f.read(n * dt.itemsize), dtype=dt, count=n)
 
 
 def write_xyz(path, xyz):
@@ -65,8 +55,7 @@ def write_las(path, xyz, offset, scale=0.001):
         f.write(records.tobytes())
 
 
-pts = read_ply(os.path.join(garden, "garden_west.ply"))
-xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
+xyz = read_garden_xyz(os.path.join(garden, "garden_west.ply"))
 objects = json.load(open(os.path.join(garden, "objects.json")))["objects"]
 truth = np.array([o["position_m"][:2] for o in objects if o["label"].startswith("Topiary")])
 rng = np.random.default_rng(7)

@@ -278,10 +278,12 @@ TEST(FindHedges, ABallSeenThroughFromAboveIsNoBall) {
     return c;
   };
   fitting::QuietSolverWarnings();
+  double through = -1;  // the share past the ball the check read on the last cloud
   auto balls_near = [&](const FindResult& res, std::string* why) {
     int n = 0;
     for (const auto& o : res.objects) {
       if ((o.top_center_mm - centre.head<2>()).norm() > r) continue;
+      if (std::isfinite(o.seen_through)) through = o.seen_through;
       if (o.ball) {
         ++n;
         // The envelope's radius: the leaves' tips, within 10 mm of the truth (the 3 mm noise and
@@ -295,8 +297,15 @@ TEST(FindHedges, ABallSeenThroughFromAboveIsNoBall) {
   std::string why;
   // (Its reason is the clipped shapes' search's, which judges it next.)
   EXPECT_EQ(balls_near(FindHedges(cloud_of(false)), &why), 0) << why;
+  // Nothing on its top; the lawn under its core, 1.25 - 1 - 0.1 radii below its underside.
+  EXPECT_GT(through, 0.9) << why;
   why.clear();
+  through = -1;
   EXPECT_EQ(balls_near(FindHedges(cloud_of(true)), &why), 1) << why;
+  // Every point over its core on its top but the deepest leaves (the exponential layer's tail
+  // past the shell's band, 36 mm: about 1 % of them).
+  EXPECT_GE(through, 0) << why;
+  EXPECT_LT(through, 0.05) << why;
 }
 
 // Five real Velodyne scans of one calibration sphere (radius "around 0.3 m", its owners say)
