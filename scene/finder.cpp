@@ -894,9 +894,9 @@ void RefuseSeenThroughFromAbove(const ScenePoints& s, std::vector<Candidate>* ba
       kept.push_back(std::move(c));
       continue;
     }
-    RefuseAsSeenThrough(pipeline::Format("seen through from above: of the %zu points over its core on its top or below it, %zu "
-                                         "lie below it (a clipped hedge's top stops a sensor's rays; a scan taken from the "
-                                         "side should say where with --viewpoint)",
+    RefuseAsSeenThrough(pipeline::Format("seen through from above: of the %zu points over its core on its top or past it, %zu "
+                                         "lie inside it or under it (a clipped hedge's top stops a sensor's rays; a scan taken "
+                                         "from the side should say where with --viewpoint)",
                                          top + through, through),
                         &c);
     others->push_back(std::move(c));
