@@ -79,13 +79,12 @@ if turns:
         shapes = [h for h in hedges if h["topiary"]]
         at = [np.array(h["shape"]["center_mm"] if "shape" in h else h["center_mm"])[:2] for h in shapes]
         used = set()
-        for tx, ty in truth @ R[:2, :2].T * 1000:
+        for (mx, my), (tx, ty) in zip(truth, truth @ R[:2, :2].T * 1000):
             k = next((k for k, c in enumerate(at) if k not in used and np.hypot(c[0] - tx, c[1] - ty) < 200), None)
-            if k is not None:
+            if k is None:
+                lost.setdefault(f"({mx:.2f}, {my:.2f})", []).append(deg)
+            else:
                 used.add(k)
-        for k, (tx, ty) in enumerate(truth):
-            if not any(np.hypot(*(c @ R[:2, :2] / 1000 - (tx, ty))) < 0.2 for j, c in enumerate(at) if j in used):
-                lost.setdefault(f"({tx:.2f}, {ty:.2f})", []).append(deg)
         for k, c in enumerate(at):
             if k not in used:
                 x, y = c @ R[:2, :2] / 1000
