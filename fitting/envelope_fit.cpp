@@ -622,6 +622,7 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
   r.sphere.center_mm = Eigen::Vector3d(p[0], p[1], p[2]) + mean;
   r.sphere.radius_mm = p[3];
   r.converged = true;
+  out.mean_nll = summary.final_cost;
   out.shape.assign(p + 4, p + kParams);
   r.rms_mm = RmsResidual(points_mm, r.sphere);
   // Inliers: points the model explains better than the outlier density.

@@ -67,6 +67,10 @@ struct EnvelopeFit {
   std::size_t outline_rays = 0;   ///< outline rays the fit used (both views)
   double outline_noise_px = 0;    ///< the outline's edge noise (px)
   double outline_ragged_px = 0;   ///< the outline's mean depth inside the envelope's tangent (px): its raggedness
+  /// The fit's mean negative log-likelihood per point (nats; with any priors): a density of the
+  /// points' distances from the centre, so two fits of the same points under different view
+  /// models (one viewpoint, or one per point) compare by it.
+  double mean_nll = std::numeric_limits<double>::quiet_NaN();
   /// With an outline: standard errors of (cx, cy, cz, R), mm, from the likelihood itself (a
   /// cluster sandwich over patches of the sphere and sectors of the outline, so correlated
   /// errors count once), with the top bias' and the leaves' parameters free.

@@ -83,6 +83,10 @@ json ObjectJson(const FindResult& r, const FoundObject& o, const Eigen::Vector3d
   h["radius_mm"] = sphere ? json(o.fit.sphere.radius_mm) : json(nullptr);
   const auto surface = o.fit.Extra("surface_radius_mm");
   h["surface_radius_mm"] = surface ? json(*surface) : (o.geometric && o.geometric->converged ? json(o.geometric->sphere.radius_mm) : json(nullptr));
+  if (const auto depth = o.fit.Extra("leaf_depth_mm")) h["leaf_depth_mm"] = *depth;
+  // How the envelope laid the leaves: along the guessed view or radially (a cloud that does not
+  // say where it was seen from; the likelier of the two).
+  if (const auto radial = o.fit.Extra("leaves_radial")) h["leaves"] = *radial > 0.5 ? "radial" : "along_view";
   const auto total = fitting::TotalStdError(o.fit);
   h["ci95_mm"] = total ? json::array({1.96 * (*total)[0], 1.96 * (*total)[1], 1.96 * (*total)[2], 1.96 * (*total)[3]})
                        : json(nullptr);

@@ -528,10 +528,41 @@ bool IsCameraCloud(const cloud::PointCloud& cloud) {
   return cloud.IsOrganized() || cloud.fields.count(cloud::kPixelSizeField) > 0;
 }
 
+// Where each leaf was seen from when the cloud does not say: along its own normal, from far out
+// (one viewpoint per point a kilometre out along the ray from the sphere's centre through it).
+std::vector<Eigen::Vector3d> RadialViewpoints(const std::vector<Eigen::Vector3d>& pts, const fitting::Sphere& sphere) {
+  std::vector<Eigen::Vector3d> views;
+  views.reserve(pts.size());
+  for (const Eigen::Vector3d& p : pts) {
+    const Eigen::Vector3d out = p - sphere.center_mm;
+    views.push_back(sphere.center_mm +
+                    (out.norm() > 0 ? out.normalized() : Eigen::Vector3d::UnitZ()) * (1e6 + sphere.radius_mm));
+  }
+  return views;
+}
+
 // The final fits of one ball, in the cloud's frame: the geometric fit on its shell with its
 // standard errors, and the leafy envelope seen from `viewpoint` (cloud frame).
+// When the cloud does not say where it was seen from (`guessed`: no camera, no one station), the
+// viewpoint is a guess, and the leaves may as well lie radially under the envelope, as a model
+// made from views all round lays them (each leaf seen along its normal): both layouts are fitted
+// and the likelier kept (the same points and parameters, each a density of the points' distances
+// from the centre), and the fit says which ("leaves_radial" 1 or 0). Along the guessed view alone
+// a synthetic ball whose leaves lie radially (exponential, mean 20 mm, r 300 mm) read 65 mm of
+// leaf depth and was refused as not clipped. Measured on the simulated gardens of 5 sensors
+// (bench find, none told where the sensor stood; tuning seeds 1-3, then held-back 101-103): the
+// worst centre 1.91 -> 1.20 % of the radius (held back 1.98 -> 1.10), the mean |dr| 0.06 -> 0.11 %
+// (held back 0.08 -> 0.11): the simulators lay leaves along each station's rays, and for a scan
+// from many stations radial leaves are the likelier of the two.
+// The envelope is then fitted on the whole shell (the finder's band about its sphere), not the
+// geometric fit's supporting points: its leaf model has its own share of outliers, and the
+// supporting points' cut (3 robust deviations) takes the leaf layer's deep tail, which read a
+// synthetic radial layer of 14 mm (mean) as 9.5-10.7 mm; with the radial layout, on the same
+// tuning gardens, mean |dr| 0.17 -> 0.11 %. Where one station is known (the real Velodyne scans,
+// their rings about the origin) or the cloud is a camera's, the fit is as before: along the view,
+// on the supporting points.
 void MeasureBall(const cloud::PointCloud& cloud, const std::vector<std::size_t>& indices, const fitting::Sphere& start,
-                 const Eigen::Vector3d& viewpoint, const FindOptions& o, FoundObject* obj) {
+                 const Eigen::Vector3d& viewpoint, bool guessed, const FindOptions& o, FoundObject* obj) {
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(indices.size());
   for (std::size_t i : indices) pts.push_back(cloud.points_mm[i].cast<double>());
@@ -557,25 +588,37 @@ void MeasureBall(const cloud::PointCloud& cloud, const std::vector<std::size_t>&
     }
   }
   fitting::SphereFitResult geo;
+  std::vector<Eigen::Vector3d> supported = pts;
   for (int pass = 0; pass < 2; ++pass) {
     std::vector<Eigen::Vector3d> support = fitting::SupportingPoints(pts, from);
     if (support.size() < 10) break;
     geo = fitting::FitSphereGeometric(support, g, &from);
     if (!geo.converged) break;
     from = geo.sphere;
-    if (pass == 1) pts.swap(support);
+    if (pass == 1) supported.swap(support);
   }
   geo.method = "geometric";
-  if (geo.converged) fitting::AddUncertainty(pts, nullptr, &geo);
+  if (geo.converged) fitting::AddUncertainty(supported, nullptr, &geo);
   obj->geometric = geo;
   obj->fit = geo;
   if (!o.envelope || !geo.converged) return;
   fitting::EnvelopeFitOptions e;
   e.viewpoint_mm = viewpoint;
   e.top_bias_px = 0;  // no matcher: a scanner's or a model's points are where the surface is
-  const fitting::EnvelopeFit env = fitting::FitEnvelope(pts, e, &geo.sphere);
+  if (!guessed) pts.swap(supported);
+  fitting::EnvelopeFit env = fitting::FitEnvelope(pts, e, &geo.sphere);
+  bool radial = false;
+  if (guessed) {
+    const std::vector<Eigen::Vector3d> views = RadialViewpoints(pts, geo.sphere);
+    fitting::EnvelopeFit along_normals = fitting::FitEnvelope(pts, e, &geo.sphere, nullptr, nullptr, &views);
+    if (along_normals.fit.converged && (!env.fit.converged || along_normals.mean_nll < env.mean_nll)) {
+      env = std::move(along_normals);
+      radial = true;
+    }
+  }
   if (!env.fit.converged) return;
   fitting::SphereFitResult r = env.fit;
+  if (guessed) r.SetExtra("leaves_radial", {radial ? 1.0 : 0.0});
   r.SetExtra("surface_radius_mm", {env.surface_radius_mm});
   r.SetExtra("leaf_depth_mm", {env.leaf_depth_mm});
   r.SetExtra("clipped_share", {env.clipped_share});
@@ -1059,9 +1102,12 @@ void MeasureFound(const Candidate& c, const Scene& sc, const cloud::PointCloud& 
   const Eigen::Vector3d view_scene =
       c.j.sphere.center_mm + (facing.norm() > 0 ? facing.normalized() : Eigen::Vector3d::UnitZ()) * std::max(4 * r, 2000.0);
   const Eigen::Vector3d viewpoint = sc.camera ? Eigen::Vector3d::Zero() : Eigen::Vector3d(back * view_scene);
+  // A cloud that says nothing of where it was seen from (no camera, no one station given or read
+  // from a scanner's rings): its leaves may lie radially (MeasureBall).
+  const bool unknown = !sc.camera && o.topiary.viewpoints_mm.size() != 1;
   std::vector<std::size_t> shell;
   for (std::size_t i : c.j.shell) shell.push_back(sc.s.source[i]);
-  MeasureBall(cloud, shell, fitting::Sphere{back * c.j.sphere.center_mm, r}, viewpoint, o, obj);
+  MeasureBall(cloud, shell, fitting::Sphere{back * c.j.sphere.center_mm, r}, viewpoint, unknown, o, obj);
   obj->fit.hedge_id = obj->id;
   // The final fit must pin the sphere down as the finder's did (its interval covers the
   // correlated errors of patches of the shell, which a shrub's lumps are).
