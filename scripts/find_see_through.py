@@ -13,16 +13,14 @@ over a ball's core on its top or past it (inside it, or under its underside), th
     ball: every object the check read.
 Needs numpy. Nothing here is tuned.
 """
-import glob
-import json
 import os
-import subprocess
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from garden_ply import read_garden_xyz  # noqa: E402
+from find_runs import find_json as run_find, near_truth, simulated_scans  # noqa: E402
 
 reuse = "--reuse" in sys.argv
 sys.argv = [a for a in sys.argv if a != "--reuse"]
@@ -30,34 +28,21 @@ exe = sys.argv[1] if len(sys.argv) > 1 else "build/apps/hedgefit"
 data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = sys.argv[2] if len(sys.argv) > 2 else os.path.join(data, "gardens", "wageningen_west")
 out_dir = sys.argv[3] if len(sys.argv) > 3 else "build/see_through"
-sensors = "lidar16,lidar32,terrestrial,photogrammetry,aerial"
 
 
 def find_json(path):
-    run = subprocess.run([exe, "find", path, "--format", "json"], capture_output=True, text=True)
-    if run.returncode != 0:
-        sys.exit(f"{path}: find exited {run.returncode}: {run.stderr.strip()[:200]}")
-    return json.loads(run.stdout)["clouds"][0]["hedges"]
+    return run_find(exe, path)
 
 
 print("| data (none told where the sensor stood) | objects the check read | share past them: true balls, max | other objects, their shares | refused (over 0.5) |")
 print("|---|---|---|---|---|")
 for first, what in ((1, "tuning seeds 1-3"), (101, "held-back seeds 101-103")):
-    scans = os.path.join(out_dir, f"seed{first}")
-    os.makedirs(scans, exist_ok=True)
-    if not (reuse and glob.glob(os.path.join(scans, "*.truth.json"))):
-        subprocess.run([exe, "bench", "find", "--sensors", sensors, "--first-seed", str(first), "--dir", scans],
-                       capture_output=True, text=True, check=True)
     true_shares, other_shares = [], []
-    for ply in sorted(glob.glob(os.path.join(scans, "*.ply"))):
-        truth = json.load(open(ply[:-4] + ".truth.json")).get("hedges", [])
+    for ply, truth in simulated_scans(exe, os.path.join(out_dir, f"seed{first}"), first, reuse):
         for h in find_json(ply):
             if "seen_through" not in h:
                 continue
-            fit = h.get("fit") or {}
-            c = np.array(fit.get("center_mm") or h.get("center_mm") or [np.inf] * 3)
-            r = fit.get("radius_mm") or h.get("radius_mm") or 0
-            is_true = h["ball"] and any(np.linalg.norm(np.array(t["center_mm"]) - c) < 0.3 * r for t in truth)
+            is_true = h["ball"] and near_truth(h, truth)
             (true_shares if is_true else other_shares).append(h["seen_through"])
     refused = sum(s > 0.5 for s in true_shares + other_shares)
     others = ", ".join(f"{s:.2f}" for s in sorted(other_shares)) or "-"
