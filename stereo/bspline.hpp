@@ -25,10 +25,11 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy);
 /// the weights of the derivative.
 inline void BSplineWeights(double t, double w[4], double dw[4]) {
   const double t2 = t * t, t3 = t2 * t, u = 1 - t;
-  w[0] = u * u * u / 6;
-  w[1] = (3 * t3 - 6 * t2 + 4) / 6;
-  w[2] = (-3 * t3 + 3 * t2 + 3 * t + 1) / 6;
-  w[3] = t3 / 6;
+  constexpr double kSixth = 1.0 / 6;  // a product, not a division: this runs per pixel and sample
+  w[0] = u * u * u * kSixth;
+  w[1] = (3 * t3 - 6 * t2 + 4) * kSixth;
+  w[2] = (-3 * t3 + 3 * t2 + 3 * t + 1) * kSixth;
+  w[3] = t3 * kSixth;
   if (dw) {
     dw[0] = -0.5 * u * u;
     dw[1] = 1.5 * t2 - 2 * t;
