@@ -778,6 +778,12 @@ GardenScene GardenPreset(const std::string& name) {
     sc.hedges = {Ball(100, 2000, 920, 40)};
     sc.pot = false;
     sc.texture_seed = 31;
+  } else if (name == "paper_pair") {
+    // Two hedges of the paper's outdoor size side by side (r 900 and 940 mm, centres 2.3 and
+    // 2.7 m away): the frame issue "One pass" times against the lab's (bench_capture --scenes paper).
+    sc.hedges = {Ball(-1000, 2300, 900, 40), Ball(1140, 2700, 940, 40)};
+    sc.pot = false;
+    sc.texture_seed = 37;
   } else if (name == "pair") {
     // Two balls a hand's width apart in the image, the hedge row between them.
     sc.hedges = {Ball(-700, 2200, 450, 30), Ball(600, 2400, 500, 30)};
@@ -836,7 +842,7 @@ GardenScene GardenPreset(const std::string& name) {
     sc.pot = false;
     sc.texture_seed = 91;
   } else {
-    throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, pair, low_camera, "
+    throw Error("garden preset '" + name + "': unknown; give one of row, single, outdoor, paper_pair, pair, low_camera, "
                 "high_camera, small_far, big_near, off_centre, touching, left_edge, cut_by_frame, shrubs, boxwood, yew, privet, holly "
                 "(each also NAME_dome), random<seed> (e.g. random7) or paper<seed> (e.g. paper3)");
   }
