@@ -118,10 +118,8 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
       std::uint8_t* o = out.ptr<std::uint8_t>(y);
       for (int x = 0; x < map_xy.cols; ++x) {
         const double u = m[x][0] - x0, v = m[x][1] - y0;
-        // Truncation, not std::floor (a library call without SSE4.1): they differ only below
-        // zero, which is outside the spline's support either way.
-        const int iu = static_cast<int>(u), iv = static_cast<int>(v);
-        if (!(u >= 1 && iu + 2 < cw && v >= 1 && iv + 2 < ch)) continue;
+        const int iu = FloorInt(u), iv = FloorInt(v);
+        if (!(iu >= 1 && iu + 2 < cw && iv >= 1 && iv + 2 < ch)) continue;
         double wx[4], wy[4];
         BSplineWeights(u - iu, wx, nullptr);
         BSplineWeights(v - iv, wy, nullptr);

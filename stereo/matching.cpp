@@ -147,7 +147,7 @@ cv::Mat GreyFloat(const cv::Mat& img) {
 
 // The 2-D cubic B-spline of `coeffs` at (x, y): value and both derivatives; false outside.
 bool SampleBSpline2D(const cv::Mat& coeffs, double x, double y, double* v, double* vx, double* vy) {
-  const int ix = static_cast<int>(std::floor(x)), iy = static_cast<int>(std::floor(y));
+  const int ix = FloorInt(x), iy = FloorInt(y);
   if (ix < 1 || iy < 1 || ix + 2 >= coeffs.cols || iy + 2 >= coeffs.rows) return false;
   double wx[4], dwx[4], wy[4], dwy[4];
   BSplineWeights(x - ix, wx, dwx);
@@ -550,7 +550,7 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
       int x0 = x + sm.di + static_cast<int>(shift_level);
       if (!level) {
         const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
-        x0 = static_cast<int>(std::floor(xr));
+        x0 = FloorInt(xr);
         BSplineWeights(xr - x0, wt_own, dt_own);
         wt = wt_own, dt = dt_own;
       }
