@@ -6,7 +6,7 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|depth|find|beds|around|headline|real [--slow]
+Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|depth|find|beds|around|headline|real [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   stride    the lab's mean |AER| / mean LD against the pixels refined (`bench lab --min-stride 1-4`, every
@@ -18,6 +18,8 @@ Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|depth|find
             the outline
   paper     the paper's hedge size (`bench garden --paper 4`, tuning seeds 1-4, held-back 101-104, unseen 201-204), both
             renderers: the envelope's AER, LD, error along the view ray, interval coverage and width
+  points    the paper's hedge size against the pixels matched and refined per hedge (`bench garden --paper 4
+            --max-points N`, held-back seeds 101-104, both renderers): the envelope's AER, LD and intervals
   depth     the same gardens: the centre's error along the view ray as measured and with the points, the
             outline or both swapped for the renderer's truth, and with one view's outline alone
   find      `hedgefit find` per data set: `bench find` (4 held-back gardens per simulated sensor), the five real
@@ -243,6 +245,15 @@ def envelope_fit(h):
     return next((f for f in h["fits"] if f["method"] == "envelope" and f.get("converged")), None)
 
 
+def envelope_fits(j):
+    """(hedge, its converged envelope fit) for every hedge of a garden bench's JSON that has one."""
+    for s in j["scenes"]:
+        for h in s["hedges"]:
+            fit = envelope_fit(h)
+            if fit is not None:
+                yield h, fit
+
+
 def interval_hits(h, fit):
     """(coordinates inside their 95 % intervals, coordinates with one, the radius' half-width or None)."""
     ci = fit.get("ci95_mm")
@@ -332,22 +343,45 @@ def paper():
             print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * 5)
             continue
         aer, ld, along, inside, cases, half = [], [], [], 0, 0, []
-        for s in j["scenes"]:
-            for h in s["hedges"]:
-                fit = envelope_fit(h)
-                if fit is None:
-                    continue
-                aer.append(abs(fit["aer_mm"]))
-                ld.append(fit["ld_mm"])
-                along.append(along_ray(h, fit))
-                k, m, r = interval_hits(h, fit)
-                inside, cases = inside + k, cases + m
-                if r is not None:
-                    half.append(r)
+        for h, fit in envelope_fits(j):
+            aer.append(abs(fit["aer_mm"]))
+            ld.append(fit["ld_mm"])
+            along.append(along_ray(h, fit))
+            k, m, r = interval_hits(h, fit)
+            inside, cases = inside + k, cases + m
+            if r is not None:
+                half.append(r)
         n = len(aer)
         print(f"| {label} | {n} | {sum(aer) / n:.2f} / {max(aer):.2f} | {sum(ld) / n:.2f} / {max(ld):.2f} | "
               f"{sum(along) / n:+.2f} | {inside} of {cases} | {sum(half) / len(half):.1f} |")
     print("| targets (issue 52) | | 1.5 mean | 2 / 4 | | 90 % | 5 |")
+
+
+def points():
+    """The paper's hedge size against --max-points: where the envelope's accuracy stops paying for pixels."""
+    budgets = [60000, 30000, 15000, 8000]
+    print("| data (simulated), held-back seeds | " + " | ".join(
+        f"at most {n:,} pixels per hedge{' (default)' if n == 60000 else ''}" for n in budgets) + " |")
+    print("|---|" + "---|" * len(budgets))
+    for k in (1, 3):  # GARDENS["paper"]'s held-back rows: hedgefit's renderer, POV-Ray
+        label, directory, flags = GARDENS["paper"][k]
+        runs = [bench("garden", f"points{k}-{n}", directory, flags + ["--max-points", str(n)]) for n in budgets]
+        if any(j is None for j in runs):
+            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * (len(budgets) - 1))
+            continue
+        cells = []
+        for j in runs:
+            aer, ld, pts, inside, cases = [], [], [], 0, 0
+            for h, fit in envelope_fits(j):
+                aer.append(abs(fit["aer_mm"]))
+                ld.append(fit["ld_mm"])
+                pts.append(h["points"])
+                a, b, _ = interval_hits(h, fit)
+                inside, cases = inside + a, cases + b
+            n = len(aer)
+            cells.append(f"{sum(aer) / n:.2f} / {sum(ld) / n:.2f} mm, {inside} of {cases}, "
+                         f"{sum(pts) / n / 1000:.1f}k points")
+        print(f"| {label} | " + " | ".join(cells) + " |")
 
 
 def depth():
@@ -636,6 +670,8 @@ if __name__ == "__main__":
         garden(what)
     elif what == "paper":
         paper()
+    elif what == "points":
+        points()
     elif what == "depth":
         depth()
     elif what == "find":
