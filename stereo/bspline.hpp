@@ -21,8 +21,6 @@ cv::Mat BSplineCoefficients2D(const cv::Mat& image);
 /// Positions outside the source give 0.
 cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy);
 
-/// The cubic B-spline weights at fractional position t of samples k-1, k, k+1, k+2, and
-/// the weights of the derivative.
 /// floor(v) as an int without a library call (std::floor is one on baseline x86-64, and these
 /// run per pixel and per sample); the same value for every |v| < 2^31.
 inline int FloorInt(double v) {
@@ -30,6 +28,8 @@ inline int FloorInt(double v) {
   return i - (v < i);
 }
 
+/// The cubic B-spline weights at fractional position t of samples k-1, k, k+1, k+2, and
+/// the weights of the derivative.
 inline void BSplineWeights(double t, double w[4], double dw[4]) {
   const double t2 = t * t, t3 = t2 * t, u = 1 - t;
   constexpr double kSixth = 1.0 / 6;  // a product, not a division: this runs per pixel and sample

@@ -629,6 +629,21 @@ TEST(BSpline, CoefficientsInterpolateAndTheColumnPassIsTheRowPassTransposed) {
 
 // RemapBSpline with a map half a pixel to the right reproduces a ramp shifted by half a grey
 // step per pixel (cubic B-splines reproduce linear functions), to the 8-bit rounding.
+// FloorInt stands in for std::floor in the samplers, so it must agree with it everywhere they
+// reach: below zero (where truncation does not), on whole numbers either side, and just under them.
+TEST(BSpline, FloorIntIsFloor) {
+  for (double v : {-3.0, -2.5, -1.0, -0.999999, -1e-12, 0.0, 1e-12, 0.5, 0.999999, 1.0, 2.0 - 1e-9, 1919.75, -1919.75,
+                   2147483646.5, -2147483647.5}) {
+    EXPECT_EQ(FloorInt(v), static_cast<int>(std::floor(v))) << v;
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> any(-5000.0, 5000.0);
+  for (int k = 0; k < 100000; ++k) {
+    const double v = any(rng);
+    ASSERT_EQ(FloorInt(v), static_cast<int>(std::floor(v))) << v;
+  }
+}
+
 TEST(BSpline, RemapShiftsARampByHalfAPixel) {
   cv::Mat ramp(40, 120, CV_8UC3);
   for (int y = 0; y < ramp.rows; ++y) {
