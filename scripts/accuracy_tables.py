@@ -363,8 +363,8 @@ def points():
     print("| data (simulated), held-back seeds | " + " | ".join(
         f"at most {n:,} pixels per hedge{' (default)' if n == 60000 else ''}" for n in budgets) + " |")
     print("|---|" + "---|" * len(budgets))
-    for k in (1, 3):  # GARDENS["paper"]'s held-back rows: hedgefit's renderer, POV-Ray
-        label, directory, flags = GARDENS["paper"][k]
+    held_back = [(k, g) for k, g in enumerate(GARDENS["paper"]) if "held-back" in g[0]]
+    for k, (label, directory, flags) in held_back:  # hedgefit's renderer, POV-Ray
         runs = [bench("garden", f"points{k}-{n}", directory, flags + ["--max-points", str(n)]) for n in budgets]
         if any(j is None for j in runs):
             print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * (len(budgets) - 1))

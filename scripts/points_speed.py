@@ -42,14 +42,17 @@ def main():
     budgets = [int(a) for a in args] or [60000, 30000, 15000, 8000]
     if not BENCH.exists():
         raise SystemExit(f"points_speed: {BENCH.relative_to(ROOT)} is missing: build first (cmake --build build)")
-    print(f"warm frame, today's pipeline, median of {frames} frames (ms), hedgefit's renderer, 2 hardware threads")
-    print(f"{'max points per hedge':>22} {'lab':>6} {'paper pair':>11} {'pair / lab':>11}")
-    for n in budgets:
+    for k, n in enumerate(budgets):
         cmd = [str(BENCH), "--scenes", "lab,paper", "--frames", frames, "--stock-frames", "0", "--max-points", str(n)]
         proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
         t = medians(proc.stdout)
         if proc.returncode != 0 or set(t) != {"lab", "paper"}:
             raise SystemExit(f"points_speed: {' '.join(cmd)} failed:\n{proc.stderr}")
+        if k == 0:
+            threads = re.search(r"(\d+) hardware threads", proc.stdout)  # as bench_capture ran
+            print(f"warm frame, today's pipeline, median of {frames} frames (ms), hedgefit's renderer, "
+                  f"{threads.group(1) if threads else 'unknown'} hardware threads")
+            print(f"{'max points per hedge':>22} {'lab':>6} {'paper pair':>11} {'pair / lab':>11}")
         print(f"{n:>22} {t['lab']:>6} {t['paper']:>11} {t['paper'] / t['lab']:>10.1f}x")
 
 

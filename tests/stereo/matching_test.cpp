@@ -627,8 +627,6 @@ TEST(BSpline, CoefficientsInterpolateAndTheColumnPassIsTheRowPassTransposed) {
   EXPECT_LT(worst, 1e-3);  // float coefficients: ~1e-5 of 255
 }
 
-// RemapBSpline with a map half a pixel to the right reproduces a ramp shifted by half a grey
-// step per pixel (cubic B-splines reproduce linear functions), to the 8-bit rounding.
 // FloorInt stands in for std::floor in the samplers, so it must agree with it everywhere they
 // reach: below zero (where truncation does not), on whole numbers either side, and just under them.
 TEST(BSpline, FloorIntIsFloor) {
@@ -644,6 +642,8 @@ TEST(BSpline, FloorIntIsFloor) {
   }
 }
 
+// RemapBSpline with a map half a pixel to the right reproduces a ramp shifted by half a grey
+// step per pixel (cubic B-splines reproduce linear functions), to the 8-bit rounding.
 TEST(BSpline, RemapShiftsARampByHalfAPixel) {
   cv::Mat ramp(40, 120, CV_8UC3);
   for (int y = 0; y < ramp.rows; ++y) {
