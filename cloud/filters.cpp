@@ -375,7 +375,13 @@ FilterResult HedgeOutlierRemoval(const PointCloud& cloud, const HedgeOutlierOpti
     // into one file per hedge by `convert` is cleaned by `compare` as `measure` cleaned it whole).
     const std::vector<HedgeGroup> groups = HedgeGroups(cloud);
     if (groups.size() < 2 || !options.per_hedge) return StatisticalOutlierRemoval(cloud, so);
-    std::vector<bool> keep = StatisticalInliers(cloud, so, nullptr);  // points of no hedge: the whole cloud's
+    // Points of no hedge are judged against the whole cloud's statistics; when every finite point
+    // belongs to a hedge (as a segmented capture's do), that pass would be overwritten point by
+    // point below, and is skipped (it cost as much as the hedges' own).
+    std::size_t in_hedges = 0;
+    for (const HedgeGroup& g : groups) in_hedges += g.indices.size();
+    std::vector<bool> keep = in_hedges + CountNonFinite(cloud) < cloud.size() ? StatisticalInliers(cloud, so, nullptr)
+                                                                              : std::vector<bool>(cloud.size(), false);
     for (const HedgeGroup& g : groups) {
       const std::vector<bool> own = StatisticalInliers(Select(cloud, g.indices), so, nullptr);
       for (std::size_t j = 0; j < g.indices.size(); ++j) keep[g.indices[j]] = own[j];

@@ -656,5 +656,44 @@ TEST(HedgeOutlier, EachHedgeIsCleanedOnItsOwn) {
   EXPECT_NE(whole_first, alone.size());
 }
 
+// Points of no hedge (hedge_id 0: the lawn's edge, a stray blob) are judged against the whole
+// cloud's statistics, as StatisticalOutlierRemoval would; the whole-cloud pass is skipped only
+// when every finite point belongs to a hedge, so skipping it must not change their verdict.
+TEST(HedgeOutlier, PointsOfNoHedgeAreJudgedOnTheWholeCloud) {
+  std::vector<double> cos_near, cos_far;
+  PointCloud a = StereoSphere(800, 2000, 300, &cos_near), b = StereoSphere(800, 3400, 500, &cos_far);
+  for (auto& p : b.points_mm) p.x() += 1500.f;
+  PointCloud both;
+  both.points_mm = a.points_mm;
+  both.points_mm.insert(both.points_mm.end(), b.points_mm.begin(), b.points_mm.end());
+  std::vector<float> id(a.size(), 1.f);
+  id.resize(both.size(), 2.f);
+  // Every 50th point of the far hedge, and a few far off it, belong to no hedge.
+  for (std::size_t i = a.size(); i < both.size(); i += 50) id[i] = 0.f;
+  for (int k = 0; k < 5; ++k) {
+    both.points_mm.emplace_back(600.f + 200.f * float(k), 0.f, 2600.f);
+    id.push_back(0.f);
+  }
+  both.fields[kHedgeIdField] = id;
+  both.Flatten();
+  StatisticalOutlierOptions so;
+  so.mean_k = 30;
+  so.stddev_mul = 1.0;
+  const std::vector<bool> whole = StatisticalInliers(both, so, nullptr);
+  HedgeOutlierOptions o;  // per_hedge, statistical shells: the defaults
+  const FilterResult r = HedgeOutlierRemoval(both, o);
+  std::vector<Eigen::Vector3f> kept_none, expected_none;
+  for (std::size_t i = 0; i < r.cloud.size(); ++i) {
+    if (r.cloud.fields.at(kHedgeIdField)[i] == 0.f) kept_none.push_back(r.cloud.points_mm[i]);
+  }
+  for (std::size_t i = 0; i < both.size(); ++i) {
+    if (id[i] == 0.f && whole[i]) expected_none.push_back(both.points_mm[i]);
+  }
+  // The five lone points float 0.4-1.5 m from any surface: the whole cloud's cut drops them.
+  ASSERT_GT(expected_none.size(), 10u);
+  ASSERT_LT(expected_none.size(), std::size_t(std::count(id.begin(), id.end(), 0.f)));
+  EXPECT_EQ(kept_none, expected_none);
+}
+
 }  // namespace
 }  // namespace hedgefit::cloud
