@@ -102,11 +102,20 @@ std::string Where(const Blob& b, int downscale) {
 int PeakRegions(const cv::Mat& value, const cv::Mat& inside, const std::function<double(double peak)>& rise,
                 const std::function<bool(double peak, int area)>& keep, cv::Mat* labels) {
   const int cols = value.cols, n_px = int(value.total());
-  auto at = [&](int i) {
-    const float v = value.at<float>(i / cols, i % cols);
-    return std::isfinite(v) ? double(v) : -std::numeric_limits<double>::infinity();
-  };
-  auto in = [&](int i) { return inside.at<std::uint8_t>(i / cols, i % cols) != 0; };
+  // Each pixel's value and whether it is inside, read once: the sort below compares them
+  // n log n times.
+  std::vector<double> values(static_cast<std::size_t>(n_px));
+  std::vector<std::uint8_t> inside_px(static_cast<std::size_t>(n_px));
+  for (int y = 0, i = 0; y < value.rows; ++y) {
+    const float* vrow = value.ptr<float>(y);
+    const std::uint8_t* irow = inside.ptr<std::uint8_t>(y);
+    for (int x = 0; x < cols; ++x, ++i) {
+      values[std::size_t(i)] = std::isfinite(vrow[x]) ? double(vrow[x]) : -std::numeric_limits<double>::infinity();
+      inside_px[std::size_t(i)] = irow[x] != 0;
+    }
+  }
+  auto at = [&](int i) { return values[std::size_t(i)]; };
+  auto in = [&](int i) { return inside_px[std::size_t(i)] != 0; };
   auto neighbours = [&](int i, int* out) {
     const int x = i % cols, y = i / cols;
     int m = 0;
@@ -426,8 +435,7 @@ std::optional<std::vector<Blob>> SplitAtBridges(const CoarseScene& s, const Blob
     double inscribed = 0;
     cv::minMaxLoc(dt, nullptr, &inscribed, nullptr, nullptr, one);
     const int r_open = std::max(1, int(std::lround(inscribed / 3)));
-    cv::morphologyEx(one, one, cv::MORPH_OPEN,
-                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r_open + 1, 2 * r_open + 1)));
+    one = OpenMask(one, r_open);
     cv::Mat labels;
     const int n = cv::connectedComponents(one, labels, 8, CV_32S);
     std::vector<Blob> found(std::size_t(std::max(0, n - 1)));

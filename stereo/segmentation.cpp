@@ -4,7 +4,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -295,11 +297,111 @@ cv::Mat SegmentByDepth(const cv::Mat& disparity, const cv::Rect& box, double tol
   return ErodeMask(FillHoles(labels == best), erode_px);
 }
 
+namespace {
+
+// Each pixel's distance along its row to the nearest pixel that is (`nonzero`) or is not set,
+// 0 at such a pixel, and kFar when its row has none. CV_16S: signed 16-bit lanes compare in one
+// SSE2 instruction, unsigned ones do not.
+constexpr std::int16_t kFar = 32767;
+cv::Mat RowDistance(const cv::Mat& mask, bool nonzero) {
+  cv::Mat d(mask.size(), CV_16S);
+  cv::parallel_for_(cv::Range(0, mask.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+      std::int16_t* o = d.ptr<std::int16_t>(y);
+      int run = kFar;  // distance to the nearest such pixel to the left
+      for (int x = 0; x < mask.cols; ++x) {
+        run = (m[x] != 0) == nonzero ? 0 : std::min(run + 1, int(kFar));
+        o[x] = std::int16_t(run);
+      }
+      run = kFar;
+      for (int x = mask.cols - 1; x >= 0; --x) {
+        run = (m[x] != 0) == nonzero ? 0 : std::min(run + 1, int(kFar));
+        o[x] = std::min(o[x], std::int16_t(run));
+      }
+    }
+  });
+  return d;
+}
+
+// OpenCV's elliptical element of radius px as each row's half-width (the element is symmetric and
+// each row one run about the centre), or empty when it is not (then OpenCV does the work).
+std::vector<int> EllipseHalfWidths(int px) {
+  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * px + 1, 2 * px + 1));
+  std::vector<int> half(std::size_t(2 * px + 1));
+  for (int i = 0; i < k.rows; ++i) {
+    const std::uint8_t* row = k.ptr<std::uint8_t>(i);
+    int first = -1, last = -1, count = 0;
+    for (int j = 0; j < k.cols; ++j) {
+      if (row[j] == 0) continue;
+      if (first < 0) first = j;
+      last = j, ++count;
+    }
+    if (count == 0 || last - first + 1 != count || first + last != 2 * px) return {};
+    half[std::size_t(i)] = px - first;
+  }
+  return half;
+}
+
+bool IsBinary(const cv::Mat& mask) {
+  for (int y = 0; y < mask.rows; ++y) {
+    const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (m[x] != 0 && m[x] != 255) return false;
+    }
+  }
+  return true;
+}
+
+// cv::erode (erode true) or cv::dilate of a 0/255 mask with OpenCV's elliptical element of radius
+// px and its default border (pixels outside the image neither erode nor dilate), the same to the
+// bit. A pixel survives erosion when, in every row the element reaches, the nearest unset pixel
+// lies beyond that row's half-width (dilation: the nearest set pixel within it); the row distances
+// are found once, so the cost grows with the element's height, not its area.
+cv::Mat MorphEllipse(const cv::Mat& mask, int px, bool erode) {
+  // Under this radius OpenCV's vectorised pass over the element's area is the faster (measured on
+  // an 860 x 800 mask on this project's machine: even at radius 11, 4.5 against 3.7 ms; 45 against
+  // 6.7 ms at 33); the results are the same either way.
+  constexpr int kOwnFrom = 8;
+  const std::vector<int> half = px >= kOwnFrom && px < kFar ? EllipseHalfWidths(px) : std::vector<int>();
+  if (half.empty() || mask.type() != CV_8UC1 || !IsBinary(mask)) {
+    cv::Mat out;
+    const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * px + 1, 2 * px + 1));
+    if (erode) cv::erode(mask, out, k);
+    else cv::dilate(mask, out, k);
+    return out;
+  }
+  const cv::Mat dist = RowDistance(mask, !erode);
+  cv::Mat out(mask.size(), CV_8U);
+  cv::parallel_for_(cv::Range(0, mask.rows), [&](const cv::Range& rows) {
+    std::vector<std::int16_t> hit(std::size_t(mask.cols));
+    for (int y = rows.start; y < rows.end; ++y) {
+      // erode: hit = some row has an unset pixel within reach; dilate: some row has a set one.
+      std::fill(hit.begin(), hit.end(), std::int16_t(0));
+      for (int dy = -px; dy <= px; ++dy) {
+        if (y + dy < 0 || y + dy >= mask.rows) continue;
+        const std::int16_t h = std::int16_t(half[std::size_t(dy + px)]);
+        const std::int16_t* d = dist.ptr<std::int16_t>(y + dy);
+        std::int16_t* hp = hit.data();
+        for (int x = 0; x < mask.cols; ++x) hp[x] |= std::int16_t(d[x] <= h ? -1 : 0);
+      }
+      std::uint8_t* o = out.ptr<std::uint8_t>(y);
+      for (int x = 0; x < mask.cols; ++x) o[x] = (hit[std::size_t(x)] != 0) == erode ? 0 : 255;
+    }
+  });
+  return out;
+}
+
+}  // namespace
+
 cv::Mat ErodeMask(const cv::Mat& mask, int px) {
   if (px <= 0) return mask;
-  cv::Mat out;
-  cv::erode(mask, out, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * px + 1, 2 * px + 1)));
-  return out;
+  return MorphEllipse(mask, px, true);
+}
+
+cv::Mat OpenMask(const cv::Mat& mask, int px) {
+  if (px <= 0) return mask;
+  return MorphEllipse(MorphEllipse(mask, px, true), px, false);
 }
 
 cv::Mat SegmentFromMaskFile(const StereoRig& rig, const MaskOptions& options) {

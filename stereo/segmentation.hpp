@@ -97,7 +97,14 @@ cv::Mat LargestComponent(const cv::Mat& mask);
 /// Drops `px` pixels from a mask's outline (elliptical structuring element); 0 = as is.
 /// The outermost ring of a silhouette mixes hedge and background in both views, and the
 /// sub-pixel refinement's windows must not reach it.
+/// On a 0/255 CV_8U mask the result is cv::erode's with that element, to the bit, several times
+/// faster on large elements.
 cv::Mat ErodeMask(const cv::Mat& mask, int px);
+
+/// A mask opened (eroded, then dilated) with the elliptical element of radius `px`: what
+/// cv::morphologyEx(MORPH_OPEN) gives with cv::getStructuringElement(MORPH_ELLIPSE, 2 px + 1), to
+/// the bit; 0 = as is. It cuts bridges narrower than the element and keeps shapes wider.
+cv::Mat OpenMask(const cv::Mat& mask, int px);
 
 /// Mask overlay for debug PNGs: outside the mask tinted magenta.
 cv::Mat MaskOverlay(const cv::Mat& bgr, const cv::Mat& mask);

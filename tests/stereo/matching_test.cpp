@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <array>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "stereo/bspline.hpp"
+#include "stereo/segmentation.hpp"
 #include "bench/middlebury.hpp"
 #include "tests/test_data.hpp"
 
@@ -662,6 +664,39 @@ TEST(BSpline, RemapShiftsARampByHalfAPixel) {
       EXPECT_NEAR(v[2], 200 - x - 0.5, 0.51);
     }
   }
+}
+
+// ErodeMask and OpenMask take their own path on large elements (each row's distance to the
+// nearest unset or set pixel, compared with the element's half-widths); they must give OpenCV's
+// erosion and opening with its elliptical element to the bit: the segmentation's masks, and so
+// every garden figure, depend on it. Blobs of many sizes, touching every border (where OpenCV's
+// default border neither erodes nor dilates), at every radius on both sides of the switch; and a
+// mask that is not 0/255, which must go to OpenCV.
+TEST(Morphology, EllipseErosionAndOpeningAreOpenCVs) {
+  cv::RNG rng(11);
+  for (int trial = 0; trial < 3; ++trial) {
+    cv::Mat m = cv::Mat::zeros(180 + 37 * trial, 230 - 23 * trial, CV_8U);
+    for (int i = 0; i < 60; ++i) {
+      cv::circle(m, {rng.uniform(-20, m.cols + 20), rng.uniform(-20, m.rows + 20)}, rng.uniform(1, 45),
+                 rng.uniform(0, 3) == 0 ? 0 : 255, -1);
+    }
+    cv::rectangle(m, {0, 0}, {m.cols - 1, 12}, 255, -1);  // a band along the top edge
+    for (int r = 1; r <= 40; r += (r < 12 ? 1 : 3)) {
+      const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1));
+      cv::Mat eroded, opened;
+      cv::erode(m, eroded, k);
+      cv::morphologyEx(m, opened, cv::MORPH_OPEN, k);
+      ASSERT_EQ(cv::countNonZero(ErodeMask(m, r) != eroded), 0) << "erosion, radius " << r << ", trial " << trial;
+      ASSERT_EQ(cv::countNonZero(OpenMask(m, r) != opened), 0) << "opening, radius " << r << ", trial " << trial;
+    }
+  }
+  cv::Mat grey = cv::Mat::zeros(60, 60, CV_8U);
+  cv::circle(grey, {30, 30}, 25, 100, -1);
+  cv::circle(grey, {30, 30}, 15, 200, -1);
+  cv::Mat eroded;
+  cv::erode(grey, eroded, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(21, 21)));
+  EXPECT_EQ(cv::countNonZero(ErodeMask(grey, 10) != eroded), 0);
+  EXPECT_EQ(cv::countNonZero(OpenMask(grey, 0) != grey), 0);
 }
 
 }  // namespace
