@@ -1,8 +1,11 @@
 #pragma once
-// Timing helper shared by the benchmarks.
+// Timing and option helpers shared by the benchmarks.
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
 #include <vector>
 
 namespace hedgefit::bench {
@@ -18,6 +21,26 @@ double MedianMs(int repeats, Fn&& fn) {
   }
   std::sort(ms.begin(), ms.end());
   return ms[ms.size() / 2];
+}
+
+/// Reads `--name value` pairs through take(name, value), which returns false for a name it does
+/// not know. -h or --help prints `usage` and gives 0; a name with no value or an unknown one says
+/// so with the usage on stderr and gives 2; otherwise -1 (go on).
+inline int ParseOptionPairs(int argc, char** argv, const char* program, const char* usage,
+                            const std::function<bool(const std::string&, const char*)>& take) {
+  for (int i = 1; i < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help") {
+      std::printf("usage: %s %s\n", program, usage);
+      return 0;
+    }
+    const char* why = i + 1 >= argc ? "needs a value" : (take(a, argv[i + 1]) ? nullptr : "is not an option");
+    if (why) {
+      std::fprintf(stderr, "%s: %s %s\nusage: %s %s\n", program, a.c_str(), why, program, usage);
+      return 2;
+    }
+  }
+  return -1;
 }
 
 }  // namespace hedgefit::bench

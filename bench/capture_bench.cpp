@@ -28,6 +28,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/bench_util.hpp"
 #include "fitting/methods.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
@@ -212,19 +213,18 @@ int main(int argc, char** argv) {
   int frames = 20, stock_frames = 3;
   std::string scenes = "lab,row,paper", method = "ransac_ray";
   stereo::ConvertOptions today;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i];
-    if (a == "--frames" || a == "--repeats") frames = std::max(1, std::atoi(argv[i + 1]));
-    else if (a == "--stock-frames") stock_frames = std::max(0, std::atoi(argv[i + 1]));
-    else if (a == "--scenes") scenes = argv[i + 1];
-    else if (a == "--method") method = argv[i + 1];
-    else if (a == "--max-points") today.match.max_points = std::max(0, std::atoi(argv[i + 1]));
-    else {
-      std::fprintf(stderr, "bench_capture: unknown option %s (--frames, --stock-frames, --scenes, --method, --max-points)\n",
-                   a.c_str());
-      return 2;
-    }
-  }
+  const int done = bench::ParseOptionPairs(
+      argc, argv, "bench_capture", "[--frames N] [--stock-frames N] [--scenes lab,row,paper] [--method M] [--max-points N]",
+      [&](const std::string& a, const char* v) {
+        if (a == "--frames" || a == "--repeats") frames = std::max(1, std::atoi(v));
+        else if (a == "--stock-frames") stock_frames = std::max(0, std::atoi(v));
+        else if (a == "--scenes") scenes = v;
+        else if (a == "--method") method = v;
+        else if (a == "--max-points") today.match.max_points = std::max(0, std::atoi(v));
+        else return false;
+        return true;
+      });
+  if (done >= 0) return done;
   pipeline::Registry registry;
   measure::AddStageModules(registry);
   const std::vector<std::string> fits = {fitting::FindFitMethod(method, "--method").stage};

@@ -54,11 +54,14 @@ int main(int argc, char** argv) {
   using namespace hedgefit::fitting;
   int repeats = 3;
   std::size_t max_points = 1000000;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i];
-    if (a == "--repeats") repeats = std::atoi(argv[i + 1]);
-    if (a == "--max-points") max_points = std::strtoull(argv[i + 1], nullptr, 10);
-  }
+  const int done = hedgefit::bench::ParseOptionPairs(argc, argv, "bench_fitters", "[--repeats N] [--max-points N]",
+                                                     [&](const std::string& a, const char* v) {
+                                                       if (a == "--repeats") repeats = std::max(1, std::atoi(v));
+                                                       else if (a == "--max-points") max_points = std::strtoull(v, nullptr, 10);
+                                                       else return false;
+                                                       return true;
+                                                     });
+  if (done >= 0) return done;
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
   std::printf("sphere fitters, median of %d runs, %u hardware threads; cap 60 deg, r 300 mm at 2.3 m, sigma 3 mm, "
               "10 %% outliers\n",

@@ -96,20 +96,16 @@ int main(int argc, char** argv) {
   int repeats = 3;
   std::string pairs = "motorcycle,aloe,cones";
   int refine_radius = hedgefit::stereo::SgbmOptions().refine_radius;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i];
-    if (a == "--repeats") {
-      repeats = std::max(1, std::atoi(argv[i + 1]));
-    } else if (a == "--pairs") {
-      pairs = argv[i + 1];
-    } else if (a == "--refine-radius") {
-      refine_radius = std::max(1, std::atoi(argv[i + 1]));
-    } else {
-      std::fprintf(stderr, "bench_middlebury: unknown option '%s'; use --repeats N, --pairs a,b,c or --refine-radius N\n",
-                   argv[i]);
-      return 2;
-    }
-  }
+  const int done = hedgefit::bench::ParseOptionPairs(
+      argc, argv, "bench_middlebury", "[--repeats N] [--pairs a,b,c] [--refine-radius N]",
+      [&](const std::string& a, const char* v) {
+        if (a == "--repeats") repeats = std::max(1, std::atoi(v));
+        else if (a == "--pairs") pairs = v;
+        else if (a == "--refine-radius") refine_radius = std::max(1, std::atoi(v));
+        else return false;
+        return true;
+      });
+  if (done >= 0) return done;
   const char* env = std::getenv("HEDGEFIT_DATA_DIR");
   const std::string data = env ? env : HEDGEFIT_DEFAULT_DATA_DIR;
   std::printf("hedgefit bench_middlebury: %u hardware threads, median of %d runs; whole frame, search range from the truth\n",
