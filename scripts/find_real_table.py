@@ -75,11 +75,13 @@ if measures:
               f"{s['covered']:.2f} ({s['covered_lower']:.2f}) | {s['density']:.1f} | {s['roughness_noise']:.1f} |")
     sys.exit(0)
 if not per_topiary:
-  print(f"| data | topiary annotated | found (within 200 mm) | false | classes of those found | time |")
-  print("|---|---|---|---|---|---|")
+  # The lawn's scatter about the terrain model: the noise the roughness column of --measures is over.
+  print(f"| data | topiary annotated | found (within 200 mm) | false | classes of those found | lawn's noise (mm) | time |")
+  print("|---|---|---|---|---|---|---|")
   print(f"| real: {os.path.basename(clouds[0])}, {cloud['points']} points | {len(truth)} | {len(used)} | {len(false)}"
       f"{' (' + ', '.join(nearest_label(*h['center_mm'][:2]) for h in false) + ')' if false else ''} | "
-      f"{', '.join(f'{n} {k}' for k, n in sorted(classes.items()))} | {sum(cloud['timings_ms'].values()) / 1000:.2f} s |")
+      f"{', '.join(f'{n} {k}' for k, n in sorted(classes.items()))} | {cloud['ground']['noise_mm']:.1f} | "
+      f"{sum(cloud['timings_ms'].values()) / 1000:.2f} s |")
   sys.exit(0)
 print("| annotated centre (m) | map's semi-axes x height (mm) | found | off (mm) | class | semi-axes (mm) | top (mm) | "
       "leaf layer (mm) | covered | roughness / noise |")
