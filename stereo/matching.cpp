@@ -5,6 +5,7 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -470,32 +471,119 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
 
 namespace {
 
-struct WindowSample {
-  int di, dj;
-  float left;
-  const float* right_row;
-};
-
 // Gauss-Newton in a (2r+1)^2 window about (x, y) from SGBM's d0: true and the estimate and its
 // standard deviation when it settles. One per worker: it keeps the window's samples.
+//
+// Each sample's terms are single precision, four samples at a time (OpenCV's universal
+// intrinsics: SSE2 on baseline x86-64, NEON on ARM), and summed in four lanes; the sums, the
+// solve and everything after them are double. Single precision carries the grey levels (8-bit
+// images, so 24 bits hold them and their spline coefficients with room to spare) and each
+// sample's position within its window; the window's place in the image stays double, so no
+// precision is lost with the column's size.
 class WindowRefiner {
  public:
   WindowRefiner(const cv::Mat& L, const cv::Mat& R, const cv::Mat& mask, int iterations, bool curvature,
                 double max_sigma_px, int max_radius)
       : L_(L), R_(R), mask_(mask), iterations_(iterations), curvature_(curvature), max_sigma_px_(max_sigma_px) {
-    window_.reserve(std::size_t((2 * max_radius + 1) * (2 * max_radius + 1)));
+    const std::size_t n = std::size_t((2 * max_radius + 1) * (2 * max_radius + 1)) + 4;
+    di_.reserve(n), dj_.reserve(n), left_.reserve(n), live_.reserve(n), rows_.reserve(n);
   }
   bool Solve(int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out);
 
  private:
+  // The normal equations' sums over the window at parameters q (the upper triangle of J J^T, 15
+  // sums, and -J res), the residuals' square sum, the samples used and, with `respond`, vq[t] =
+  // J^T (gv m_t): the window's response to the quadratic term m_t = u^2, u v, v^2 (a surface bent
+  // by k_t m_t leaves the residuals -gv k_t m_t, which the step takes in as H^-1 J^T (gv m_t) k_t).
+  struct Sums {
+    double hs[15], g[5], vq[3][5], ssr;
+    int used;
+  };
+  Sums Accumulate(int x, const Eigen::Matrix<double, 5, 1>& q, bool respond) const;
+
   const cv::Mat& L_;
   const cv::Mat& R_;
   const cv::Mat& mask_;
   int iterations_;
   bool curvature_;
   double max_sigma_px_;
-  std::vector<WindowSample> window_;
+  // The window's samples, structure of arrays, padded to a multiple of 4 with dead ones.
+  std::vector<float> di_, dj_, left_, live_;
+  std::vector<const float*> rows_;
 };
+
+WindowRefiner::Sums WindowRefiner::Accumulate(int x, const Eigen::Matrix<double, 5, 1>& q, bool respond) const {
+  const int w = L_.cols;
+  static const float kZeros[4] = {0, 0, 0, 0};
+  using V = cv::v_float32x4;
+  const V sixth = cv::v_setall_f32(1.f / 6), half = cv::v_setall_f32(0.5f), one = cv::v_setall_f32(1.f),
+          two = cv::v_setall_f32(2.f), three = cv::v_setall_f32(3.f), zero = cv::v_setzero_f32();
+  V hs[15], g[5], vq[3][5], ssr = zero, used = zero;
+  for (V& v : hs) v = zero;
+  for (V& v : g) v = zero;
+  for (auto& t : vq) {
+    for (V& v : t) v = zero;
+  }
+  // Sample (di, dj) is read in the right view at x + di - (d + sx di + sy dj): the window's
+  // column x - d, double, split into a whole column and a fraction, plus each sample's offset.
+  const double base = x - q[0], whole = std::floor(base);
+  const int column = int(whole);
+  const V fraction = cv::v_setall_f32(float(base - whole)), sx = cv::v_setall_f32(float(q[1])),
+          sy = cv::v_setall_f32(float(q[2])), gain = cv::v_setall_f32(float(1 + q[3])),
+          offset = cv::v_setall_f32(float(q[4]));
+  for (int k = 0; k < int(di_.size()); k += 4) {
+    const V vdi = cv::v_load(&di_[std::size_t(k)]), vdj = cv::v_load(&dj_[std::size_t(k)]);
+    V live = cv::v_load(&live_[std::size_t(k)]);
+    const V at = fraction + vdi - sx * vdi - sy * vdj;
+    const cv::v_int32x4 floor_at = cv::v_floor(at);
+    const V t = at - cv::v_cvt_f32(floor_at);
+    int shift[4];
+    cv::v_store(shift, floor_at);
+    float alive[4];
+    cv::v_store(alive, live);
+    V tap[4];
+    for (int l = 0; l < 4; ++l) {
+      const int x0 = column + shift[l];
+      const bool inside = alive[l] != 0.f && x0 >= 1 && x0 + 2 < w;
+      if (!inside) alive[l] = 0.f;
+      tap[l] = cv::v_load(inside ? rows_[std::size_t(k + l)] + (x0 - 1) : kZeros);
+    }
+    live = cv::v_load(alive);
+    V c0, c1, c2, c3;  // lane l: sample k + l's four coefficients
+    cv::v_transpose4x4(tap[0], tap[1], tap[2], tap[3], c0, c1, c2, c3);
+    const V t2 = t * t, t3 = t2 * t, u = one - t;
+    const V w0 = u * u * u * sixth, w1 = (three * t3 - (two + two + two) * t2 + (two + two)) * sixth,
+            w2 = (three * (t2 - t3 + t) + one) * sixth, w3 = t3 * sixth;
+    const V dw0 = zero - half * u * u, dw1 = (three * half) * t2 - two * t, dw2 = t - (three * half) * t2 + half,
+            dw3 = half * t2;
+    const V rv = (w0 * c0 + w1 * c1 + w2 * c2 + w3 * c3) * live;
+    const V gv = gain * (dw0 * c0 + dw1 * c1 + dw2 * c2 + dw3 * c3) * live;
+    const V res = (cv::v_load(&left_[std::size_t(k)]) - gain * rv - offset) * live;
+    const V J[5] = {gv, gv * vdi, gv * vdj, zero - rv, zero - live};
+    for (int a = 0, m = 0; a < 5; ++a) {
+      g[a] = g[a] - J[a] * res;
+      for (int c = a; c < 5; ++c, ++m) hs[m] = cv::v_muladd(J[a], J[c], hs[m]);
+    }
+    if (respond) {
+      const V mt[3] = {vdi * vdi, vdi * vdj, vdj * vdj};
+      for (int tq = 0; tq < 3; ++tq) {
+        const V gm = gv * mt[tq];
+        for (int a = 0; a < 5; ++a) vq[tq][a] = cv::v_muladd(J[a], gm, vq[tq][a]);
+      }
+    }
+    ssr = cv::v_muladd(res, res, ssr);
+    used = used + live;
+  }
+  Sums out{};
+  for (int m = 0; m < 15; ++m) out.hs[m] = double(cv::v_reduce_sum(hs[m]));
+  for (int a = 0; a < 5; ++a) {
+    out.g[a] = double(cv::v_reduce_sum(g[a]));
+    for (int tq = 0; respond && tq < 3; ++tq) out.vq[tq][a] = double(cv::v_reduce_sum(vq[tq][a]));
+  }
+  out.ssr = double(cv::v_reduce_sum(ssr));
+  out.used = int(std::lround(cv::v_reduce_sum(used)));
+  return out;
+}
 
 bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out) {
   const cv::Mat& L = L_;
@@ -504,17 +592,23 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
   const int w = L.cols, h = L.rows, iterations = iterations_;
   const bool curvature = curvature_;
   const double max_sigma_px = max_sigma_px_;
-  std::vector<WindowSample>& window = window_;
   const int side = 2 * r + 1, min_samples = std::max(9, (side * side * 2) / 5);  // 40 % of the window
-  window.clear();
+  di_.clear(), dj_.clear(), left_.clear(), live_.clear(), rows_.clear();
   for (int j = std::max(0, y - r); j <= std::min(h - 1, y + r); ++j) {
     const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(j);
     const float* lrow = L.ptr<float>(j);
+    const float* rrow = R.ptr<float>(j);
     for (int i = std::max(0, x - r); i <= std::min(w - 1, x + r); ++i) {
-      if (!m || m[i] != 0) window.push_back({i - x, j - y, lrow[i], R.ptr<float>(j)});
+      if (m && m[i] == 0) continue;
+      di_.push_back(float(i - x)), dj_.push_back(float(j - y)), left_.push_back(lrow[i]), live_.push_back(1.f);
+      rows_.push_back(rrow);
     }
   }
-  if (int(window.size()) < min_samples) return false;
+  const int n = int(di_.size());
+  if (n < min_samples) return false;
+  while (di_.size() % 4 != 0) {  // dead samples: their terms are multiplied by live 0
+    di_.push_back(0.f), dj_.push_back(0.f), left_.push_back(0.f), live_.push_back(0.f), rows_.push_back(nullptr);
+  }
   // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
   // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
   // gain and offset between the cameras.
@@ -527,68 +621,29 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
     // within 1e-3 px early would otherwise stop before the last), and the response is summed
     // in the last step only.
     const bool respond = curvature && it + 1 == iterations;
-    // The normal equations by hand (the upper triangle of J J^T, 15 sums, and J res): the
-    // window's samples are this function's whole cost, and Eigen's generic rank update of a
-    // 5 x 5 view costs about twice as much here.
-    // vq[t]: J^T (gv m_t), the window's response to the quadratic term m_t = u^2, u v, v^2:
-    // a surface bent by k_t m_t leaves the residuals -gv k_t m_t, which the step takes in as
-    // H^-1 J^T (gv m_t) k_t.
-    double hs[15] = {0}, g[5] = {0}, vq[3][5] = {{0}};
-    int used = 0;
-    double ssr = 0;
-    // The first step has no slope yet, and SGBM's d0 (a float) less a whole column is exact in
-    // double: every sample lies at the same fraction of a pixel, and one set of weights serves
-    // them all (the same values to the bit, without a B-spline evaluation per sample).
-    const bool level = q[1] == 0 && q[2] == 0;
-    double wt_level[4], dt_level[4];
-    const double shift_level = std::floor(-q[0]);
-    if (level) BSplineWeights(-q[0] - shift_level, wt_level, dt_level);
-    for (const WindowSample& sm : window) {
-      double wt_own[4], dt_own[4];
-      const double* wt = wt_level;
-      const double* dt = dt_level;
-      int x0 = x + sm.di + static_cast<int>(shift_level);
-      if (!level) {
-        const double xr = x + sm.di - (q[0] + q[1] * sm.di + q[2] * sm.dj);
-        x0 = FloorInt(xr);
-        BSplineWeights(xr - x0, wt_own, dt_own);
-        wt = wt_own, dt = dt_own;
-      }
-      if (x0 < 1 || x0 + 2 >= w) continue;
-      const float* rr = sm.right_row;
-      const double rv = wt[0] * rr[x0 - 1] + wt[1] * rr[x0] + wt[2] * rr[x0 + 1] + wt[3] * rr[x0 + 2];
-      const double gv = (1 + q[3]) * (dt[0] * rr[x0 - 1] + dt[1] * rr[x0] + dt[2] * rr[x0 + 1] + dt[3] * rr[x0 + 2]);
-      const double res = sm.left - (1 + q[3]) * rv - q[4];
-      const double J[5] = {gv, gv * sm.di, gv * sm.dj, -rv, -1.0};
-      for (int a = 0, k = 0; a < 5; ++a) {
-        g[a] -= J[a] * res;
-        for (int c = a; c < 5; ++c, ++k) hs[k] += J[a] * J[c];
-      }
-      if (respond) {
-        const double m[3] = {double(sm.di * sm.di), double(sm.di * sm.dj), double(sm.dj * sm.dj)};
-        for (int t = 0; t < 3; ++t) {
-          for (int a = 0; a < 5; ++a) vq[t][a] += J[a] * gv * m[t];
-        }
-      }
-      ssr += res * res;
-      ++used;
-    }
+    const Sums sums = Accumulate(x, q, respond);
+    const int n_used = sums.used;
     Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-    for (int a = 0, k = 0; a < 5; ++a) {
-      for (int c = a; c < 5; ++c, ++k) H(a, c) = hs[k];
+    for (int a = 0, m = 0; a < 5; ++a) {
+      for (int c = a; c < 5; ++c, ++m) H(a, c) = sums.hs[m];
     }
-    const Eigen::Matrix<double, 5, 1> b = Eigen::Map<const Eigen::Matrix<double, 5, 1>>(g);
+    const Eigen::Matrix<double, 5, 1> b = Eigen::Map<const Eigen::Matrix<double, 5, 1>>(sums.g);
     // Textureless windows (tiny gradient energy) or a singular system: not settled.
-    if (used < min_samples || H(0, 0) < 0.25 * used) return false;
+    if (n_used < min_samples || H(0, 0) < 0.25 * n_used) return false;
     const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
     if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
     const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
     const bool last = (!curvature && std::abs(step[0]) < 1e-3) || it + 1 == iterations;
     // The estimate's standard deviation from the window's residuals and H^-1, of the
     // iteration that ends the search.
-    if (last) sigma = std::sqrt(ssr / std::max(1, used - 5) * ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
+    if (last) {
+      sigma = std::sqrt(sums.ssr / std::max(1, n_used - 5) *
+                        ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
+    }
     if (respond) {
-      for (int t = 0; t < 3; ++t) (*gain_out)[t] = float(ldlt.solve(Eigen::Map<const Eigen::Matrix<double, 5, 1>>(vq[t]))[0]);
+      for (int tq = 0; tq < 3; ++tq) {
+        (*gain_out)[tq] = float(ldlt.solve(Eigen::Map<const Eigen::Matrix<double, 5, 1>>(sums.vq[tq]))[0]);
+      }
     }
     q += step;
     if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) return false;
