@@ -6,6 +6,9 @@ stage `hedgefit plugins --json` lists. Commands and flags: in every code block a
 each `hedgefit COMMAND ...` invocation's command must exist and each of its --flags must appear in
 `hedgefit COMMAND --help`. Shown outputs: every plain ``` block (an output, not a language's code) sits
 right under a `<!-- shown: COMMAND -->` marker, so scripts/make_docs_shown.py regenerates it. No page and no --help names this workspace's shared/data folder: examples read data/ (docs/data.md).
+Settings in prose: a flag quoted with its value outside code, "`--flag` (V)" or "`--flag`, V" (V a
+number, a % after it a share), must give that flag's default in some command's --help, so a changed
+default cannot leave the prose behind.
 Usage: check_docs.py HEDGEFIT_EXE SOURCE_DIR. Exit 1 lists what is missing.
 """
 import json
@@ -83,10 +86,48 @@ for doc in docs:
     for i, line in enumerate(text.split("\n")):
         if "shared/data" in line:
             problems.append(f"{rel}:{i + 1}: names shared/data; examples use data/ (docs/data.md)")
+# settings quoted in prose match the defaults --help prints
+COMMANDS = ["info", "pipeline", "plugins", "compare", "find", "simulate", "calibrate", "render", "convert", "measure",
+            "stream", "trim", "rig", "check-rig", "bench lab", "bench garden", "bench find", "bench around"]
+defaults = {}
+for command in COMMANDS:
+    for line in (help_of(command) or "").split("\n"):
+        m = re.match(r"\s+(--[a-z0-9-]+)\b(.*)", line)
+        if not m:
+            continue
+        d = re.search(r'\[default "?([-+]?[0-9.]+)"?\]', m.group(2)) or re.search(r"=([-+]?[0-9.]+)\b", m.group(2))
+        if d:
+            defaults.setdefault(m.group(1), set()).add(float(d.group(1)))
+        else:
+            # CLI11 puts a long description's default on the next line
+            defaults.setdefault(m.group(1), set())
+    for flag, line in re.findall(r"\n\s+(--[a-z0-9-]+)[^\n]*\n([^\n]*)", help_of(command) or ""):
+        d = re.search(r'\[default "?([-+]?[0-9.]+)"?\]', line)
+        if d:
+            defaults.setdefault(flag, set()).add(float(d.group(1)))
+settings = 0
+SETTING = re.compile(r"`(--[a-z0-9-]+)`(?:,| \() ?([-+]?[0-9]+(?:\.[0-9]+)?)(?![0-9.-])( ?%)?")
+for doc in docs:
+    fence = False
+    for i, line in enumerate(doc.read_text().split("\n")):
+        if line.strip().startswith("```"):
+            fence = not fence
+            continue
+        if fence:
+            continue
+        for m in SETTING.finditer(line):
+            flag, value, share = m.group(1), float(m.group(2)), bool(m.group(3))
+            known = defaults.get(flag)
+            if not known:
+                continue  # a flag with no number for a default (a switch, a list, an option of no command listed)
+            settings += 1
+            if not any(abs(d - value) < 1e-9 or (share and abs(d - value / 100) < 1e-9) for d in known):
+                problems.append(f"{doc.relative_to(src)}:{i + 1}: {flag} is quoted as {m.group(2)}{'%' if share else ''} "
+                                f"but its default is {', '.join(f'{d:g}' for d in sorted(known))} (--help)")
 for command, h in sorted(helps.items()):
     if h and "shared/data" in h:
         problems.append(f"'hedgefit {command} --help' names shared/data; examples use data/ (docs/data.md)")
 for p in sorted(set(problems)):
     print(p)
-print(f"{len(docs)} documents checked: {len(set(problems))} problems")
+print(f"{len(docs)} documents checked, {settings} settings quoted in prose: {len(set(problems))} problems")
 sys.exit(1 if problems else 0)
