@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_util.hpp"
 #include "stereo/calibration.hpp"
 
 namespace {
@@ -181,15 +182,26 @@ double CornerRms(const Row& row, const std::vector<Row>& rows, const Truth& trut
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_calibrate DIR [--threads N]\n");
-    return 2;
-  }
-  const fs::path dir = argv[1];
+  const char* usage = "DIR [--threads N] [--last N]";
+  fs::path dir;
   int threads = 2, last = 99;
-  for (int i = 2; i + 1 < argc; ++i) {
-    if (std::string(argv[i]) == "--threads") threads = std::atoi(argv[i + 1]);
-    if (std::string(argv[i]) == "--last") last = std::atoi(argv[i + 1]);
+  const int done = hedgefit::bench::ParseOptions(
+      argc, argv, "bench_calibrate", usage,
+      [&](const std::string& a, const char* v) {
+        if (a == "--threads") threads = std::max(1, std::atoi(v));
+        else if (a == "--last") last = std::atoi(v);
+        else return false;
+        return true;
+      },
+      [&](const std::string& a) {
+        if (a.empty() || a[0] == '-' || !dir.empty()) return false;
+        dir = a;
+        return true;
+      });
+  if (done >= 0) return done;
+  if (dir.empty()) {
+    std::fprintf(stderr, "bench_calibrate: no DIR given\nusage: bench_calibrate %s\n", usage);
+    return 2;
   }
   cv::setNumThreads(threads);
   try {

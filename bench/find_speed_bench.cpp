@@ -94,15 +94,19 @@ int main(int argc, char** argv) {
   using namespace hedgefit;
   std::string sensor = "photogrammetry", file;
   int garden = 1, repeats = 3, copies = 1, station = -1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--sensor" && i + 1 < argc) sensor = argv[++i];
-    else if (a == "--cloud" && i + 1 < argc) file = argv[++i];
-    else if (a == "--copies" && i + 1 < argc) copies = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--garden" && i + 1 < argc) garden = std::atoi(argv[++i]);
-    else if (a == "--station" && i + 1 < argc) station = std::max(0, std::atoi(argv[++i]));
-    else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
-  }
+  const int done = bench::ParseOptionPairs(
+      argc, argv, "bench_find", "[--cloud FILE [--copies N]] [--sensor S] [--garden N] [--station K] [--repeats N]",
+      [&](const std::string& a, const char* v) {
+        if (a == "--sensor") sensor = v;
+        else if (a == "--cloud") file = v;
+        else if (a == "--copies") copies = std::max(1, std::atoi(v));
+        else if (a == "--garden") garden = std::atoi(v);
+        else if (a == "--station") station = std::max(0, std::atoi(v));
+        else if (a == "--repeats") repeats = std::max(1, std::atoi(v));
+        else return false;
+        return true;
+      });
+  if (done >= 0) return done;
   cloud::QuietPcl();
   fitting::QuietSolverWarnings();
   scene::FindOptions told;

@@ -7,22 +7,28 @@
 #include <exception>
 #include <string>
 
+#include "bench/bench_util.hpp"
 #include "bench/rig_drift.hpp"
 
 int main(int argc, char** argv) {
   hedgefit::bench::DriftOptions o;
   std::string write_rigs;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) {
-      o.rig = argv[++i];
-    } else if (!std::strcmp(argv[i], "--write-rigs") && i + 1 < argc) {
-      write_rigs = argv[++i];
-    } else if (!std::strcmp(argv[i], "--method") && i + 1 < argc) {
-      o.method = argv[++i];
-    } else {
-      o.lefts.push_back(argv[i]);
-    }
-  }
+  const char* usage = "--rig RIG [--method M] [--write-rigs DIR] NAME_left.png...";
+  const int done = hedgefit::bench::ParseOptions(
+      argc, argv, "bench_rig_drift", usage,
+      [&](const std::string& a, const char* v) {
+        if (a == "--rig") o.rig = v;
+        else if (a == "--write-rigs") write_rigs = v;
+        else if (a == "--method") o.method = v;
+        else return false;
+        return true;
+      },
+      [&](const std::string& a) {
+        if (a.empty() || a[0] == '-') return false;
+        o.lefts.push_back(a);
+        return true;
+      });
+  if (done >= 0) return done;
   if (!write_rigs.empty() && !o.rig.empty()) {
     // Each drifted rig as a file, to measure with by hand: DIR/NN.yaml, in DriftSuite's order.
     const auto rig = hedgefit::stereo::ReadRig(o.rig);
@@ -36,8 +42,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (o.rig.empty() || o.lefts.empty()) {
-    std::fprintf(stderr, "usage: bench_rig_drift --rig RIG [--method M] NAME_left.png...\n");
-    return 1;
+    std::fprintf(stderr, "bench_rig_drift: give --rig and at least one left image\nusage: bench_rig_drift %s\n", usage);
+    return 2;
   }
   try {
     hedgefit::bench::PrintRigDrift(hedgefit::bench::RunRigDrift(o));

@@ -36,14 +36,22 @@ int main(int argc, char** argv) {
   int repeats = 5, mean_k = 50;
   double stddev_mul = 1.0;
   bool only_hedgefit = false;  // for profiling hedgefit alone
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--repeats" && i + 1 < argc) repeats = std::atoi(argv[++i]);
-    else if (a == "--mean-k" && i + 1 < argc) mean_k = std::atoi(argv[++i]);
-    else if (a == "--stddev-mul" && i + 1 < argc) stddev_mul = std::atof(argv[++i]);
-    else if (a == "--only-hedgefit") only_hedgefit = true;
-    else path = a;
-  }
+  const int done = hedgefit::bench::ParseOptions(
+      argc, argv, "bench_statistical_outlier", "[CLOUD] [--repeats N] [--mean-k K] [--stddev-mul S] [--only-hedgefit]",
+      [&](const std::string& a, const char* v) {
+        if (a == "--repeats") repeats = std::max(1, std::atoi(v));
+        else if (a == "--mean-k") mean_k = std::atoi(v);
+        else if (a == "--stddev-mul") stddev_mul = std::atof(v);
+        else return false;
+        return true;
+      },
+      [&](const std::string& a) {
+        if (a == "--only-hedgefit") only_hedgefit = true;
+        else if (!a.empty() && a[0] != '-') path = a;
+        else return false;
+        return true;
+      });
+  if (done >= 0) return done;
   PointCloud cloud;
   try {
     cloud = ReadCloud(path);
