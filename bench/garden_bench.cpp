@@ -600,7 +600,8 @@ std::string GardenJson(const GardenResult& r) {
           jf["outside_share"] = h.outside_share[fi];
           jf["center_mm"] = {f.sphere.center_mm.x(), f.sphere.center_mm.y(), f.sphere.center_mm.z()};
           for (const auto& [key, value] : StatedUncertainty(f)) jf[key] = value;
-          for (const char* extra : {"top_bias_px", "outline_rays", "outline_noise_px", "outline_ragged_px"}) {
+          for (const char* extra : {"top_bias_px", "top_bias_mm", "outline_rays", "outline_noise_px", "outline_ragged_px",
+                                    "leaf_depth_mm", "clipped_share"}) {
             if (const auto v = f.Extra(extra)) jf[extra] = *v;
           }
         }
