@@ -26,6 +26,36 @@
 
 namespace {
 
+// The default cleaning's filters for a stereo capture (filters.hedge_outlier on a cloud with a
+// pixel_mm field and no hedge_id), timed against PCL's statistical filter (`pcl_ms`): their own
+// decisions, so the removed count instead of agreement with PCL. This cloud has no footprints; a
+// pixel's is Z / f, and the spacing ratio divides by its median, so Z stands for it.
+void PrintCleaningFilters(const hedgefit::cloud::PointCloud& cloud, int repeats, double pcl_org_ms) {
+  using namespace hedgefit::cloud;
+  PointCloud stereo = cloud;
+  std::vector<float> footprint(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) footprint[i] = cloud.points_mm[i].z();
+  stereo.fields[kPixelSizeField] = footprint;
+  std::printf("\n%-46s %10s %9s %15s\n", "default cleaning's filters", "median ms", "vs PCL", "removed");
+  auto timed = [&](const std::string& name, const std::function<FilterResult()>& run) {
+    FilterResult r;
+    const double ms = hedgefit::bench::MedianMs(repeats, [&] { r = run(); });
+    std::printf("%-46s %10.1f %8.2fx %15zu\n", name.c_str(), ms, pcl_org_ms / ms, r.removed);
+  };
+  for (int threads : {1, 0}) {
+    LocalOutlierOptions lo;
+    lo.num_threads = threads;
+    SpacingOutlierOptions so;
+    so.num_threads = threads;
+    HedgeOutlierOptions ho;
+    ho.num_threads = threads;
+    const std::string suffix = threads == 1 ? " (1 thread)" : " (all threads)";
+    timed("local outlier factor, k 20" + suffix, [&] { return LocalOutlierRemoval(stereo, lo); });
+    timed("spacing ratio, mean_k 30" + suffix, [&] { return SpacingOutlierRemoval(stereo, so); });
+    timed("hedge_outlier, both" + suffix, [&] { return HedgeOutlierRemoval(stereo, ho); });
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -122,31 +152,6 @@ int main(int argc, char** argv) {
   row("hedgefit, portable kernels (all threads)", portable_ms, differences(ours_portable));
   std::printf("kept %zu of %zu finite points\n", kept, finite);
 
-  // The default cleaning's filters for a stereo capture (filters.hedge_outlier on a cloud with a
-  // pixel_mm field and no hedge_id): their own decisions, so the removed count instead of agreement
-  // with PCL. This cloud has no footprints; a pixel's is Z / f, and the spacing ratio divides by
-  // its median, so Z stands for it.
-  PointCloud stereo = cloud;
-  std::vector<float> footprint(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) footprint[i] = cloud.points_mm[i].z();
-  stereo.fields[kPixelSizeField] = footprint;
-  std::printf("\n%-46s %10s %9s %15s\n", "default cleaning's filters", "median ms", "vs PCL", "removed");
-  auto timed = [&](const std::string& name, const std::function<FilterResult()>& run) {
-    FilterResult r;
-    const double ms = hedgefit::bench::MedianMs(repeats, [&] { r = run(); });
-    std::printf("%-46s %10.1f %8.2fx %15zu\n", name.c_str(), ms, pcl_org_ms / ms, r.removed);
-  };
-  for (int threads : {1, 0}) {
-    LocalOutlierOptions lo;
-    lo.num_threads = threads;
-    SpacingOutlierOptions so;
-    so.num_threads = threads;
-    HedgeOutlierOptions ho;
-    ho.num_threads = threads;
-    const std::string suffix = threads == 1 ? " (1 thread)" : " (all threads)";
-    timed("local outlier factor, k 20" + suffix, [&] { return LocalOutlierRemoval(stereo, lo); });
-    timed("spacing ratio, mean_k 30" + suffix, [&] { return SpacingOutlierRemoval(stereo, so); });
-    timed("hedge_outlier, both" + suffix, [&] { return HedgeOutlierRemoval(stereo, ho); });
-  }
+  PrintCleaningFilters(cloud, repeats, pcl_org_ms);
   return 0;
 }

@@ -1221,6 +1221,31 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
   return obj;
 }
 
+// The objects in the order they are numbered 1, 2, ...: balls left to right, then clipped shapes
+// left to right, then the rest, largest first (each list sorted so). Each object is measured on
+// its own, into its own slot (a ball's final fits seed their own generators), so the objects are
+// measured in parallel and the result does not depend on timing.
+std::vector<FoundObject> MeasureObjects(const Scene& sc, const cloud::PointCloud& cloud, const FindOptions& o,
+                                        std::vector<Candidate>* balls, std::vector<Candidate>* topiary,
+                                        std::vector<Candidate>* others) {
+  std::sort(balls->begin(), balls->end(), [](const Candidate& a, const Candidate& b) {
+    return a.j.sphere.center_mm.x() < b.j.sphere.center_mm.x();
+  });
+  std::sort(topiary->begin(), topiary->end(), [](const Candidate& a, const Candidate& b) {
+    return a.topiary->shape.center_mm.x() < b.topiary->shape.center_mm.x();
+  });
+  std::sort(others->begin(), others->end(), [](const Candidate& a, const Candidate& b) { return a.points.size() > b.points.size(); });
+  std::vector<const Candidate*> in_order;
+  for (const auto* group : {balls, topiary, others}) {
+    for (const auto& c : *group) in_order.push_back(&c);
+  }
+  std::vector<FoundObject> objects(in_order.size());
+  pipeline::ParallelFor(in_order.size(), 0, 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k) objects[k] = MakeObject(*in_order[k], int(k) + 1, sc, cloud, o);
+  });
+  return objects;
+}
+
 }  // namespace
 
 FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& given) {
@@ -1290,17 +1315,7 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& given) 
   }
   // A camera sees a quarter of a ball from the side, which pins no second axis: its balls stay balls.
   if (o.topiary.enabled && !sc.camera) ShapesOfBalls(sc.s, sc.ground, res.spacing_mm, o, &balls, &topiary, &others);
-  std::sort(balls.begin(), balls.end(), [](const Candidate& a, const Candidate& b) {
-    return a.j.sphere.center_mm.x() < b.j.sphere.center_mm.x();
-  });
-  std::sort(others.begin(), others.end(), [](const Candidate& a, const Candidate& b) { return a.points.size() > b.points.size(); });
-  int id = 1;
-  std::sort(topiary.begin(), topiary.end(), [](const Candidate& a, const Candidate& b) {
-    return a.topiary->shape.center_mm.x() < b.topiary->shape.center_mm.x();
-  });
-  for (const auto& c : balls) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
-  for (const auto& c : topiary) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
-  for (const auto& c : others) res.objects.push_back(MakeObject(c, id++, sc, cloud, o));
+  res.objects = MeasureObjects(sc, cloud, o, &balls, &topiary, &others);
   if (res.points > 0 && no_ground) {
     res.warnings.push_back(pipeline::Format(
         "no object stands out of the ground model (%zu of %zu points are ground): the whole cloud was searched as one "
