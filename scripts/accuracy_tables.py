@@ -44,6 +44,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from script_args import check_args  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 # Real data: $HEDGEFIT_DATA_DIR, else data/ (docs/data.md), else the workspace's ../shared/data.
 DATA = Path(os.environ.get("HEDGEFIT_DATA_DIR") or next(
@@ -659,6 +662,7 @@ def real():
 
 
 if __name__ == "__main__":
+    check_args(__doc__, flags=("--slow",))
     what = next((a for a in sys.argv[1:] if not a.startswith("--")), None)
     if what == "lab":
         lab()
@@ -685,4 +689,5 @@ if __name__ == "__main__":
     elif what == "headline":
         headline()
     else:
-        raise SystemExit(__doc__)
+        print(__doc__.strip(), file=sys.stderr)
+        raise SystemExit(2)

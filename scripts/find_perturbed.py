@@ -20,11 +20,15 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from garden_ply import read_garden_xyz  # noqa: E402
+from script_args import check_args, require_executable  # noqa: E402
+
+check_args(__doc__, flags=("--why", "--turns"))
 
 why = "--why" in sys.argv
 turns = "--turns" in sys.argv
 sys.argv = [a for a in sys.argv if a not in ("--why", "--turns")]
 exe = sys.argv[1] if len(sys.argv) > 1 else "build/apps/hedgefit"
+require_executable(exe)
 data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = sys.argv[2] if len(sys.argv) > 2 else os.path.join(data, "gardens", "wageningen_west")
 out_dir = sys.argv[3] if len(sys.argv) > 3 else "build/perturb"

@@ -16,18 +16,15 @@ import os
 import subprocess
 import sys
 
-if "-h" in sys.argv or "--help" in sys.argv:
-    print(__doc__.strip())
-    sys.exit(0)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from script_args import check_args, require_executable  # noqa: E402
+
+check_args(__doc__, flags=("--per-topiary", "--measures"))
 per_topiary = "--per-topiary" in sys.argv
 measures = "--measures" in sys.argv
 args = [a for a in sys.argv[1:] if a not in ("--per-topiary", "--measures")]
-unknown = [a for a in args if a.startswith("-")]
-if unknown:
-    sys.exit(f"find_real_table: {unknown[0]} is not an option (--per-topiary, --measures, --help)")
 exe = args[0] if len(args) > 0 else "build/apps/hedgefit"
-if not os.access(exe, os.X_OK):
-    sys.exit(f"find_real_table: {exe} is not an executable: give hedgefit's path, or build it first (build/apps/hedgefit)")
+require_executable(exe)
 # The data folder as the tests find it: HEDGEFIT_DATA_DIR, else data/, else the workspace's.
 data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = args[1] if len(args) > 1 else os.path.join(data, "gardens", "wageningen_west")

@@ -21,10 +21,14 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from garden_ply import read_garden_xyz  # noqa: E402
 from find_runs import find_json as run_find, near_truth, simulated_scans  # noqa: E402
+from script_args import check_args, require_executable  # noqa: E402
+
+check_args(__doc__, flags=("--reuse",))
 
 reuse = "--reuse" in sys.argv
 sys.argv = [a for a in sys.argv if a != "--reuse"]
 exe = sys.argv[1] if len(sys.argv) > 1 else "build/apps/hedgefit"
+require_executable(exe)
 data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = sys.argv[2] if len(sys.argv) > 2 else os.path.join(data, "gardens", "wageningen_west")
 out_dir = sys.argv[3] if len(sys.argv) > 3 else "build/see_through"

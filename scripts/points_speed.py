@@ -14,6 +14,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from script_args import check_args, refuse  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 BENCH = ROOT / "build/bench/bench_capture"
 
@@ -33,12 +36,15 @@ def medians(output):
 
 
 def main():
+    check_args(__doc__, with_value=("--frames",))
     args = sys.argv[1:]
     frames = "10"
     if "--frames" in args:
         i = args.index("--frames")
         frames = args[i + 1]
         del args[i:i + 2]
+    if not all(a.isdigit() and int(a) > 0 for a in args):
+        refuse(f"budgets are whole numbers of pixels per hedge, not {' '.join(args)}")
     budgets = [int(a) for a in args] or [60000, 30000, 15000, 8000]
     if not BENCH.exists():
         raise SystemExit(f"points_speed: {BENCH.relative_to(ROOT)} is missing: build first (cmake --build build)")

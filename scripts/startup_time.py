@@ -18,6 +18,11 @@ import subprocess
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from script_args import check_args, require_executable  # noqa: E402
+
+check_args(__doc__, with_value=("--runs",))
+
 args = sys.argv[1:]
 runs = 15
 if "--runs" in args:
@@ -25,8 +30,7 @@ if "--runs" in args:
     runs = int(args[k + 1])
     del args[k:k + 2]
 exe = args[0] if args else "build/apps/hedgefit"
-if not os.access(exe, os.X_OK):
-    sys.exit(f"startup_time: {exe} is not an executable: build it first (cmake --build build --target hedgefit)")
+require_executable(exe)
 data = os.environ.get("HEDGEFIT_DATA_DIR") or next((d for d in ("data", "../shared/data") if os.path.isdir(d)), "data")
 garden = os.path.join(data, "gardens", "wageningen_west", "garden_west.ply")
 lab = "build/demo/lab"
