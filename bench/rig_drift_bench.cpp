@@ -3,7 +3,6 @@
 // e.g. the demo's lab: ./build/bench/bench_rig_drift --rig build/demo/rig.yaml build/demo/lab/sphere_2*_left.png
 
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <string>
 

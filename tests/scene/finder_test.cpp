@@ -117,15 +117,20 @@ Scored ScoreScan(const sim::ScanScene& scene, const FindResult& r) {
   return s;
 }
 
+// A 16-beam LiDAR 1.5 m up with 10 mm of noise, driving past `scene`.
+cloud::PointCloud Lidar16Scan(const sim::ScanScene& scene) {
+  sim::ScanOptions so;
+  so.sensor = sim::Sensor::kLidar16;
+  so.noise_mm = 10;
+  fitting::QuietSolverWarnings();
+  return sim::ScanGarden(scene, so);
+}
+
 // A 16-beam LiDAR 1.5 m up, driving past a garden of seven balls (two touching, one pressed
 // against a hedge row, two domes sunk into the lawn) among roses, a tree, a bench and a fence.
 TEST(FindHedges, EveryBallOfALidarScanAndNothingElse) {
   const sim::ScanScene scene = sim::RandomScanGarden(1);
-  sim::ScanOptions so;
-  so.sensor = sim::Sensor::kLidar16;
-  so.noise_mm = 10;
-  const cloud::PointCloud c = sim::ScanGarden(scene, so);
-  fitting::QuietSolverWarnings();
+  const cloud::PointCloud c = Lidar16Scan(scene);
   const FindResult r = FindHedges(c);
   const Scored s = ScoreScan(scene, r);
   EXPECT_EQ(s.found, scene.balls.size()) << s.notes;
@@ -152,12 +157,7 @@ TEST(FindHedges, EveryBallOfALidarScanAndNothingElse) {
 // every core. Fails if two objects shared a generator or a slot, or if the order they finish in
 // reached the result.
 TEST(FindHedges, TheAnswerDoesNotDependOnTheThreads) {
-  const sim::ScanScene scene = sim::RandomScanGarden(1);
-  sim::ScanOptions so;
-  so.sensor = sim::Sensor::kLidar16;
-  so.noise_mm = 10;
-  const cloud::PointCloud c = sim::ScanGarden(scene, so);
-  fitting::QuietSolverWarnings();
+  const cloud::PointCloud c = Lidar16Scan(sim::RandomScanGarden(1));
   const FindResult all = FindHedges(c);
   FindResult one;
   tbb::task_arena single(1);
