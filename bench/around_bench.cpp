@@ -12,6 +12,7 @@
 #include "around/fusion.hpp"
 #include "around/poses.hpp"
 #include "around/views.hpp"
+#include "bench/render_stamp.hpp"
 #include "cloud/cloud_io.hpp"
 #include "fitting/trim.hpp"
 #include "pipeline/error.hpp"
@@ -38,7 +39,7 @@ const pipeline::OptionTable<AroundBenchOptions>& AroundBenchOptions::Table() {
           .Add("registration", &O::registration, "none, centres or centres+gicp").Choices({"none", "centres", "centres+gicp"})
           .Add("scale", &O::scale, "image scale (0.5: a quarter of the pixels)", "").Range(0.2, 1)
           .Add("seed", &O::seed, "the odometry errors' and the camera noise's seed", "")
-          .Add("dir", &O::dir, "captures, manifests and truths are written (and reused) here")
+          .Add("dir", &O::dir, "captures, manifests and truths are written here, and reused while their stamp matches today's build")
           .Add("trim_depth", &O::trim_depth_mm, "the trim target: the true envelope less this", "mm").Range(1, 500);
   return table;
 }
@@ -150,7 +151,7 @@ struct SetTruth {
   std::vector<around::PosedCapture> poses;
 };
 
-// Renders a set (unless its manifest is there already) and returns its truth.
+// Renders a set (unless today's build rendered it there already: its stamp) and returns its truth.
 SetTruth EnsureSet(const AroundBenchOptions& o, const std::string& scene, const std::string& layout, int n,
                    const std::string& set_dir) {
   const sim::SimRig rig = o.renderer == "povray" ? sim::PovrayRig(o.scale) : sim::PaperRig(o.scale);
@@ -165,8 +166,17 @@ SetTruth EnsureSet(const AroundBenchOptions& o, const std::string& scene, const 
                          : std::nullopt);
   }
   const std::vector<Station> stations = Layout(layout, n, scene);
-  const bool have = fs::exists(fs::path(set_dir) / "manifest.json");
-  if (!have) sim::StartSimulationDir(set_dir, rig);
+  const std::string set = scene + "_" + layout + "_" + std::to_string(n);
+  const std::string stamp = RenderStamp(o.renderer, pipeline::Format("scale %g, seed %llu, %s, %d captures", o.scale,
+                                                                      static_cast<unsigned long long>(o.seed),
+                                                                      set.c_str(), n));
+  const bool have = StampMatches(set_dir, set, stamp, fs::exists(fs::path(set_dir) / "manifest.json"), "bench around");
+  if (!have) {
+    RemoveStamp(set_dir, set);
+    std::error_code ec;
+    fs::remove(fs::path(set_dir) / "manifest.json", ec);  // the set is done when it is written again
+    sim::StartSimulationDir(set_dir, rig);
+  }
   for (int k = 0; k < n; ++k) {
     sc.view_x_mm = stations[std::size_t(k)].x, sc.view_z_mm = stations[std::size_t(k)].z;
     sc.view_heading_deg = stations[std::size_t(k)].heading_deg;
@@ -209,7 +219,8 @@ SetTruth EnsureSet(const AroundBenchOptions& o, const std::string& scene, const 
       truth["hedges"].push_back(h);
     }
     cloud::WriteTextFileAtomic((fs::path(set_dir) / "around.truth.json").string(), truth.dump(2) + "\n");
-    around::WriteManifest((fs::path(set_dir) / "manifest.json").string(), t.poses, "rig.yaml");  // last: marks the set done
+    around::WriteManifest((fs::path(set_dir) / "manifest.json").string(), t.poses, "rig.yaml");
+    WriteStamp(set_dir, set, stamp);  // last: marks the set done
   }
   return t;
 }

@@ -23,7 +23,7 @@ struct AroundBenchOptions {
   std::string registration = "centres";  ///< around::FuseOptions::registration
   double scale = 1.0;                   ///< image scale (0.5: a quarter of the pixels, for quick runs)
   std::uint64_t seed = 1;               ///< the odometry errors' and the camera noise's
-  std::string dir = "build/around";     ///< captures, manifests and truths are written (and reused) here
+  std::string dir = "build/around";     ///< captures, manifests and truths are written here (reused while stamped, bench/render_stamp.hpp)
   double trim_depth_mm = 40;            ///< the trim target: the true envelope less this
   static const pipeline::OptionTable<AroundBenchOptions>& Table();
 };

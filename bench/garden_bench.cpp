@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "bench/lab_bench.hpp"
+#include "bench/render_stamp.hpp"
 #include "cloud/filters.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/print.hpp"
@@ -35,7 +36,7 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
           .Add("dir", &O::dir, "where the simulated captures go")
           .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
           .Range(0.25, 2.0)
-          .Add("reuse", &O::reuse, "reuse captures already in --dir")
+          .Add("reuse", &O::reuse, "reuse captures already in --dir that today's build rendered with these options (their stamp)")
           .Add("renderer", &O::renderer,
                "hedgefit (its own ray caster, a noise-shaded leaf shell) or povray (POV-Ray, hedges of leaf discs)")
           .Choices({"hedgefit", "povray"})
@@ -139,10 +140,17 @@ LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, 
 
 namespace {
 
-// The presets' captures in a.dir, rendered unless --reuse finds them there.
+// The presets' captures in a.dir, rendered unless --reuse finds them there, stamped by today's build.
 void EnsureGardenRenders(const GardenOptions& a, const std::vector<std::string>& presets, bool pov) {
   namespace fs = std::filesystem;
-  if (!(a.reuse && fs::exists(fs::path(a.dir) / ("garden_" + presets.back() + "_right.png")))) {
+  std::string set = "gardens";
+  for (const std::string& p : presets) set += " " + p;
+  const std::string stamp =
+      RenderStamp(pov ? "povray" : "hedgefit", pipeline::Format("scale %g, camera %s, %s", a.scale,
+                                                                pov ? a.camera.c_str() : "as rendered", set.c_str()));
+  const bool have = fs::exists(fs::path(a.dir) / ("garden_" + presets.back() + "_right.png"));
+  if (!(a.reuse && StampMatches(a.dir, set, stamp, have, "bench garden"))) {
+    RemoveStamp(a.dir, set);
     if (pov) {
       sim::WritePovrayGarden(a.dir, a.scale,
                                 a.camera == "real" ? sim::CameraModel() : sim::CameraModel::Ideal(), presets);
@@ -153,6 +161,7 @@ void EnsureGardenRenders(const GardenOptions& a, const std::vector<std::string>&
       ro.noise_sigma = 1.0;  // independent in each camera
       sim::WriteGarden(a.dir, a.scale, ro, presets);
     }
+    WriteStamp(a.dir, set, stamp);
   }
 }
 

@@ -11,7 +11,9 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "bench/render_stamp.hpp"
 #include "pipeline/pipeline.hpp"
+#include "pipeline/print.hpp"
 #include "fitting/fit_fields.hpp"
 #include "fitting/methods.hpp"
 #include "fitting/uncertainty.hpp"
@@ -33,7 +35,7 @@ const pipeline::OptionTable<LabOptions>& LabOptions::Table() {
           .Add("dir", &O::dir, "where the simulated captures go")
           .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
           .Range(0.25, 2.0)
-          .Add("reuse", &O::reuse, "reuse captures already in --dir")
+          .Add("reuse", &O::reuse, "reuse captures already in --dir that today's build rendered with these options (their stamp)")
           .Add("wide_boards", &O::wide_boards,
                "also calibrate from 12 boards near the image's edges (simulate --preset wide-boards; rendered if missing)")
           .Add("renderer", &O::renderer,
@@ -167,23 +169,17 @@ std::vector<std::pair<std::string, std::vector<double>>> StatedUncertainty(const
   return out;
 }
 
-LabResult RunLab(const LabOptions& a) {
+namespace {
+
+// The lab's captures (and the wide boards, when asked) in a.dir, rendered unless --reuse finds
+// them there stamped by today's build with these options.
+void EnsureLabRenders(const LabOptions& a, const sim::CameraModel& camera) {
   namespace fs = std::filesystem;
-  const auto t0 = std::chrono::steady_clock::now();
-  if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
-  if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
-  if (a.noise_draws < 1) throw Error("--noise-draws: give at least 1");
-  if (!a.cleaning.empty()) cloud::CheckFilterStages(a.cleaning, "bench lab's cleaning");
-  if (a.noise_draws > 1 && a.camera != "real") {
-    throw Error("--noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1");
-  }
-  const sim::CameraModel camera = a.camera == "real" ? sim::CameraModel() : sim::CameraModel::Ideal();
-  if (!a.camera_without.empty() && a.camera != "real") {
-    throw Error("--camera-without: only a real camera has effects to leave out; add --camera real");
-  }
-  sim::CameraModel sphere_camera = camera;
-  for (const auto& e : a.camera_without) sphere_camera = sim::WithoutEffect(sphere_camera, e, "--camera-without");
-  if (!(a.reuse && fs::exists(fs::path(a.dir) / "sphere_2600_right.png"))) {
+  const std::string set = "lab", stamp = RenderStamp(a.renderer, pipeline::Format("scale %g, camera %s, the lab",
+                                                                                 a.scale, a.camera.c_str()));
+  if (!(a.reuse && StampMatches(a.dir, set, stamp, fs::exists(fs::path(a.dir) / "sphere_2600_right.png"), "bench lab"))) {
+    RemoveStamp(a.dir, set);
+    RemoveStamp(a.dir, "wide boards");  // drawn beside the lab's own: rendered again with it
     if (a.renderer == "povray") {
       sim::WritePovrayLab(a.dir, a.scale, camera, 1, a.camera == "real" ? AsRenderedDir(a) : std::string());
     } else {
@@ -202,10 +198,37 @@ LabResult RunLab(const LabOptions& a) {
         }
       }
     }
+    WriteStamp(a.dir, set, stamp);
   }
-  if (a.wide_boards && !a.true_rig && !fs::exists(fs::path(a.dir) / "board_28_right.png")) {
-    sim::WriteWideBoards(a.dir, a.renderer, a.scale, LabRenderOptions(), camera);
+  if (a.wide_boards && !a.true_rig) {
+    const std::string wide = RenderStamp(a.renderer, pipeline::Format("scale %g, camera %s, wide boards", a.scale,
+                                                                      a.camera.c_str()));
+    if (!StampMatches(a.dir, "wide boards", wide, fs::exists(fs::path(a.dir) / "board_28_right.png"), "bench lab")) {
+      sim::WriteWideBoards(a.dir, a.renderer, a.scale, LabRenderOptions(), camera);
+      WriteStamp(a.dir, "wide boards", wide);
+    }
   }
+}
+
+}  // namespace
+
+LabResult RunLab(const LabOptions& a) {
+  namespace fs = std::filesystem;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (a.renderer != "hedgefit" && a.renderer != "povray") throw Error("--renderer: use hedgefit or povray");
+  if (a.camera != "ideal" && a.camera != "real") throw Error("--camera: use ideal or real");
+  if (a.noise_draws < 1) throw Error("--noise-draws: give at least 1");
+  if (!a.cleaning.empty()) cloud::CheckFilterStages(a.cleaning, "bench lab's cleaning");
+  if (a.noise_draws > 1 && a.camera != "real") {
+    throw Error("--noise-draws: only a real camera draws noise; add --camera real or leave --noise-draws at 1");
+  }
+  const sim::CameraModel camera = a.camera == "real" ? sim::CameraModel() : sim::CameraModel::Ideal();
+  if (!a.camera_without.empty() && a.camera != "real") {
+    throw Error("--camera-without: only a real camera has effects to leave out; add --camera real");
+  }
+  sim::CameraModel sphere_camera = camera;
+  for (const auto& e : a.camera_without) sphere_camera = sim::WithoutEffect(sphere_camera, e, "--camera-without");
+  EnsureLabRenders(a, camera);
   std::vector<std::pair<std::string, std::string>> boards;
   for (int i = 1; i <= (a.wide_boards ? 28 : 16); ++i) {
     char l[32], r[32];

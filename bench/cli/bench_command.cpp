@@ -166,7 +166,8 @@ void AddAroundBench(CLI::App* bench, CommandFn* run) {
       "  hedgefit bench around                                  # hedgefit's renderer, ~10 minutes the first time\n"
       "  hedgefit bench around --renderer povray --scenes single --captures 4 --json around-pov.json\n"
       "  hedgefit bench around --scenes bulge --layouts ring --captures 6 --registration centres+gicp\n"
-      "Captures, manifests (exact and odometry), TUM trajectories and truths are kept in --dir and reused.\n");
+      "Captures, manifests (exact and odometry), TUM trajectories and truths are kept in --dir and reused while\n"
+      "their stamp says today's build rendered them with these options (else rendered again).\n");
   AddTableBench(cmd, run, "Sets", bench::RunAroundBench, bench::PrintAroundBench, bench::AroundBenchJson);
 }
 
