@@ -65,6 +65,10 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
           .Bind<int>("garden_refine_curvature", [](O& o) -> int& { return o.convert.match.garden_refine_curvature; },
                      "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
           .Range(0, 10)
+          .Add("envelope_points_per_ray", &O::envelope_points_per_ray,
+               "the envelope fit's points_per_ray: with an outline, at most this many of the front's points per outline "
+               "ray (0 = off, the default)")
+          .Min(0)
           .Bind<int>("max_points", [](O& o) -> int& { return o.convert.match.max_points; },
                      "at most this many pixels matched and refined per hedge: a larger hedge keeps every s-th pixel "
                      "and row (0 = every pixel)")
@@ -246,7 +250,7 @@ void ScoreColourPath(const cv::Mat& left, const cv::Mat& right, const stereo::St
 std::vector<std::pair<std::string, fitting::SphereFitResult>> OracleFits(
     const std::vector<Eigen::Vector3d>& points_mm, const std::vector<double>& pixel_mm,
     const std::vector<cloud::TangentRay>& outline, const cv::Mat& surface, const sim::SimCamera& camera,
-    const fitting::Sphere& truth) {
+    const fitting::Sphere& truth, const std::map<std::string, pipeline::OptionValue>& envelope_options) {
   std::vector<std::pair<std::string, fitting::SphereFitResult>> out;
   if (surface.empty() || outline.empty() || points_mm.empty()) return out;
   // The points at the leaves their pixels truly see.
@@ -283,7 +287,7 @@ std::vector<std::pair<std::string, fitting::SphereFitResult>> OracleFits(
   }
   auto fit = [&](const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& pix,
                  const std::vector<cloud::TangentRay>& rays) {
-    return fitting::RunFitMethod("envelope", pts, {}, 42, true, pix.empty() ? nullptr : &pix, &rays);
+    return fitting::RunFitMethod("envelope", pts, envelope_options, 42, true, pix.empty() ? nullptr : &pix, &rays);
   };
   out.emplace_back("true_points", fit(true_points, true_pixel_mm, outline));
   out.emplace_back("true_outline", fit(points_mm, pixel_mm, true_outline));
@@ -332,6 +336,8 @@ GardenResult RunGarden(const GardenOptions& a) {
   eval::SummaryBuilder summary;
   stereo::ConvertOptions garden = a.convert;
   garden.mode = stereo::SegmentMode::kGarden;
+  std::map<std::string, pipeline::OptionValue> envelope_options;
+  if (a.envelope_points_per_ray > 0) envelope_options["points_per_ray"] = a.envelope_points_per_ray;
   for (const std::string& name : presets) {
     const fs::path base = fs::path(a.dir) / ("garden_" + name);
     const cv::Mat left = stereo::ReadImageFile(base.string() + "_left.png"),
@@ -385,11 +391,11 @@ GardenResult RunGarden(const GardenOptions& a) {
         const auto outline = outlines.find(g.id);
         if (outline != outlines.end()) {
           ScoreOutline(outline->second, row.truth, &row);
-          row.oracle = OracleFits(pts, pixel_mm, outline->second, surface, sim.left, row.truth);
+          row.oracle = OracleFits(pts, pixel_mm, outline->second, surface, sim.left, row.truth, envelope_options);
         }
         for (const auto& m : fitting::SphereMethodNames()) {
-          row.fits.push_back(fitting::RunFitMethod(m, pts, {}, 42, true, &pixel_mm,
-                                                   outline != outlines.end() ? &outline->second : nullptr));
+          row.fits.push_back(fitting::RunFitMethod(m, pts, m == "envelope" ? envelope_options : std::map<std::string, pipeline::OptionValue>(), 42, true,
+                                                   &pixel_mm, outline != outlines.end() ? &outline->second : nullptr));
           row.fits.back().hedge_id = g.id;
           fitting::AddUncertainty(pts, nullptr, &row.fits.back(), &matching);
           row.outside_share.push_back(fitting::OutsideShare(pts, row.fits.back().sphere));

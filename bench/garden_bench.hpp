@@ -34,6 +34,7 @@ struct GardenOptions {
   std::string gardens;                     ///< comma-separated preset names instead of all the above
   bool leaves = false;                     ///< sim::GardenLeafPresetNames() instead (boxwood ... holly)
   bool outline = true;                     ///< the envelope fit also fits each hedge's outline (stereo::MeasureOutlines)
+  double envelope_points_per_ray = 0;      ///< the envelope fit's points_per_ray (fitting::EnvelopeFitOptions)
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
   /// The filter stages (JSON array) run on each capture's cloud before the fits: by default
   /// cloud::DefaultCleaningJson(), what `compare` and `measure` apply, so the figures are what a
@@ -124,7 +125,7 @@ LeafLayerErrors MeasureLeafLayer(const std::vector<Eigen::Vector3d>& points_mm, 
 std::vector<std::pair<std::string, fitting::SphereFitResult>> OracleFits(
     const std::vector<Eigen::Vector3d>& points_mm, const std::vector<double>& pixel_mm,
     const std::vector<cloud::TangentRay>& outline, const cv::Mat& surface, const sim::SimCamera& camera,
-    const fitting::Sphere& truth);
+    const fitting::Sphere& truth, const std::map<std::string, pipeline::OptionValue>& envelope_options = {});
 
 GardenResult RunGarden(const GardenOptions& options);
 void PrintGarden(const GardenResult& result);

@@ -301,6 +301,9 @@ const pipeline::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
           .Add("max_points", &O::max_points, "the likelihood sums over at most this many points (every n-th); 0 = all",
                "points")
           .Range(0, 1e9)
+          .Add("points_per_ray", &O::points_per_ray,
+               "with an outline, at most this many of the front's points per outline ray (every n-th); 0 = off")
+          .Min(0)
           .Add("top_bias", &O::top_bias_px,
                "the matcher reads the outermost leaves this many pixel footprints too deep; added back where the "
                "cloud has a pixel_mm field (0 = off)",
@@ -324,7 +327,7 @@ struct ShellData {
 
 ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
                        const SphereFitResult& start, const std::vector<double>* pixel_mm,
-                       const std::vector<Eigen::Vector3d>* viewpoints) {
+                       const std::vector<Eigen::Vector3d>* viewpoints, std::size_t outline_rays) {
   ShellData d;
   Eigen::Vector3d& mean = d.mean;
   std::vector<Eigen::Vector3d>& centred = d.centred;
@@ -355,9 +358,13 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
       bias[i] = std::isfinite(p) && p > 0 ? std::min(p, kMaxTopBiasFootprintMm) : 0.0;
     }
   }
-  // Every n-th point, n the smallest that keeps at most max_points.
-  if (options.max_points > 0 && centred.size() > std::size_t(options.max_points)) {
-    const std::size_t n = (centred.size() + std::size_t(options.max_points) - 1) / std::size_t(options.max_points);
+  // Every n-th point, n the smallest that keeps at most max_points (and points_per_ray per ray).
+  std::size_t most = options.max_points > 0 ? std::size_t(options.max_points) : centred.size();
+  if (options.points_per_ray > 0 && outline_rays > 0) {
+    most = std::min(most, std::max<std::size_t>(1, std::size_t(std::ceil(options.points_per_ray * double(outline_rays)))));
+  }
+  if (centred.size() > most) {
+    const std::size_t n = (centred.size() + most - 1) / most;
     std::vector<Eigen::Vector3d> thinned;
     std::vector<double> thinned_bias;
     std::vector<Eigen::Vector3d> thinned_views;
@@ -584,7 +591,7 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
     r.message = "no starting sphere: " + start.message;
     return out;
   }
-  const ShellData d = PrepareShell(points_mm, options, start, pixel_mm, viewpoints);
+  const ShellData d = PrepareShell(points_mm, options, start, pixel_mm, viewpoints, outline ? outline->size() : 0);
   const Eigen::Vector3d& mean = d.mean;
   ShellLikelihood model{&d.centred, d.bias.empty() ? nullptr : &d.bias, options.viewpoint_mm - mean, nullptr,
                         std::log(options.outlier_share / d.width), std::log(1 - options.outlier_share), {}, {}, 0.0};

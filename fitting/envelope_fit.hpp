@@ -35,6 +35,12 @@ struct EnvelopeFitOptions {
   /// The likelihood is summed over at most this many points (every n-th): six parameters are
   /// settled to ~0.1 mm by 10000 points, and the cost grows with every point. 0 = all.
   int max_points = 10000;
+  /// With an outline, at most this many of the front's points per outline ray (every n-th, as
+  /// max_points), so that the front's leaves and the outline have a comparable say in where the
+  /// envelope lies; 0 = off (max_points alone). Off by default: on the tuning gardens 1 put the
+  /// paper's hedge size's centres nearer (see CHANGELOG's Record "The front's points against the
+  /// outline's rays"), but the default stays until the tables it moves are made again.
+  double points_per_ray = 0;
   /// A matching window about one of the outermost leaves also sees the deeper leaves around it,
   /// so stereo reads the outermost leaves too deep, by about half a pixel's footprint there
   /// (Z / f): against each renderer's per-pixel truth, 0.45-0.47 footprints on hedgefit's three

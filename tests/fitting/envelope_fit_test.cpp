@@ -274,6 +274,44 @@ TEST(EnvelopeFit, TheOutlinePinsTheEnvelopeWhereTheFrontCannot) {
   EXPECT_LT((*both.std_error_mm)[3], 1.5);
 }
 
+// points_per_ray thins the front to at most that many points per outline ray, the way max_points
+// thins it (every n-th point): the fit is the one max_points = points_per_ray x rays gives, to
+// the bit, and it leaves a fit without an outline, or with the option off, as it was.
+TEST(EnvelopeFit, PointsPerRayThinsTheFrontAsMaxPointsWould) {
+  std::mt19937_64 rng(23);
+  const Eigen::Vector3d centre(60, -20, 2300);
+  const double f = 933, R = 450;
+  const auto pts = hedgefit::testing::LeafyCap(centre, R, 8, 60, 8000, 1.5, rng, 0.3);
+  std::vector<double> pixel_mm;
+  for (const auto& p : pts) pixel_mm.push_back(p.z() / f);
+  const std::vector<cloud::TangentRay> outline = RaggedOutline(centre, R, 1.5, 0.2, rng);
+  ASSERT_GT(pts.size(), 2 * outline.size());  // so that one point per ray thins the front
+  auto same = [](const EnvelopeFit& a, const EnvelopeFit& b) {
+    return a.fit.sphere.center_mm == b.fit.sphere.center_mm && a.fit.sphere.radius_mm == b.fit.sphere.radius_mm &&
+           a.top_bias_px == b.top_bias_px;
+  };
+  const EnvelopeFit plain = FitEnvelope(pts, {}, nullptr, &pixel_mm, &outline);
+  ASSERT_TRUE(plain.fit.converged);
+  // One point per ray, and exactly a third of the points (every 3rd: a cap a tenth lower would
+  // take every 4th).
+  const double n = double(pts.size()), rays = double(outline.size());
+  EnvelopeFitOptions per_ray;
+  for (const double k : {1.0, n / (3 * rays)}) {
+    per_ray.points_per_ray = k;
+    EnvelopeFitOptions capped;
+    capped.max_points = static_cast<int>(std::ceil(k * rays));
+    const EnvelopeFit thinned = FitEnvelope(pts, per_ray, nullptr, &pixel_mm, &outline);
+    ASSERT_TRUE(thinned.fit.converged);
+    EXPECT_TRUE(same(thinned, FitEnvelope(pts, capped, nullptr, &pixel_mm, &outline))) << k;
+    EXPECT_FALSE(same(thinned, plain)) << k;  // the option did something
+  }
+  EnvelopeFitOptions off;
+  off.points_per_ray = 0;
+  EXPECT_TRUE(same(FitEnvelope(pts, off, nullptr, &pixel_mm, &outline), plain));
+  // Without an outline there are no rays to count: the front as max_points leaves it.
+  EXPECT_TRUE(same(FitEnvelope(pts, per_ray, nullptr, &pixel_mm), FitEnvelope(pts, {}, nullptr, &pixel_mm)));
+}
+
 // Through the method table: the row reports both radii.
 TEST(EnvelopeFit, MethodTableRowReportsBothRadii) {
   std::mt19937_64 rng(11);
