@@ -36,7 +36,8 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
           .Add("dir", &O::dir, "where the simulated captures go")
           .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
           .Range(0.25, 2.0)
-          .Add("reuse", &O::reuse, "reuse captures already in --dir that today's build rendered with these options (their stamp)")
+          .Add("reuse", &O::reuse,
+               "reuse captures already in --dir that today's build rendered with these options (their stamp)")
           .Add("renderer", &O::renderer,
                "hedgefit (its own ray caster, a noise-shaded leaf shell) or povray (POV-Ray, hedges of leaf discs)")
           .Choices({"hedgefit", "povray"})
@@ -338,6 +339,7 @@ GardenResult RunGarden(const GardenOptions& a) {
   garden.mode = stereo::SegmentMode::kGarden;
   std::map<std::string, pipeline::OptionValue> envelope_options;
   if (a.envelope_points_per_ray > 0) envelope_options["points_per_ray"] = a.envelope_points_per_ray;
+  const std::map<std::string, pipeline::OptionValue> defaults;
   for (const std::string& name : presets) {
     const fs::path base = fs::path(a.dir) / ("garden_" + name);
     const cv::Mat left = stereo::ReadImageFile(base.string() + "_left.png"),
@@ -394,7 +396,7 @@ GardenResult RunGarden(const GardenOptions& a) {
           row.oracle = OracleFits(pts, pixel_mm, outline->second, surface, sim.left, row.truth, envelope_options);
         }
         for (const auto& m : fitting::SphereMethodNames()) {
-          row.fits.push_back(fitting::RunFitMethod(m, pts, m == "envelope" ? envelope_options : std::map<std::string, pipeline::OptionValue>(), 42, true,
+          row.fits.push_back(fitting::RunFitMethod(m, pts, m == "envelope" ? envelope_options : defaults, 42, true,
                                                    &pixel_mm, outline != outlines.end() ? &outline->second : nullptr));
           row.fits.back().hedge_id = g.id;
           fitting::AddUncertainty(pts, nullptr, &row.fits.back(), &matching);

@@ -177,7 +177,8 @@ void EnsureLabRenders(const LabOptions& a, const sim::CameraModel& camera) {
   namespace fs = std::filesystem;
   const std::string set = "lab", stamp = RenderStamp(a.renderer, pipeline::Format("scale %g, camera %s, the lab",
                                                                                  a.scale, a.camera.c_str()));
-  if (!(a.reuse && StampMatches(a.dir, set, stamp, fs::exists(fs::path(a.dir) / "sphere_2600_right.png"), "bench lab"))) {
+  const bool have = fs::exists(fs::path(a.dir) / "sphere_2600_right.png");
+  if (!(a.reuse && StampMatches(a.dir, set, stamp, have, "bench lab"))) {
     RemoveStamp(a.dir, set);
     RemoveStamp(a.dir, "wide boards");  // drawn beside the lab's own: rendered again with it
     if (a.renderer == "povray") {

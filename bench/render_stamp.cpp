@@ -43,7 +43,9 @@ std::string Fingerprint(const std::string& renderer) {
   // The camera model on a fixed gradient: its gains, vignetting, mosaic and noise.
   cv::Mat grad(40, 64, CV_8UC3);
   for (int y = 0; y < grad.rows; ++y) {
-    for (int x = 0; x < grad.cols; ++x) grad.at<cv::Vec3b>(y, x) = cv::Vec3b(uchar(4 * x), uchar(6 * y), uchar(2 * (x + y)));
+    for (int x = 0; x < grad.cols; ++x) {
+      grad.at<cv::Vec3b>(y, x) = cv::Vec3b(uchar(4 * x), uchar(6 * y), uchar(2 * (x + y)));
+    }
   }
   f.Add(sim::ApplyCameraModel(grad, sim::CameraModel(), true, 3));
   const sim::GardenScene garden = sim::GardenPreset("row");

@@ -361,7 +361,8 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
   // Every n-th point, n the smallest that keeps at most max_points (and points_per_ray per ray).
   std::size_t most = options.max_points > 0 ? std::size_t(options.max_points) : centred.size();
   if (options.points_per_ray > 0 && outline_rays > 0) {
-    most = std::min(most, std::max<std::size_t>(1, std::size_t(std::ceil(options.points_per_ray * double(outline_rays)))));
+    const double per_ray = std::ceil(options.points_per_ray * double(outline_rays));
+    most = std::min(most, std::max<std::size_t>(1, std::size_t(per_ray)));
   }
   if (centred.size() > most) {
     const std::size_t n = (centred.size() + most - 1) / most;
