@@ -167,9 +167,9 @@ SetTruth EnsureSet(const AroundBenchOptions& o, const std::string& scene, const 
   }
   const std::vector<Station> stations = Layout(layout, n, scene);
   const std::string set = scene + "_" + layout + "_" + std::to_string(n);
-  const std::string stamp = RenderStamp(o.renderer, pipeline::Format("scale %g, seed %llu, %s, %d captures", o.scale,
+  const std::string stamp = RenderStamp(o.renderer, pipeline::Format("scale %g, seed %llu, %s", o.scale,
                                                                       static_cast<unsigned long long>(o.seed),
-                                                                      set.c_str(), n));
+                                                                      set.c_str()));
   const bool have = StampMatches(set_dir, set, stamp, fs::exists(fs::path(set_dir) / "manifest.json"), "bench around");
   if (!have) {
     RemoveStamp(set_dir, set);

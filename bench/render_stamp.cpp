@@ -6,7 +6,6 @@
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <sstream>
 
 #include "cloud/cloud_io.hpp"
 #include "pipeline/version.hpp"
@@ -22,7 +21,7 @@ namespace {
 
 // FNV-1a, 64 bits: a fingerprint, not a defence against anyone.
 struct Fnv {
-  std::uint64_t h = 1469598103934665603ull;
+  std::uint64_t h = 14695981039346656037ull;  // the offset basis
   void Add(const void* data, std::size_t n) {
     const auto* p = static_cast<const unsigned char*>(data);
     for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
