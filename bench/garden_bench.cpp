@@ -68,8 +68,8 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
           .Range(0, 10)
           .Add("envelope_points_per_ray", &O::envelope_points_per_ray,
                "the envelope fit's points_per_ray: with an outline, at most this many of the front's points per outline "
-               "ray (0 = off, the default)")
-          .Min(0)
+               "ray (0 = off; -1, the default, leaves the fit's own default, 1)")
+          .Min(-1)
           .Bind<int>("max_points", [](O& o) -> int& { return o.convert.match.max_points; },
                      "at most this many pixels matched and refined per hedge: a larger hedge keeps every s-th pixel "
                      "and row (0 = every pixel)")
@@ -338,7 +338,7 @@ GardenResult RunGarden(const GardenOptions& a) {
   stereo::ConvertOptions garden = a.convert;
   garden.mode = stereo::SegmentMode::kGarden;
   std::map<std::string, pipeline::OptionValue> envelope_options;
-  if (a.envelope_points_per_ray > 0) envelope_options["points_per_ray"] = a.envelope_points_per_ray;
+  if (a.envelope_points_per_ray >= 0) envelope_options["points_per_ray"] = a.envelope_points_per_ray;
   const std::map<std::string, pipeline::OptionValue> defaults;
   for (const std::string& name : presets) {
     const fs::path base = fs::path(a.dir) / ("garden_" + name);

@@ -34,7 +34,7 @@ struct GardenOptions {
   std::string gardens;                     ///< comma-separated preset names instead of all the above
   bool leaves = false;                     ///< sim::GardenLeafPresetNames() instead (boxwood ... holly)
   bool outline = true;                     ///< the envelope fit also fits each hedge's outline (stereo::MeasureOutlines)
-  double envelope_points_per_ray = 0;      ///< the envelope fit's points_per_ray (fitting::EnvelopeFitOptions)
+  double envelope_points_per_ray = -1;     ///< the envelope fit's points_per_ray; -1 = its default
   stereo::ConvertOptions convert;          ///< the capture path's options (mode is set to garden)
   /// The filter stages (JSON array) run on each capture's cloud before the fits: by default
   /// cloud::DefaultCleaningJson(), what `compare` and `measure` apply, so the figures are what a

@@ -276,7 +276,9 @@ TEST(EnvelopeFit, TheOutlinePinsTheEnvelopeWhereTheFrontCannot) {
 
 // points_per_ray thins the front to at most that many points per outline ray, the way max_points
 // thins it (every n-th point): the fit is the one max_points = points_per_ray x rays gives, to
-// the bit, and it leaves a fit without an outline, or with the option off, as it was.
+// the bit, and it leaves a fit without an outline, or with the option off, as it was. One point
+// per ray is the default (chosen on the tuning gardens, CHANGELOG's Record "The front's points
+// against the outline's rays").
 TEST(EnvelopeFit, PointsPerRayThinsTheFrontAsMaxPointsWould) {
   std::mt19937_64 rng(23);
   const Eigen::Vector3d centre(60, -20, 2300);
@@ -290,7 +292,9 @@ TEST(EnvelopeFit, PointsPerRayThinsTheFrontAsMaxPointsWould) {
     return a.fit.sphere.center_mm == b.fit.sphere.center_mm && a.fit.sphere.radius_mm == b.fit.sphere.radius_mm &&
            a.top_bias_px == b.top_bias_px;
   };
-  const EnvelopeFit plain = FitEnvelope(pts, {}, nullptr, &pixel_mm, &outline);
+  EnvelopeFitOptions off;
+  off.points_per_ray = 0;
+  const EnvelopeFit plain = FitEnvelope(pts, off, nullptr, &pixel_mm, &outline);
   ASSERT_TRUE(plain.fit.converged);
   // One point per ray, and exactly a third of the points (every 3rd: a cap a tenth lower would
   // take every 4th).
@@ -299,17 +303,19 @@ TEST(EnvelopeFit, PointsPerRayThinsTheFrontAsMaxPointsWould) {
   for (const double k : {1.0, n / (3 * rays)}) {
     per_ray.points_per_ray = k;
     EnvelopeFitOptions capped;
+    capped.points_per_ray = 0;
     capped.max_points = static_cast<int>(std::ceil(k * rays));
     const EnvelopeFit thinned = FitEnvelope(pts, per_ray, nullptr, &pixel_mm, &outline);
     ASSERT_TRUE(thinned.fit.converged);
     EXPECT_TRUE(same(thinned, FitEnvelope(pts, capped, nullptr, &pixel_mm, &outline))) << k;
     EXPECT_FALSE(same(thinned, plain)) << k;  // the option did something
   }
-  EnvelopeFitOptions off;
-  off.points_per_ray = 0;
-  EXPECT_TRUE(same(FitEnvelope(pts, off, nullptr, &pixel_mm, &outline), plain));
+  // The default thins as one point per ray does.
+  per_ray.points_per_ray = 1;
+  EXPECT_TRUE(same(FitEnvelope(pts, {}, nullptr, &pixel_mm, &outline),
+                   FitEnvelope(pts, per_ray, nullptr, &pixel_mm, &outline)));
   // Without an outline there are no rays to count: the front as max_points leaves it.
-  EXPECT_TRUE(same(FitEnvelope(pts, per_ray, nullptr, &pixel_mm), FitEnvelope(pts, {}, nullptr, &pixel_mm)));
+  EXPECT_TRUE(same(FitEnvelope(pts, per_ray, nullptr, &pixel_mm), FitEnvelope(pts, off, nullptr, &pixel_mm)));
 }
 
 // Through the method table: the row reports both radii.
