@@ -26,6 +26,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <variant>
 #include <vector>
 
 #include "bench/bench_util.hpp"
@@ -63,17 +64,39 @@ std::string Radii(pipeline::Context& ctx) {
   return os.str();
 }
 
+// The steps a stage notes of its own time (`stereo.sgbm`'s), printed under it in this order.
+struct Step {
+  const char* stage;
+  const char* note;
+  const char* label;
+};
+constexpr Step kSteps[] = {
+    {"stereo.sgbm", "rectify_region_ms", "regions rectified again (B-spline)"},
+    {"stereo.sgbm", "sgbm_ms", "SGBM + right matcher + LR check"},
+    {"stereo.sgbm", "refine_ms", "sub-pixel refinement"},
+};
+
 struct Timings {
   std::vector<double> total;
   std::map<std::string, std::vector<double>> stages;
+  std::map<std::string, std::vector<double>> steps;  // by kSteps' note
   std::string radii;  // the last frame's fitted radii, mm
 
-  // One frame: its total, each stage type's time (summed over its stages), its radii.
+  // One frame: its total, each stage type's time (summed over its stages), the steps its stages
+  // noted, its radii.
   void Add(double ms, const pipeline::RunReport& report, pipeline::Context& ctx) {
     total.push_back(ms);
-    std::map<std::string, double> per;
-    for (const auto& st : report.stages) per[st.type] += st.wall_ms;
+    std::map<std::string, double> per, step;
+    for (const auto& st : report.stages) {
+      per[st.type] += st.wall_ms;
+      for (const Step& k : kSteps) {
+        const auto it = st.notes.find(k.note);
+        if (st.type != k.stage || it == st.notes.end()) continue;
+        if (const double* v = std::get_if<double>(&it->second)) step[k.note] += *v;
+      }
+    }
     for (const auto& [type, v] : per) stages[type].push_back(v);
+    for (const auto& [note, v] : step) steps[note].push_back(v);
     radii = Radii(ctx);
   }
 };
@@ -194,6 +217,11 @@ void Print(const char* path, const Timings& t, double stock_median) {
   }
   for (const auto& [stage, v] : t.stages) {
     std::printf("  %-42s %8.1f %8.1f\n", stage.c_str(), Quantile(v, 0.5), Quantile(v, 0.95));
+    for (const Step& k : kSteps) {
+      const auto it = t.steps.find(k.note);
+      if (stage != k.stage || it == t.steps.end()) continue;
+      std::printf("    %-40s %8.1f %8.1f\n", k.label, Quantile(it->second, 0.5), Quantile(it->second, 0.95));
+    }
   }
   if (!t.radii.empty()) std::printf("  fitted radii, mm: %s\n", t.radii.c_str());
 }

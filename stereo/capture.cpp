@@ -136,7 +136,9 @@ MatchResult MatchHedgeRegion(const StereoRig& rig, const cv::Mat* raw_left, cons
   r.matched_region = roi;
   r.matched_area = roi.area();
   if (options.precise_resampling && raw_left != nullptr && raw_right != nullptr) {
+    const auto t0 = std::chrono::steady_clock::now();
     RectifyRegionPrecisely(rig, *raw_left, *raw_right, roi, left_rect, right_rect);
+    r.rectify_region_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   // Thinning: the smallest stride that keeps the mask's pixels (the whole region without one)
   // within max_points, and at least min_stride where that still leaves kMinThinnedPoints: a small
@@ -158,6 +160,8 @@ MatchResult MatchHedgeRegion(const StereoRig& rig, const cv::Mat* raw_left, cons
   }
   DisparityMap d = ComputeDisparity((*left_rect)(roi), (*right_rect)(roi), sg, mask.empty() ? cv::Mat() : mask(roi),
                                     r.stride, pad_left, pad_right);
+  r.sgbm_ms = d.sgbm_ms;
+  r.refine_ms = d.refine_ms;
   r.disparity = d.disparity;
   r.filled = d.rejected;
   r.disparity_sigma = d.sigma.empty() ? cv::Mat(roi.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()))
@@ -262,6 +266,9 @@ MatchResult MatchHedges(const StereoRig& rig, const cv::Mat* raw_left, const cv:
       all.num_disparities = hi - all.min_disparity;
     }
     all.stride = std::max(all.stride, m.stride);
+    all.rectify_region_ms += m.rectify_region_ms;
+    all.sgbm_ms += m.sgbm_ms;
+    all.refine_ms += m.refine_ms;
     if (m.vertical_max_px > all.vertical_max_px) all.vertical = m.vertical, all.vertical_max_px = m.vertical_max_px;
   }
   all.matched_area = matched_area;

@@ -92,6 +92,12 @@ struct MatchResult {
   double vertical_max_px = 0;
   int less_certain_dropped = 0;  ///< measured pixels left out by garden_sigma_ratio
   std::vector<HedgeMatch> hedges;  ///< per hedge (one, id 0, for a single mask)
+  /// Where the time went, ms (several hedges: summed): the matched regions' B-spline
+  /// rectification from the raw images (precise_resampling), SGBM with its right matcher and the
+  /// left-right check, the sub-pixel refinement; the rest of the stage is hole filling, merging and
+  /// the cuts. `stereo.sgbm` notes them (`rectify_region_ms`, `sgbm_ms`, `refine_ms`), so a report
+  /// and `bench_capture` show what a frame's matching is made of.
+  double rectify_region_ms = 0, sgbm_ms = 0, refine_ms = 0;
 };
 
 /// Leaves out of `disparity` (sets NaN) each measured pixel of `mask` (not `filled`, finite

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -820,6 +821,7 @@ DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOpt
     num_d = ((static_cast<int>(std::ceil((o.min_disparity + num) / 2.0)) - min_d + 15) / 16) * 16;
     if (lrc >= 0) lrc = std::max(0.5, lrc / 2);
   }
+  const auto t_sgbm = std::chrono::steady_clock::now();
   cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(min_d, num_d, o.block_size, p1, p2,
                                                         o.disp12_max_diff, 0, o.uniqueness_ratio, 0, 0, mode);
   // The left and the right matcher (for the left-right check) run side by side: OpenCV's HH
@@ -863,7 +865,10 @@ DisparityMap MatchViews(const cv::Mat& left, const cv::Mat& right, const SgbmOpt
       for (int x = 0; x < left.cols; x += stride) row[x] = 0;
     }
   }
+  const auto t_refine = std::chrono::steady_clock::now();
   if (o.refine_radius > 0) RefineAccepted(left, right, mask, o, stride, off_grid, &out);
+  out.sgbm_ms = std::chrono::duration<double, std::milli>(t_refine - t_sgbm).count();
+  out.refine_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_refine).count();
   if (o.fill_holes) out.filled = FillHolesFromBackground(&out.disparity);
   if (!off_grid.empty()) {
     out.disparity.setTo(std::numeric_limits<float>::quiet_NaN(), off_grid);

@@ -102,6 +102,8 @@ struct DisparityMap {
   cv::Mat sigma;      ///< CV_32F, px: the refinement's standard deviation; NaN where not refined
   int filled = 0;     ///< pixels filled from neighbours
   VerticalDisparity vertical;  ///< estimated and removed before the refinement (correct_vertical)
+  double sgbm_ms = 0;    ///< SGBM, its right matcher and the left-right check (wall clock)
+  double refine_ms = 0;  ///< the sub-pixel refinement, the vertical disparity's estimate included
 };
 
 /// Matches a rectified pair (8-bit grey or BGR). `left` and `right` have the same size.

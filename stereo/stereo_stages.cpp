@@ -337,6 +337,9 @@ void AddMatcher(pipeline::Registry& r) {
           ctx.Note("filled", static_cast<std::int64_t>(m.filled_count));
           if (m.less_certain_dropped > 0) ctx.Note("less_certain_dropped", static_cast<std::int64_t>(m.less_certain_dropped));
           ctx.Note("disparity_range", std::vector<double>{double(m.min_disparity), double(m.min_disparity + m.num_disparities)});
+          if (m.rectify_region_ms > 0) ctx.Note("rectify_region_ms", m.rectify_region_ms);
+          ctx.Note("sgbm_ms", m.sgbm_ms);
+          ctx.Note("refine_ms", m.refine_ms);
           if (m.vertical.samples > 0) {
             ctx.Note("vertical_disparity_px", m.vertical_max_px);
             ctx.Put("vertical_disparity_px", m.vertical_max_px);

@@ -666,6 +666,61 @@ TEST(BSpline, RemapShiftsARampByHalfAPixel) {
   }
 }
 
+// RemapBSpline samples a colour image's three channels from one interleaved coefficient image;
+// it must give what sampling each channel's own coefficient plane gives, to the bit (every
+// rectified region, and so every stereo figure, depends on it). The reference is that per-plane
+// loop, written out here; the map is a rectification-like warp (rotation, scale, a radial term)
+// over random texture, with positions off the source that must stay 0.
+TEST(BSpline, RemapOfAColourImageIsEachChannelsOwn) {
+  cv::Mat image(150, 190, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(image, image, cv::Size(3, 3), 0.7);  // leaves fine texture, as a camera's optics do
+  cv::Mat map(140, 200, CV_32FC2);
+  for (int y = 0; y < map.rows; ++y) {
+    for (int x = 0; x < map.cols; ++x) {
+      const double dx = x - 100.0, dy = y - 70.0, r2 = (dx * dx + dy * dy) / 1e4;
+      const double k = 0.97 * (1 + 0.04 * r2);
+      map.at<cv::Vec2f>(y, x) = cv::Vec2f(float(95 + k * (0.999 * dx - 0.035 * dy) + 0.37),
+                                          float(75 + k * (0.035 * dx + 0.999 * dy) - 0.21));
+    }
+  }
+  const cv::Mat out = RemapBSpline(image, map);
+  std::vector<cv::Mat> planes;
+  cv::split(image, planes);
+  std::vector<cv::Mat> coeffs;
+  for (const cv::Mat& p : planes) {
+    cv::Mat f;
+    p.convertTo(f, CV_32F);
+    coeffs.push_back(BSplineCoefficients2D(f));
+  }
+  int compared = 0;
+  for (int y = 0; y < map.rows; ++y) {
+    for (int x = 0; x < map.cols; ++x) {
+      const double u = map.at<cv::Vec2f>(y, x)[0], v = map.at<cv::Vec2f>(y, x)[1];
+      const int iu = FloorInt(u), iv = FloorInt(v);
+      cv::Vec3b want(0, 0, 0);
+      if (iu >= 1 && iu + 2 < image.cols && iv >= 1 && iv + 2 < image.rows) {
+        double wx[4], wy[4];
+        BSplineWeights(u - iu, wx, nullptr);
+        BSplineWeights(v - iv, wy, nullptr);
+        for (int c = 0; c < 3; ++c) {
+          double acc = 0;
+          for (int j = 0; j < 4; ++j) {
+            const float* row = coeffs[std::size_t(c)].ptr<float>(iv - 1 + j) + (iu - 1);
+            acc += wy[j] * (wx[0] * row[0] + wx[1] * row[1] + wx[2] * row[2] + wx[3] * row[3]);
+          }
+          want[c] = cv::saturate_cast<uchar>(acc);
+        }
+        ++compared;
+      }
+      ASSERT_EQ(out.at<cv::Vec3b>(y, x), want) << "at " << x << ", " << y;
+    }
+  }
+  EXPECT_GT(compared, map.total() / 2);  // most of the map falls on the image, some off it
+  EXPECT_LT(compared, int(map.total()));
+}
+
 // ErodeMask and OpenMask take their own path on large elements (each row's distance to the
 // nearest unset or set pixel, compared with the element's half-widths); they must give OpenCV's
 // erosion and opening with its elliptical element to the bit: the segmentation's masks, and so
