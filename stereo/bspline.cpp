@@ -5,20 +5,31 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <cstdint>
 #include <vector>
 
 #include "pipeline/error.hpp"
 
 namespace hedgefit::stereo {
 
-cv::Mat BSplineCoefficientsAlongRows(const cv::Mat& image) {
-  if (image.type() != CV_32FC1) throw Error("BSplineCoefficientsAlongRows: needs a CV_32FC1 image");
+namespace {
+
+// The row prefilter of one channel of `image` (8-bit with any number of channels, or CV_32FC1),
+// written to `out` (CV_32FC1, the image's size). An 8-bit sample is read straight into the
+// double sums: the value is the float it would have been converted to, so the coefficients are
+// the same bits as those of that channel split off and converted to float first, without the
+// two full-size copies (a region of the paper's hedge size is 3.5 MB a plane, each a fresh
+// allocation whose pages the kernel must fault in).
+template <typename T>
+void RowPass(const cv::Mat& image, int channel, cv::Mat* out) {
   const double z = std::sqrt(3.0) - 2.0;  // the cubic spline's pole
-  const int n = image.cols;
-  cv::Mat out(image.size(), CV_32F);
+  const int n = image.cols, step = image.channels(), out_step = out->channels();
   if (n < 2) {
-    image.copyTo(out);
-    return out;
+    for (int y = 0; y < image.rows; ++y) {
+      for (int k = 0; k < n; ++k) out->ptr<float>(y)[k * out_step + channel] = static_cast<float>(image.ptr<T>(y)[k * step + channel]);
+    }
+    return;
   }
   const int horizon = std::min(n, 24);  // |z|^24 ~ 2e-14
   // Four rows at a time, interleaved: each row's recursion is a chain of dependent multiply-adds,
@@ -31,16 +42,16 @@ cv::Mat BSplineCoefficientsAlongRows(const cv::Mat& image) {
     double* c = buffer.data();  // c[k * kRows + r]: row r's coefficient k
     for (int g = range.start; g < range.end; ++g) {
       const int y0 = g * kRows, rows = std::min(kRows, image.rows - y0);
-      const float* s[kRows];
-      for (int r = 0; r < kRows; ++r) s[r] = image.ptr<float>(y0 + std::min(r, rows - 1));  // spare lanes repeat a row
+      const T* s[kRows];
+      for (int r = 0; r < kRows; ++r) s[r] = image.ptr<T>(y0 + std::min(r, rows - 1)) + channel;  // spare lanes repeat a row
       double sum[kRows] = {0, 0, 0, 0}, zk = 1;
       for (int k = 0; k < horizon; ++k, zk *= z) {  // causal pass, mirror boundary
-        for (int r = 0; r < kRows; ++r) sum[r] += zk * s[r][k];
+        for (int r = 0; r < kRows; ++r) sum[r] += zk * static_cast<double>(s[r][k * step]);
       }
       for (int r = 0; r < kRows; ++r) c[r] = sum[r];
       for (int k = 1; k < n; ++k) {
         double* ck = c + static_cast<std::ptrdiff_t>(k) * kRows;
-        for (int r = 0; r < kRows; ++r) ck[r] = s[r][k] + z * ck[r - kRows];
+        for (int r = 0; r < kRows; ++r) ck[r] = static_cast<double>(s[r][k * step]) + z * ck[r - kRows];
       }
       double* last = c + static_cast<std::ptrdiff_t>(n - 1) * kRows;
       for (int r = 0; r < kRows; ++r) last[r] = (z / (z * z - 1)) * (last[r] + z * last[r - kRows]);
@@ -49,23 +60,22 @@ cv::Mat BSplineCoefficientsAlongRows(const cv::Mat& image) {
         for (int r = 0; r < kRows; ++r) ck[r] = z * (ck[r + kRows] - ck[r]);
       }
       for (int r = 0; r < rows; ++r) {
-        float* o = out.ptr<float>(y0 + r);
-        for (int k = 0; k < n; ++k) o[k] = static_cast<float>(6.0 * c[static_cast<std::ptrdiff_t>(k) * kRows + r]);
+        float* o = out->ptr<float>(y0 + r) + channel;
+        for (int k = 0; k < n; ++k) o[k * out_step] = static_cast<float>(6.0 * c[static_cast<std::ptrdiff_t>(k) * kRows + r]);
       }
     }
   });
-  return out;
 }
 
-cv::Mat BSplineCoefficients2D(const cv::Mat& image) {
-  const cv::Mat rows = BSplineCoefficientsAlongRows(image);
-  // Along the columns: the row pass's recursion run down the image for a block of columns at a
-  // time, with no transposes. Each column's arithmetic is exactly the row pass's, in the same
-  // order, so the result is the same to the bit; it is twice as fast as transposing there and back.
+// The column pass over the row pass' output, in place: the row pass' recursion run down the
+// image for a block of columns at a time, with no transposes. Each column's arithmetic is exactly
+// the row pass's, in the same order, so the result is the same to the bit; it is twice as fast as
+// transposing there and back. A block reads all its rows before it writes any, and blocks share
+// no column, so the output can overwrite the input.
+void ColumnPassInPlace(cv::Mat* coeffs) {
   const double z = std::sqrt(3.0) - 2.0;
-  const int n = rows.rows, w = rows.cols;
-  if (n < 2) return rows;
-  cv::Mat out(rows.size(), CV_32F);
+  const int n = coeffs->rows, w = coeffs->cols;
+  if (n < 2) return;
   const int horizon = std::min(n, 24);
   constexpr int kBlock = 64;  // columns per block: n x 64 doubles stay in a core's cache
   cv::parallel_for_(cv::Range(0, (w + kBlock - 1) / kBlock), [&](const cv::Range& blocks) {
@@ -77,11 +87,11 @@ cv::Mat BSplineCoefficients2D(const cv::Mat& image) {
       std::fill(first, first + bw, 0.0);
       double zk = 1;
       for (int k = 0; k < horizon; ++k, zk *= z) {  // causal pass, mirror boundary
-        const float* s = rows.ptr<float>(k) + x0;
+        const float* s = coeffs->ptr<float>(k) + x0;
         for (int i = 0; i < bw; ++i) first[i] += zk * s[i];
       }
       for (int y = 1; y < n; ++y) {
-        const float* s = rows.ptr<float>(y) + x0;
+        const float* s = coeffs->ptr<float>(y) + x0;
         double* cy = row(y);
         const double* prev = row(y - 1);
         for (int i = 0; i < bw; ++i) cy[i] = s[i] + z * prev[i];
@@ -95,12 +105,26 @@ cv::Mat BSplineCoefficients2D(const cv::Mat& image) {
         for (int i = 0; i < bw; ++i) cy[i] = z * (next[i] - cy[i]);
       }
       for (int y = 0; y < n; ++y) {
-        float* o = out.ptr<float>(y) + x0;
+        float* o = coeffs->ptr<float>(y) + x0;
         const double* cy = row(y);
         for (int i = 0; i < bw; ++i) o[i] = static_cast<float>(6.0 * cy[i]);
       }
     }
   });
+}
+
+}  // namespace
+
+cv::Mat BSplineCoefficientsAlongRows(const cv::Mat& image) {
+  if (image.type() != CV_32FC1) throw Error("BSplineCoefficientsAlongRows: needs a CV_32FC1 image");
+  cv::Mat out(image.size(), CV_32F);
+  RowPass<float>(image, 0, &out);
+  return out;
+}
+
+cv::Mat BSplineCoefficients2D(const cv::Mat& image) {
+  cv::Mat out = BSplineCoefficientsAlongRows(image);
+  ColumnPassInPlace(&out);
   return out;
 }
 
@@ -122,33 +146,41 @@ inline void BSplineWeights2(const cv::v_float64x2& t, cv::v_float64x2 w[4]) {
 }  // namespace
 #endif
 
-cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
+void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out) {
   if (source.depth() != CV_8U || (source.channels() != 1 && source.channels() != 3)) {
     throw Error("RemapBSpline: needs an 8-bit grey or BGR image");
   }
   if (map_xy.type() != CV_32FC2) throw Error("RemapBSpline: needs a CV_32FC2 map");
+  if (out.size() != map_xy.size() || out.type() != source.type()) {
+    throw Error("RemapBSplineInto: the output must be the map's size and the source's type");
+  }
   const int channels = source.channels();
-  cv::Mat out = cv::Mat::zeros(map_xy.size(), source.type());
-  if (map_xy.empty()) return out;
+  if (map_xy.empty()) return;
   // Only the part of the source the map reaches (plus the prefilter's reach) is filtered.
-  std::vector<cv::Mat> xy;
-  cv::split(map_xy, xy);
-  double x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;
-  cv::minMaxLoc(xy[0], &x_lo, &x_hi);
-  cv::minMaxLoc(xy[1], &y_lo, &y_hi);
+  float x_lo = std::numeric_limits<float>::infinity(), x_hi = -x_lo, y_lo = x_lo, y_hi = -x_lo;
+  for (int y = 0; y < map_xy.rows; ++y) {
+    const cv::Vec2f* m = map_xy.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < map_xy.cols; ++x) {
+      x_lo = std::min(x_lo, m[x][0]), x_hi = std::max(x_hi, m[x][0]);
+      y_lo = std::min(y_lo, m[x][1]), y_hi = std::max(y_hi, m[x][1]);
+    }
+  }
+  if (!(x_lo <= x_hi && y_lo <= y_hi) || !std::isfinite(x_hi - x_lo) || !std::isfinite(y_hi - y_lo)) {
+    out.setTo(cv::Scalar::all(0));  // no position on any source
+    return;
+  }
   constexpr int kMargin = 16;  // |z|^16 ~ 1e-9: the crop's edges do not reach the samples
   const int x0 = std::clamp(static_cast<int>(std::floor(x_lo)) - kMargin, 0, source.cols - 1);
   const int y0 = std::clamp(static_cast<int>(std::floor(y_lo)) - kMargin, 0, source.rows - 1);
   const int x1 = std::clamp(static_cast<int>(std::ceil(x_hi)) + kMargin + 1, x0 + 1, source.cols);
   const int y1 = std::clamp(static_cast<int>(std::ceil(y_hi)) + kMargin + 1, y0 + 1, source.rows);
   const cv::Mat crop = source(cv::Rect(x0, y0, x1 - x0, y1 - y0));
-  std::vector<cv::Mat> planes, coeffs(static_cast<std::size_t>(channels));
-  cv::split(crop, planes);
-  for (int c = 0; c < channels; ++c) {
-    cv::Mat f;
-    planes[std::size_t(c)].convertTo(f, CV_32F);
-    coeffs[std::size_t(c)] = BSplineCoefficients2D(f);
-  }
+  // One coefficient image, the channels interleaved as in the source: a pixel's 4 x 4 samples of
+  // every channel then lie in 4 runs of 12 floats instead of 12 runs of 4.
+  cv::Mat coeffs(crop.size(), CV_32FC(channels));
+  for (int c = 0; c < channels; ++c) RowPass<std::uint8_t>(crop, c, &coeffs);  // straight from the 8-bit crop
+  cv::Mat columns = coeffs.reshape(1);  // the column pass is per column: each channel's columns in turn
+  ColumnPassInPlace(&columns);
   const int cw = crop.cols, ch = crop.rows;
   auto inside = [&](int iu, int iv) { return iu >= 1 && iu + 2 < cw && iv >= 1 && iv + 2 < ch; };
   cv::parallel_for_(cv::Range(0, map_xy.rows), [&](const cv::Range& rows) {
@@ -158,15 +190,18 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
       auto one = [&](int x) {  // one pixel
         const double u = m[x][0] - x0, v = m[x][1] - y0;
         const int iu = FloorInt(u), iv = FloorInt(v);
-        if (!inside(iu, iv)) return;
+        if (!inside(iu, iv)) {
+          for (int c = 0; c < channels; ++c) o[x * channels + c] = 0;
+          return;
+        }
         double wx[4], wy[4];
         BSplineWeights(u - iu, wx, nullptr);
         BSplineWeights(v - iv, wy, nullptr);
         for (int c = 0; c < channels; ++c) {
           double acc = 0;
           for (int j = 0; j < 4; ++j) {
-            const float* row = coeffs[std::size_t(c)].ptr<float>(iv - 1 + j) + (iu - 1);
-            acc += wy[j] * (wx[0] * row[0] + wx[1] * row[1] + wx[2] * row[2] + wx[3] * row[3]);
+            const float* row = coeffs.ptr<float>(iv - 1 + j) + (iu - 1) * channels + c;
+            acc += wy[j] * (wx[0] * row[0] + wx[1] * row[channels] + wx[2] * row[2 * channels] + wx[3] * row[3 * channels]);
           }
           o[x * channels + c] = cv::saturate_cast<std::uint8_t>(acc);
         }
@@ -191,10 +226,11 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
         for (int c = 0; c < channels; ++c) {
           cv::v_float64x2 acc = cv::v_setzero_f64();
           for (int j = 0; j < 4; ++j) {
-            const float* ra = coeffs[std::size_t(c)].ptr<float>(iva - 1 + j) + (iua - 1);
-            const float* rb = coeffs[std::size_t(c)].ptr<float>(ivb - 1 + j) + (iub - 1);
-            const cv::v_float64x2 row = wx[0] * cv::v_float64x2(ra[0], rb[0]) + wx[1] * cv::v_float64x2(ra[1], rb[1]) +
-                                        wx[2] * cv::v_float64x2(ra[2], rb[2]) + wx[3] * cv::v_float64x2(ra[3], rb[3]);
+            const float* ra = coeffs.ptr<float>(iva - 1 + j) + (iua - 1) * channels + c;
+            const float* rb = coeffs.ptr<float>(ivb - 1 + j) + (iub - 1) * channels + c;
+            const int s1 = channels, s2 = 2 * channels, s3 = 3 * channels;
+            const cv::v_float64x2 row = wx[0] * cv::v_float64x2(ra[0], rb[0]) + wx[1] * cv::v_float64x2(ra[s1], rb[s1]) +
+                                        wx[2] * cv::v_float64x2(ra[s2], rb[s2]) + wx[3] * cv::v_float64x2(ra[s3], rb[s3]);
             acc = acc + wy[j] * row;
           }
           double lanes[2];
@@ -208,6 +244,11 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
       for (; x < map_xy.cols; ++x) one(x);
     }
   });
+}
+
+cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy) {
+  cv::Mat out(map_xy.size(), source.type());
+  RemapBSplineInto(source, map_xy, out);
   return out;
 }
 

@@ -21,6 +21,10 @@ cv::Mat BSplineCoefficients2D(const cv::Mat& image);
 /// Positions outside the source give 0.
 cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy);
 
+/// RemapBSpline written into `out`, a header of the map's size and the source's type (it may be
+/// a region of a larger image): a region rectified again lands in place, with no image between.
+void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out);
+
 /// floor(v) as an int without a library call (std::floor is one on baseline x86-64, and these
 /// run per pixel and per sample); the same value for every |v| < 2^31.
 inline int FloorInt(double v) {

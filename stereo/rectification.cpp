@@ -96,8 +96,8 @@ void RectifyRegionPrecisely(const StereoRig& rig, const cv::Mat& left, const cv:
                             cv::Mat* left_rect, cv::Mat* right_rect) {
   const auto lm = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
   const auto rm = MapsFor(rig.K2, rig.D2, rig.R2, rig.P2, rig.image_size);
-  RemapBSpline(left, lm->map_xy(roi)).copyTo((*left_rect)(roi));
-  RemapBSpline(right, rm->map_xy(roi)).copyTo((*right_rect)(roi));
+  RemapBSplineInto(left, lm->map_xy(roi), (*left_rect)(roi));
+  RemapBSplineInto(right, rm->map_xy(roi), (*right_rect)(roi));
 }
 
 cv::Mat RectifyLeftMask(const StereoRig& rig, const cv::Mat& mask) {

@@ -721,6 +721,38 @@ TEST(BSpline, RemapOfAColourImageIsEachChannelsOwn) {
   EXPECT_LT(compared, int(map.total()));
 }
 
+// RemapBSplineInto writes a region rectified again straight into the rectified view: inside the
+// region it gives RemapBSpline's bits, positions off the source turn to 0 whatever was there
+// before, and not a pixel outside the region changes. A wrong-sized or wrong-typed destination
+// is refused (copyTo would have quietly reallocated it and left the view as it was).
+TEST(BSpline, RemapIntoARegionLeavesTheRestAlone) {
+  cv::Mat image(120, 160, CV_8UC3);
+  cv::RNG rng(11);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat map(50, 70, CV_32FC2);
+  for (int y = 0; y < map.rows; ++y) {
+    for (int x = 0; x < map.cols; ++x) {  // a slight rotation; the left columns fall off the source
+      map.at<cv::Vec2f>(y, x) = cv::Vec2f(float(-10 + 0.998 * x - 0.05 * y + 0.31), float(40 + 0.05 * x + 0.998 * y + 0.17));
+    }
+  }
+  const cv::Mat want = RemapBSpline(image, map);
+  cv::Mat view(100, 140, CV_8UC3, cv::Scalar(7, 8, 9));
+  const cv::Rect roi(30, 20, map.cols, map.rows);
+  RemapBSplineInto(image, map, view(roi));
+  EXPECT_EQ(cv::norm(view(roi), want, cv::NORM_INF), 0.0);
+  int zero = 0;
+  for (int y = 0; y < want.rows; ++y) {
+    for (int x = 0; x < want.cols; ++x) zero += want.at<cv::Vec3b>(y, x) == cv::Vec3b(0, 0, 0);
+  }
+  EXPECT_GT(zero, 2 * map.rows);  // the columns off the source were written as 0, not left at 7, 8, 9
+  cv::Mat outside = view.clone();
+  outside(roi).setTo(cv::Scalar(7, 8, 9));
+  EXPECT_EQ(cv::norm(outside, cv::Mat(view.size(), view.type(), cv::Scalar(7, 8, 9)), cv::NORM_INF), 0.0);
+  cv::Mat grey_view(100, 140, CV_8UC1);
+  EXPECT_THROW(RemapBSplineInto(image, map, grey_view(roi)), hedgefit::Error);
+  EXPECT_THROW(RemapBSplineInto(image, map, view(cv::Rect(0, 0, 10, 10))), hedgefit::Error);
+}
+
 // ErodeMask and OpenMask take their own path on large elements (each row's distance to the
 // nearest unset or set pixel, compared with the element's half-widths); they must give OpenCV's
 // erosion and opening with its elliptical element to the bit: the segmentation's masks, and so
