@@ -14,6 +14,8 @@
 // Usage: bench_capture [--frames N] [--stock-frames N] [--scenes lab,row,paper] [--method M] [--max-points N]
 // (--max-points: today's pipeline matches and refines at most N pixels per hedge, as `measure
 // --max-points`; the 0.7.0 path keeps its own).
+// The process starts as `hedgefit` does (cli::PrepareProcess: glibc keeps freed blocks for reuse),
+// so every path, stock OpenCV's included, runs under the allocator the shipped program has.
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/ximgproc/disparity_filter.hpp>
@@ -30,6 +32,7 @@
 #include <vector>
 
 #include "bench/bench_util.hpp"
+#include "cli/run.hpp"
 #include "fitting/methods.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
@@ -238,6 +241,7 @@ std::vector<std::string> Split(const std::string& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  cli::PrepareProcess();
   int frames = 20, stock_frames = 3;
   std::string scenes = "lab,row,paper", method = "ransac_ray";
   stereo::ConvertOptions today;
