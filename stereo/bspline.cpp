@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "pipeline/error.hpp"
@@ -16,7 +16,8 @@ namespace hedgefit::stereo {
 namespace {
 
 // The row prefilter of one channel of `image` (8-bit with any number of channels, or CV_32FC1),
-// written to `out` (CV_32FC1, the image's size). An 8-bit sample is read straight into the
+// written to the same channel of `out` (float, the image's size: one channel, or as many as the
+// image has, interleaved). An 8-bit sample is read straight into the
 // double sums: the value is the float it would have been converted to, so the coefficients are
 // the same bits as those of that channel split off and converted to float first, without the
 // two full-size copies (a region of the paper's hedge size is 3.5 MB a plane, each a fresh
@@ -27,7 +28,9 @@ void RowPass(const cv::Mat& image, int channel, cv::Mat* out) {
   const int n = image.cols, step = image.channels(), out_step = out->channels();
   if (n < 2) {
     for (int y = 0; y < image.rows; ++y) {
-      for (int k = 0; k < n; ++k) out->ptr<float>(y)[k * out_step + channel] = static_cast<float>(image.ptr<T>(y)[k * step + channel]);
+      const T* s = image.ptr<T>(y) + channel;
+      float* o = out->ptr<float>(y) + channel;
+      for (int k = 0; k < n; ++k) o[k * out_step] = static_cast<float>(s[k * step]);
     }
     return;
   }
