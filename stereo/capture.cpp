@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -281,37 +282,43 @@ int DropLessCertain(const cv::Mat& mask, const cv::Mat& sigma, const cv::Mat& fi
   const cv::Rect box = cv::boundingRect(mask);
   if (box.empty()) return 0;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  int dropped = 0;
-  std::vector<float> values;
-  auto measured = [&](int x, int y) {
-    return mask.at<std::uint8_t>(y, x) != 0 && (filled.empty() || filled.at<std::uint8_t>(y, x) == 0) &&
-           std::isfinite(disparity->at<float>(y, x)) && std::isfinite(sigma.at<float>(y, x));
-  };
   const int x0 = (box.x / tile_px) * tile_px, y0 = (box.y / tile_px) * tile_px;
-  for (int ty = y0; ty < box.y + box.height; ty += tile_px) {
-    for (int tx = x0; tx < box.x + box.width; tx += tile_px) {
-      const cv::Rect tile = cv::Rect(tx, ty, tile_px, tile_px) & box;
-      values.clear();
-      for (int y = tile.y; y < tile.y + tile.height; ++y) {
-        for (int x = tile.x; x < tile.x + tile.width; ++x) {
-          if (measured(x, y)) values.push_back(sigma.at<float>(y, x));
-        }
-      }
-      if (values.size() < 8) continue;
-      const auto mid = values.begin() + std::ptrdiff_t(values.size() / 2);
-      std::nth_element(values.begin(), mid, values.end());
-      const double limit = ratio * double(*mid);
-      for (int y = tile.y; y < tile.y + tile.height; ++y) {
-        for (int x = tile.x; x < tile.x + tile.width; ++x) {
-          if (measured(x, y) && sigma.at<float>(y, x) > limit) {
-            disparity->at<float>(y, x) = nan;
-            ++dropped;
+  const int bands = (box.y + box.height - y0 + tile_px - 1) / tile_px;
+  std::atomic<int> dropped{0};
+  // A band of squares reads and writes its own rows only, so the bands run side by side and leave
+  // out exactly what one band after another would.
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+    std::vector<float> values;
+    int local = 0;
+    for (int band = range.start; band < range.end; ++band) {
+      for (int tx = x0; tx < box.x + box.width; tx += tile_px) {
+        const cv::Rect tile = cv::Rect(tx, y0 + band * tile_px, tile_px, tile_px) & box;
+        // Measured: in the mask, not filled, a finite disparity and sigma.
+        auto each_measured = [&](auto&& act) {
+          for (int y = tile.y; y < tile.y + tile.height; ++y) {
+            const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+            const std::uint8_t* f = filled.empty() ? nullptr : filled.ptr<std::uint8_t>(y);
+            const float* s = sigma.ptr<float>(y);
+            float* d = disparity->ptr<float>(y);
+            for (int x = tile.x; x < tile.x + tile.width; ++x) {
+              if (m[x] != 0 && (f == nullptr || f[x] == 0) && std::isfinite(d[x]) && std::isfinite(s[x])) act(s[x], d[x]);
+            }
           }
-        }
+        };
+        values.clear();
+        each_measured([&](float s, float&) { values.push_back(s); });
+        if (values.size() < 8) continue;
+        const auto mid = values.begin() + std::ptrdiff_t(values.size() / 2);
+        std::nth_element(values.begin(), mid, values.end());
+        const double limit = ratio * double(*mid);
+        each_measured([&](float s, float& d) {
+          if (s > limit) d = nan, ++local;
+        });
       }
     }
-  }
-  return dropped;
+    dropped += local;
+  });
+  return dropped.load();
 }
 
 VerticalDisparity MeasureRowAgreement(const StereoRig& rig, const cv::Mat& left_bgr, const cv::Mat& right_bgr,

@@ -11,6 +11,7 @@
 #include <numeric>
 #include <optional>
 #include <queue>
+#include <utility>
 
 #include "pipeline/error.hpp"
 #include "cloud/filters.hpp"
@@ -128,11 +129,17 @@ int PeakRegions(const cv::Mat& value, const cv::Mat& inside, const std::function
     }
     return m;
   };
-  std::vector<int> order;
+  // Highest first, ties in pixel order: the sort on (value, pixel) pairs, which reads no table
+  // while it compares, orders them as a stable sort of the pixels by value would.
+  std::vector<std::pair<double, int>> keyed;
   for (int i = 0; i < n_px; ++i) {
-    if (in(i) && std::isfinite(at(i))) order.push_back(i);
+    if (in(i) && std::isfinite(at(i))) keyed.emplace_back(at(i), i);
   }
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return at(a) > at(b); });
+  std::sort(keyed.begin(), keyed.end(), [](const std::pair<double, int>& a, const std::pair<double, int>& b) {
+    return a.first > b.first || (a.first == b.first && a.second < b.second);
+  });
+  std::vector<int> order(keyed.size());
+  for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
   struct Piece {
     double peak = 0;
     int peak_px = 0, area = 0, core_area = 0;
