@@ -21,6 +21,7 @@
 #include "pipeline/error.hpp"
 #include "pipeline/parallel.hpp"
 #include "stereo/bspline.hpp"
+#include "stereo/ldlt5.hpp"
 
 namespace hedgefit::stereo {
 
@@ -624,29 +625,24 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
     const bool respond = curvature && it + 1 == iterations;
     const Sums sums = Accumulate(x, q, respond);
     const int n_used = sums.used;
-    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-    for (int a = 0, m = 0; a < 5; ++a) {
-      for (int c = a; c < 5; ++c, ++m) H(a, c) = sums.hs[m];
-    }
-    const Eigen::Matrix<double, 5, 1> b = Eigen::Map<const Eigen::Matrix<double, 5, 1>>(sums.g);
     // Textureless windows (tiny gradient energy) or a singular system: not settled.
-    if (n_used < min_samples || H(0, 0) < 0.25 * n_used) return false;
-    const Eigen::LDLT<Eigen::Matrix<double, 5, 5>, Eigen::Upper> ldlt(H);
-    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
-    const Eigen::Matrix<double, 5, 1> step = ldlt.solve(b);
+    if (n_used < min_samples || sums.hs[0] < 0.25 * n_used) return false;
+    Ldlt5 ldlt;
+    if (!ldlt.Factor(sums.hs)) return false;
+    double step[5];
+    ldlt.Solve(sums.g, step);
     const bool last = (!curvature && std::abs(step[0]) < 1e-3) || it + 1 == iterations;
     // The estimate's standard deviation from the window's residuals and H^-1, of the
     // iteration that ends the search.
-    if (last) {
-      sigma = std::sqrt(sums.ssr / std::max(1, n_used - 5) *
-                        ldlt.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0]);
-    }
+    if (last) sigma = std::sqrt(sums.ssr / std::max(1, n_used - 5) * ldlt.InverseFirst());
     if (respond) {
       for (int tq = 0; tq < 3; ++tq) {
-        (*gain_out)[tq] = float(ldlt.solve(Eigen::Map<const Eigen::Matrix<double, 5, 1>>(sums.vq[tq]))[0]);
+        double response[5];
+        ldlt.Solve(sums.vq[tq], response);
+        (*gain_out)[tq] = float(response[0]);
       }
     }
-    q += step;
+    for (int a = 0; a < 5; ++a) q[a] += step[a];
     if (!std::isfinite(q[0]) || std::abs(q[0] - d0) > 1.0) return false;
     if (last) break;
   }

@@ -4,6 +4,8 @@
 
 #include "stereo/matching.hpp"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -16,6 +18,7 @@
 #include <vector>
 
 #include "stereo/bspline.hpp"
+#include "stereo/ldlt5.hpp"
 #include "stereo/segmentation.hpp"
 #include "bench/middlebury.hpp"
 #include "tests/test_data.hpp"
@@ -606,6 +609,60 @@ TEST(Refinement, VerticalDisparityNeedsTexturedWindows) {
 // value back (the prefilter's purpose; a plain cubic filter would blur it by ~10 grey levels on
 // this noise). The column pass, run down the rows without transposing, gives the same bits as the
 // row pass applied to the transposed image.
+// Ldlt5, the refinement's solver, against Eigen's pivoted LDLT on the normal equations of
+// random windows shaped as the refinement's are: 25 samples with gradients of 5-60 grey levels
+// per px, offsets -2..2 px, grey levels 20-230 and the offset's 1. Both are backward stable, so
+// they may differ by cond(H) times the rounding unit (times a small factor for n = 5); the
+// tolerance is 50 cond(H) eps, a few thousand times tighter than the refinement's 1e-3 px stop.
+// A matrix with a negative eigenvalue, or a NaN, is refused, as Eigen's isPositive/info refuse it.
+TEST(Refinement, Ldlt5SolvesAsEigensLdltDoes) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> grad(5, 60), off(-2, 2), grey(20, 230), sign(-1, 1);
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    for (int k = 0; k < 25; ++k) {
+      const double g = grad(rng) * (sign(rng) < 0 ? -1 : 1), di = off(rng), dj = off(rng);
+      Eigen::Matrix<double, 5, 1> J;
+      J << g, g * di, g * dj, -grey(rng), -1;
+      H += J * J.transpose();
+    }
+    Eigen::Matrix<double, 5, 1> b;
+    for (int a = 0; a < 5; ++a) b[a] = 100 * sign(rng);
+    double upper[15], bb[5], x[5];
+    for (int a = 0, m = 0; a < 5; ++a) {
+      for (int c = a; c < 5; ++c, ++m) upper[m] = H(a, c);
+      bb[a] = b[a];
+    }
+    Ldlt5 ldlt;
+    ASSERT_TRUE(ldlt.Factor(upper)) << "trial " << trial;
+    ldlt.Solve(bb, x);
+    const Eigen::LDLT<Eigen::Matrix<double, 5, 5>> eigen(H);
+    const Eigen::Matrix<double, 5, 1> want = eigen.solve(b);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> es(H);
+    const double cond = es.eigenvalues().maxCoeff() / es.eigenvalues().minCoeff();
+    const double tol = 50 * cond * std::numeric_limits<double>::epsilon();
+    for (int a = 0; a < 5; ++a) EXPECT_NEAR(x[a], want[a], tol * want.norm()) << "trial " << trial << " a " << a;
+    const double inverse00 = eigen.solve(Eigen::Matrix<double, 5, 1>::Unit(0))[0];
+    EXPECT_NEAR(ldlt.InverseFirst(), inverse00, tol * std::abs(inverse00)) << "trial " << trial;
+  }
+  // Indefinite: one eigenvalue below zero.
+  Eigen::Matrix<double, 5, 5> A = Eigen::Matrix<double, 5, 5>::Identity() * 4;
+  A(2, 2) = -1;
+  A(0, 2) = A(2, 0) = 0.5;
+  double upper[15];
+  for (int a = 0, m = 0; a < 5; ++a) {
+    for (int c = a; c < 5; ++c, ++m) upper[m] = A(a, c);
+  }
+  Ldlt5 ldlt;
+  EXPECT_FALSE(ldlt.Factor(upper));
+  upper[0] = 4, upper[12] = std::numeric_limits<double>::quiet_NaN();
+  A(2, 2) = 4;
+  for (int a = 0, m = 0; a < 5; ++a) {
+    for (int c = a; c < 5; ++c, ++m) upper[m] = m == 12 ? upper[m] : A(a, c);
+  }
+  EXPECT_FALSE(ldlt.Factor(upper));
+}
+
 TEST(BSpline, CoefficientsInterpolateAndTheColumnPassIsTheRowPassTransposed) {
   cv::Mat image(90, 130, CV_32F);
   cv::randu(image, 0.0, 255.0);
