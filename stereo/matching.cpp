@@ -192,7 +192,10 @@ bool SolveVerticalWindow(const cv::Mat& L, const cv::Mat& C, const cv::Mat& mask
         const double gx = (1 + q[4]) * vx;
         Vec6 J;
         J << gx, gx * i, gx * j, -(1 + q[4]) * vy, -v, -1.0;
-        H.selfadjointView<Eigen::Upper>().rankUpdate(J);
+        // H += J J^T on the upper triangle, as Eigen's rankUpdate forms it (each term J_c J_r).
+        for (int c = 0; c < 6; ++c) {
+          for (int k = 0; k <= c; ++k) H(k, c) += J[c] * J[k];
+        }
         g -= J * res;
         ssr += res * res;
         ++used;
@@ -283,14 +286,40 @@ VerticalDisparity EstimateVerticalDisparityFloat(const cv::Mat& L, const cv::Mat
 // The right view's grey levels at (x, y + v.At(x, y)): the vertical disparity removed. `grey`
 // is the view, `coeffs` its 2-D spline; pixels whose spline support leaves the image (the
 // outer two rows and columns) keep their value.
+//
+// Every sample lies on a whole column, where the cubic B-spline's weights along the row are
+// BSplineWeights(0) = (1/6, 4/6, 1/6, 0) for every pixel, and only the value is wanted: this is
+// SampleBSpline2D's value, operation for operation in its order, without the derivatives it
+// also forms; VerticalDisparity::At's column and row terms (each a division) are taken from a
+// table and once per row, and added in At's order. The same bits as sampling through
+// SampleBSpline2D and At, which it replaced.
 cv::Mat ShiftRows(const cv::Mat& grey, const cv::Mat& coeffs, const VerticalDisparity& v) {
   cv::Mat out = grey.clone();
+  double wx[4];
+  BSplineWeights(0.0, wx, nullptr);
+  const cv::Size size = coeffs.size();
+  std::vector<double> column_term(std::size_t(std::max(0, coeffs.cols)));
+  for (int x = 0; x < coeffs.cols; ++x) {
+    column_term[std::size_t(x)] = v.slope_x_px * (double(x) - 0.5 * size.width) / size.width;
+  }
   cv::parallel_for_(cv::Range(0, coeffs.rows), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
       float* o = out.ptr<float>(y);
-      for (int x = 0; x < coeffs.cols; ++x) {
-        double value = 0, vx = 0, vy = 0;
-        if (SampleBSpline2D(coeffs, x, y + v.At(x, y, coeffs.size()), &value, &vx, &vy)) o[x] = static_cast<float>(value);
+      const double row_term = v.slope_y_px * (double(y) - 0.5 * size.height) / size.height;
+      for (int x = 1; x + 2 < coeffs.cols; ++x) {
+        const double at = y + (v.offset_px + column_term[std::size_t(x)] + row_term);
+        const int iy = FloorInt(at);
+        if (iy < 1 || iy + 2 >= coeffs.rows) continue;
+        double wy[4];
+        BSplineWeights(at - iy, wy, nullptr);
+        double s = 0;
+        for (int j = 0; j < 4; ++j) {
+          const float* row = coeffs.ptr<float>(iy - 1 + j) + (x - 1);
+          double r = 0;
+          for (int i = 0; i < 4; ++i) r += wx[i] * row[i];
+          s += wy[j] * r;
+        }
+        o[x] = static_cast<float>(s);
       }
     }
   });
