@@ -3,9 +3,11 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -200,6 +202,76 @@ void ScoreOutline(const std::vector<cloud::TangentRay>& rays, const fitting::Sph
   }
 }
 
+// The left view's grey levels across the true envelope's silhouette, in the rectified frame: each
+// profile along the silhouette's normal (one per px of it; the bottom, against the lawn, left out)
+// normalised between its own inside (-10 to -6 px) and outside (+6 to +10 px) levels, so that 1 is
+// the hedge and 0 the background, and averaged. The measured outline's cut is a two-level fit, so
+// it lands near this profile's 50 % point; a sharp edge crosses 50 % at the envelope within the
+// camera's blur, a tapering one (sparse, pointed outer leaves) inside it by about half its width.
+// Profiles whose two sides differ by under 15 grey levels (6 % of the range) are left out: their
+// normalisation would divide by the noise.
+constexpr double kProfileFirstPx = -6, kProfileLastPx = 3;
+
+void ScoreEdgeProfile(const cv::Mat& left_rect, const stereo::StereoRig& rig, const fitting::Sphere& truth,
+                      GardenHedgeRow* row) {
+  if (left_rect.empty() || rig.P1.empty()) return;
+  cv::Mat grey;
+  if (left_rect.channels() == 3) cv::cvtColor(left_rect, grey, cv::COLOR_BGR2GRAY);
+  else grey = left_rect;
+  grey.convertTo(grey, CV_32F);
+  auto at = [&](double x, double y) {  // bilinear; NaN off the image
+    if (!(x >= 0 && y >= 0 && x + 1 < grey.cols && y + 1 < grey.rows)) return std::nan("");
+    cv::Mat one;
+    cv::getRectSubPix(grey, cv::Size(1, 1), cv::Point2f(float(x), float(y)), one);
+    return double(one.at<float>(0, 0));
+  };
+  const double f = rig.P1.at<double>(0, 0), cx = rig.P1.at<double>(0, 2), cy = rig.P1.at<double>(1, 2);
+  const cv::Matx33d R1(rig.R1);
+  const cv::Vec3d c = R1 * cv::Vec3d(truth.center_mm.x(), truth.center_mm.y(), truth.center_mm.z());
+  const double D = cv::norm(c), r = truth.radius_mm;
+  if (!(D > 1.05 * r) || !(c[2] > r)) return;
+  const cv::Vec3d a = c / D, e1 = cv::normalize(a.cross(cv::Vec3d(0, 1, 0))), e2 = a.cross(e1);
+  const double rho = r * std::sqrt(1 - r * r / (D * D));
+  const cv::Vec3d ring = c - a * (r * r / D);
+  auto project = [&](const cv::Vec3d& q) { return cv::Point2d(f * q[0] / q[2] + cx, f * q[1] / q[2] + cy); };
+  const int samples = std::max(64, int(2 * CV_PI * f * rho / c[2]));
+  const int n_out = int(kProfileLastPx - kProfileFirstPx) + 1;
+  std::vector<double> sum(std::size_t(n_out), 0.0);
+  std::size_t used = 0;
+  for (int k = 0; k < samples; ++k) {
+    const double phi = 2 * CV_PI * k / samples;
+    const cv::Vec3d u = std::cos(phi) * e1 + std::sin(phi) * e2, q = ring + rho * u;
+    if (u[1] > 0.5) continue;  // the bottom: the lawn
+    const cv::Point2d p = project(q), p2 = project(q + 2.0 * u);
+    cv::Point2d n = p2 - p;
+    const double len = std::hypot(n.x, n.y);
+    if (!(len > 1e-9)) continue;
+    n /= len;
+    auto mean = [&](double from, double to) {
+      double s = 0;
+      int m = 0;
+      for (double t = from; t <= to + 1e-9; t += 0.25, ++m) s += at(p.x + t * n.x, p.y + t * n.y);
+      return s / m;
+    };
+    const double inside = mean(-10, -6), outside = mean(6, 10);
+    if (!std::isfinite(inside) || !std::isfinite(outside) || std::abs(inside - outside) < 15) continue;
+    std::vector<double> v(static_cast<std::size_t>(n_out));
+    bool ok = true;
+    for (int j = 0; j < n_out && ok; ++j) {
+      const double t = kProfileFirstPx + j;
+      v[std::size_t(j)] = (at(p.x + t * n.x, p.y + t * n.y) - outside) / (inside - outside);
+      ok = std::isfinite(v[std::size_t(j)]);
+    }
+    if (!ok) continue;
+    for (int j = 0; j < n_out; ++j) sum[std::size_t(j)] += v[std::size_t(j)];
+    ++used;
+  }
+  row->edge_profile_rays = used;
+  row->edge_profile.clear();
+  if (used == 0) return;
+  for (double x : sum) row->edge_profile.push_back(x / double(used));
+}
+
 // What else was taken for a hedge (a shrub): do the envelope fit and the default fit (ransac_ray,
 // what measure prints) tell it is not a ball?
 void ScoreOthers(const cloud::PointCloud& cleaned, const std::vector<cloud::HedgeGroup>& groups, GardenScene* scene) {
@@ -391,6 +463,7 @@ GardenResult RunGarden(const GardenOptions& a) {
         }
         const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
         const auto outline = outlines.find(g.id);
+        ScoreEdgeProfile(res.left_rect, rig, row.truth, &row);
         if (outline != outlines.end()) {
           ScoreOutline(outline->second, row.truth, &row);
           row.oracle = OracleFits(pts, pixel_mm, outline->second, surface, sim.left, row.truth, envelope_options);
@@ -592,6 +665,11 @@ std::string GardenJson(const GardenResult& r) {
                                    {"median_px", h.outline_median_px[v]}, {"mad_px", h.outline_mad_px[v]},
                                    {"mean_px", h.outline_mean_px[v]}});
         }
+      }
+      if (!h.edge_profile.empty()) {
+        // The mean grey-level profile across the true envelope (ScoreEdgeProfile): 1 the hedge,
+        // 0 the background, at every whole px from kProfileFirstPx (+ outside).
+        jh["edge_profile"] = {{"first_px", kProfileFirstPx}, {"rays", h.edge_profile_rays}, {"coverage", h.edge_profile}};
       }
       if (!h.oracle.empty()) {
         jh["oracle"] = json::object();

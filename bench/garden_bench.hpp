@@ -65,6 +65,10 @@ struct GardenHedgeRow {
   std::size_t outline_rays[2] = {0, 0};
   std::vector<double> outline_quantiles_px;  ///< the rays' offsets (px, + outside) at 2, 10, 25, 50, 75, 90 %
   double outline_mean_px[2] = {0, 0}, outline_median_px[2] = {0, 0}, outline_mad_px[2] = {0, 0};
+  /// The left view's mean grey-level profile across the true envelope's silhouette, 1 the hedge and
+  /// 0 the background, at every whole px from -6 to +3 (+ outside), and the profiles averaged.
+  std::vector<double> edge_profile;
+  std::size_t edge_profile_rays = 0;
 };
 
 struct GardenScene {

@@ -6,7 +6,7 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|depth|find|beds|around|headline|real [--slow]
+Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|depth|edges|find|beds|around|headline|real [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   stride    the lab's mean |AER| / mean LD against the pixels refined (`bench lab --min-stride 1-4`, every
@@ -22,6 +22,9 @@ Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|dep
             --max-points N`, held-back seeds 101-104, both renderers): the envelope's AER, LD and intervals
   depth     the same gardens: the centre's error along the view ray as measured and with the points, the
             outline or both swapped for the renderer's truth, and with one view's outline alone
+  edges     the same gardens per leaf preset: the left view's mean grey-level profile across the true
+            silhouette (where it crosses 50 %, its coverage either side of the envelope), the measured
+            outline's median offset and the centre's error along the view ray
   find      `hedgefit find` per data set: `bench find` (4 held-back gardens per simulated sensor), the five real
             Velodyne scans of a calibration sphere and PCL's test clouds, with defaults: balls found,
             objects wrongly called balls, radius, centre and ground errors, time
@@ -335,16 +338,23 @@ def along_ray(h, fit):
     return sum((c - x) * x / n for c, x in zip(fit["center_mm"], t))
 
 
+def paper_benches(empty_cells):
+    """(label, JSON) of each paper-size set (GARDENS["paper"]); a set not rendered here gets a row
+    saying so, with `empty_cells` cells after it, and is skipped."""
+    for k, (label, directory, flags) in enumerate(GARDENS["paper"]):
+        j = bench("garden", f"paper{k}", directory, flags)
+        if j is None:
+            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * empty_cells)
+            continue
+        yield label, j
+
+
 def paper():
     """The paper's hedge size (bench garden --paper): the envelope's radius, centre and intervals."""
     print("| data (simulated) | balls | mean / worst \\|AER\\|, mm | mean / worst LD, mm | centre along the view "
           "ray, mean (+ too far), mm | 95 % intervals holding the truth (x, y, z, r) | mean radius half-width, mm |")
     print("|---|---|---|---|---|---|---|")
-    for k, (label, directory, flags) in enumerate(GARDENS["paper"]):
-        j = bench("garden", f"paper{k}", directory, flags)
-        if j is None:
-            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * 5)
-            continue
+    for label, j in paper_benches(5):
         aer, ld, along, inside, cases, half = [], [], [], 0, 0, []
         for h, fit in envelope_fits(j):
             aer.append(abs(fit["aer_mm"]))
@@ -424,6 +434,42 @@ def depth():
         for v in bias.values():
             row.append(f"{sum(v) / len(v):.2f} / {max(v):.2f}" if v else "-")
         print(f"| {label} | {len(cells['as measured'])} | " + " | ".join(row) + " |")
+
+
+PRESETS = ("boxwood", "yew", "privet", "holly")  # bench garden --paper: seed mod 4
+
+
+def edges():
+    """The left view's mean grey-level profile across each paper-size ball's true silhouette (bench
+    garden's edge_profile), per leaf preset: where it crosses 50 % (where the outline's two-level cut
+    lands), its coverage either side of the envelope, the measured outline's median offset and the
+    envelope's centre along the view ray."""
+    print("| data (simulated) | leaves | balls | profile's 50 % point, px | coverage at -3 / -2 / -1 / 0 / +1 px "
+          "| measured outline, median px | centre along the view ray (+ too far), mm |")
+    print("|---|---|---|---|---|---|---|")
+    for label, j in paper_benches(5):
+        groups = {}
+        for sc in j["scenes"]:
+            seed = int(re.sub(r"\D", "", sc["name"]) or 0)
+            for h in sc["hedges"]:
+                fit = envelope_fit(h)
+                if "edge_profile" not in h or fit is None:
+                    continue
+                groups.setdefault(PRESETS[seed % 4], []).append((h, fit))
+        for preset in PRESETS:
+            balls = groups.get(preset, [])
+            if not balls:
+                continue
+            first = balls[0][0]["edge_profile"]["first_px"]
+            n = len(balls[0][0]["edge_profile"]["coverage"])
+            cov = [sum(h["edge_profile"]["coverage"][i] for h, _ in balls) / len(balls) for i in range(n)]
+            half = next((first + i + (cov[i] - 0.5) / (cov[i] - cov[i + 1]) for i in range(n - 1)
+                         if cov[i] >= 0.5 > cov[i + 1]), float("nan"))
+            at = [cov[int(x - first)] for x in (-3, -2, -1, 0, 1)]
+            medians = [h["outline_quantiles_px"][3] for h, _ in balls if len(h.get("outline_quantiles_px", [])) > 3]
+            along = [along_ray(h, fit) for h, fit in balls]
+            print(f"| {label} | {preset} | {len(balls)} | {half:+.2f} | " + " / ".join(f"{v:.2f}" for v in at) + " | " +
+                  (f"{sum(medians) / len(medians):+.2f}" if medians else "-") + f" | {sum(along) / len(along):+.2f} |")
 
 
 def bench_find(name, flags):
@@ -678,6 +724,8 @@ if __name__ == "__main__":
         points()
     elif what == "depth":
         depth()
+    elif what == "edges":
+        edges()
     elif what == "find":
         find()
     elif what == "around":
