@@ -212,13 +212,19 @@ void ScoreOutline(const std::vector<cloud::TangentRay>& rays, const fitting::Sph
 // normalisation would divide by the noise.
 constexpr double kProfileFirstPx = -6, kProfileLastPx = 3;
 
-void ScoreEdgeProfile(const cv::Mat& left_rect, const stereo::StereoRig& rig, const fitting::Sphere& truth,
-                      GardenHedgeRow* row) {
-  if (left_rect.empty() || rig.P1.empty()) return;
+// The rectified left view as float grey levels, once per capture, for ScoreEdgeProfile.
+cv::Mat GreyForProfiles(const cv::Mat& left_rect) {
   cv::Mat grey;
   if (left_rect.channels() == 3) cv::cvtColor(left_rect, grey, cv::COLOR_BGR2GRAY);
   else grey = left_rect;
-  grey.convertTo(grey, CV_32F);
+  cv::Mat f;
+  grey.convertTo(f, CV_32F);
+  return f;
+}
+
+void ScoreEdgeProfile(const cv::Mat& grey, const stereo::StereoRig& rig, const fitting::Sphere& truth,
+                      GardenHedgeRow* row) {
+  if (grey.empty() || rig.P1.empty()) return;
   auto at = [&](double x, double y) {  // bilinear; NaN off the image
     if (!(x >= 0 && y >= 0 && x + 1 < grey.cols && y + 1 < grey.rows)) return std::nan("");
     cv::Mat one;
@@ -435,6 +441,7 @@ GardenResult RunGarden(const GardenOptions& a) {
                   : cloud::HedgeOutlines();
     std::vector<fitting::Sphere> spheres;
     for (const auto& t : truths) spheres.push_back(fitting::Sphere{t.center_mm, t.radius_mm});
+    const cv::Mat profile_grey = GreyForProfiles(res.left_rect);
     for (std::size_t ti = 0; ti < truths.size(); ++ti) {
       GardenHedgeRow row;
       row.truth = spheres[ti];
@@ -463,7 +470,7 @@ GardenResult RunGarden(const GardenOptions& a) {
         }
         const std::vector<double> pixel_mm = cloud::FieldAt(cleaned, cloud::kPixelSizeField, g.indices);
         const auto outline = outlines.find(g.id);
-        ScoreEdgeProfile(res.left_rect, rig, row.truth, &row);
+        ScoreEdgeProfile(profile_grey, rig, row.truth, &row);
         if (outline != outlines.end()) {
           ScoreOutline(outline->second, row.truth, &row);
           row.oracle = OracleFits(pts, pixel_mm, outline->second, surface, sim.left, row.truth, envelope_options);
