@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <numeric>
@@ -72,6 +73,42 @@ void AutoSegmentOptions::Check() const {
   garden.Check();
 }
 
+namespace detail {
+
+// A stable radix sort (four passes of 8 bits) of each value's float bits made to order as the
+// value does. The values are floats' (a distance transform's, a depth map's); 0 and -0 tie.
+std::vector<int> HighestFirst(const std::vector<double>& values, const std::vector<std::uint8_t>& inside) {
+  std::vector<std::uint32_t> key, next_key;
+  std::vector<int> order, next_order;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (!inside[i] || !std::isfinite(values[i])) continue;
+    float v = float(values[i]);
+    if (v == 0) v = 0;  // -0 as +0
+    std::uint32_t b = 0;
+    std::memcpy(&b, &v, sizeof b);
+    b = (b & 0x80000000u) ? ~b : (b | 0x80000000u);  // ascending with the value
+    key.push_back(~b);                                // descending
+    order.push_back(int(i));
+  }
+  next_key.resize(key.size());
+  next_order.resize(order.size());
+  for (int shift = 0; shift < 32; shift += 8) {
+    std::size_t count[257] = {};
+    for (const std::uint32_t k : key) ++count[((k >> shift) & 0xffu) + 1];
+    for (int d = 0; d < 256; ++d) count[d + 1] += count[d];
+    for (std::size_t i = 0; i < key.size(); ++i) {
+      const std::size_t at = count[(key[i] >> shift) & 0xffu]++;
+      next_key[at] = key[i];
+      next_order[at] = order[i];
+    }
+    key.swap(next_key);
+    order.swap(next_order);
+  }
+  return order;
+}
+
+}  // namespace detail
+
 namespace {
 
 constexpr double kCoarseFocalPx = 233;  // the paper's rig (f = 933 px) at 1/4
@@ -129,17 +166,8 @@ int PeakRegions(const cv::Mat& value, const cv::Mat& inside, const std::function
     }
     return m;
   };
-  // Highest first, ties in pixel order: the sort on (value, pixel) pairs, which reads no table
-  // while it compares, orders them as a stable sort of the pixels by value would.
-  std::vector<std::pair<double, int>> keyed;
-  for (int i = 0; i < n_px; ++i) {
-    if (in(i) && std::isfinite(at(i))) keyed.emplace_back(at(i), i);
-  }
-  std::sort(keyed.begin(), keyed.end(), [](const std::pair<double, int>& a, const std::pair<double, int>& b) {
-    return a.first > b.first || (a.first == b.first && a.second < b.second);
-  });
-  std::vector<int> order(keyed.size());
-  for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+  // Highest first, ties in pixel order.
+  const std::vector<int> order = detail::HighestFirst(values, inside_px);
   struct Piece {
     double peak = 0;
     int peak_px = 0, area = 0, core_area = 0;

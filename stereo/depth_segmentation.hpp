@@ -13,6 +13,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -88,5 +89,12 @@ struct GardenSegmentation {
 /// there is none, naming why the largest candidates were rejected.
 GardenSegmentation FindHedges(const StereoRig& rig, const cv::Mat& left_rect, const cv::Mat& right_rect,
                               const GardenSegmentOptions& options);
+
+namespace detail {
+/// The indices of `values` whose `inside` is non-zero and whose value is finite, the highest value
+/// first and equal values in index order: the watershed's order in FindHedges. The values are
+/// floats' (a distance transform's, a depth map's).
+std::vector<int> HighestFirst(const std::vector<double>& values, const std::vector<std::uint8_t>& inside);
+}  // namespace detail
 
 }  // namespace hedgefit::stereo

@@ -11,6 +11,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
 
 #include "bench/garden_bench.hpp"
 #include "bench/lab_bench.hpp"
@@ -681,6 +684,38 @@ TEST(GardenPovray, DepthRenderGivesEachPixelsTrueLeaf) {
   ASSERT_TRUE(e.fit.converged) << e.fit.message;
   EXPECT_NEAR(e.fit.sphere.radius_mm, R, 1.0);
   EXPECT_LT((e.fit.sphere.center_mm - c).norm(), 1.0);
+}
+
+// The watershed's order (highest first, equal values in pixel order) from the radix sort is the
+// one a comparison sort of (value, pixel) pairs gives: on values with many ties, both zeros,
+// negatives, NaN and -inf (never in the order) and pixels outside the region.
+TEST(GardenSegment, TheWatershedsOrderIsTheComparisonSortsOrder) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> level(-40, 40), kind(0, 19);
+  for (int trial = 0; trial < 20; ++trial) {
+    const std::size_t n = 500 + 300 * std::size_t(trial);
+    std::vector<double> values(n);
+    std::vector<std::uint8_t> inside(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const int k = kind(rng);
+      values[i] = k == 0   ? std::numeric_limits<double>::quiet_NaN()
+                  : k == 1 ? -std::numeric_limits<double>::infinity()
+                  : k == 2 ? -0.0
+                  : k == 3 ? 0.0
+                           : double(float(level(rng) * 0.37f));  // floats' values, many equal
+      inside[i] = kind(rng) < 17;
+    }
+    std::vector<std::pair<double, int>> keyed;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (inside[i] && std::isfinite(values[i])) keyed.emplace_back(values[i], int(i));
+    }
+    std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    });
+    const std::vector<int> order = stereo::detail::HighestFirst(values, inside);
+    ASSERT_EQ(order.size(), keyed.size());
+    for (std::size_t k = 0; k < order.size(); ++k) ASSERT_EQ(order[k], keyed[k].second) << "trial " << trial << ", place " << k;
+  }
 }
 
 TEST(GardenSegment, BadOptionsAreNamed) {
