@@ -234,25 +234,13 @@ void ScoreEdgeProfile(const cv::Mat& grey, const stereo::StereoRig& rig, const f
   const double f = rig.P1.at<double>(0, 0), cx = rig.P1.at<double>(0, 2), cy = rig.P1.at<double>(1, 2);
   const cv::Matx33d R1(rig.R1);
   const cv::Vec3d c = R1 * cv::Vec3d(truth.center_mm.x(), truth.center_mm.y(), truth.center_mm.z());
-  const double D = cv::norm(c), r = truth.radius_mm;
-  if (!(D > 1.05 * r) || !(c[2] > r)) return;
-  const cv::Vec3d a = c / D, e1 = cv::normalize(a.cross(cv::Vec3d(0, 1, 0))), e2 = a.cross(e1);
-  const double rho = r * std::sqrt(1 - r * r / (D * D));
-  const cv::Vec3d ring = c - a * (r * r / D);
-  auto project = [&](const cv::Vec3d& q) { return cv::Point2d(f * q[0] / q[2] + cx, f * q[1] / q[2] + cy); };
-  const int samples = std::max(64, int(2 * CV_PI * f * rho / c[2]));
   const int n_out = int(kProfileLastPx - kProfileFirstPx) + 1;
   std::vector<double> sum(std::size_t(n_out), 0.0);
   std::size_t used = 0;
-  for (int k = 0; k < samples; ++k) {
-    const double phi = 2 * CV_PI * k / samples;
-    const cv::Vec3d u = std::cos(phi) * e1 + std::sin(phi) * e2, q = ring + rho * u;
-    if (u[1] > 0.5) continue;  // the bottom: the lawn
-    const cv::Point2d p = project(q), p2 = project(q + 2.0 * u);
-    cv::Point2d n = p2 - p;
-    const double len = std::hypot(n.x, n.y);
-    if (!(len > 1e-9)) continue;
-    n /= len;
+  for (const stereo::SilhouettePoint& point : stereo::SphereSilhouette(c, truth.radius_mm, cv::Vec3d(0, 0, 0), f, cx, cy)) {
+    if (point.u[1] > 0.5) continue;  // the bottom: the lawn
+    const cv::Point2d& p = point.p;
+    const cv::Point2d& n = point.n;
     auto mean = [&](double from, double to) {
       double s = 0;
       int m = 0;

@@ -96,6 +96,36 @@ cv::Mat Grey(const cv::Mat& img) {
 
 }  // namespace
 
+std::vector<SilhouettePoint> SphereSilhouette(const cv::Vec3d& centre, double radius, const cv::Vec3d& origin, double f,
+                                              double cx, double cy) {
+  std::vector<SilhouettePoint> out;
+  const cv::Vec3d w = centre - origin;
+  const double D = cv::norm(w), r = radius;
+  if (!(D > 1.05 * r) || !(w[2] > r)) return out;
+  const cv::Vec3d a = w / D;
+  const cv::Vec3d e1 = cv::normalize(a.cross(cv::Vec3d(0, 1, 0))), e2 = a.cross(e1);
+  const double rho = r * std::sqrt(1 - r * r / (D * D));
+  const cv::Vec3d ring = centre - a * (r * r / D);
+  auto project = [&](const cv::Vec3d& p) {
+    const cv::Vec3d q = p - origin;
+    return cv::Point2d(f * q[0] / q[2] + cx, f * q[1] / q[2] + cy);
+  };
+  // About one point per pixel of the predicted outline.
+  const int samples = std::max(64, int(2 * CV_PI * f * rho / w[2]));
+  out.reserve(std::size_t(samples));
+  for (int k = 0; k < samples; ++k) {
+    const double phi = 2 * CV_PI * k / samples;
+    const cv::Vec3d u = std::cos(phi) * e1 + std::sin(phi) * e2, q = ring + rho * u;
+    const cv::Point2d p = project(q), p2 = project(q + 2.0 * u);
+    cv::Point2d n = p2 - p;
+    const double len = std::hypot(n.x, n.y);
+    if (!(len > 1e-9) || q[2] - origin[2] <= 0) continue;
+    n /= len;
+    out.push_back({u, q, p, n});
+  }
+  return out;
+}
+
 cloud::HedgeOutlines MeasureOutlines(const cv::Mat& left_rect, const cv::Mat& right_rect, const cv::Mat& labels,
                                      const StereoRig& rig, const std::map<int, Eigen::Vector4d>& start,
                                      const std::optional<cv::Vec4d>& ground, std::map<int, OutlineStats>* stats) {
@@ -115,27 +145,11 @@ cloud::HedgeOutlines MeasureOutlines(const cv::Mat& left_rect, const cv::Mat& ri
     std::vector<double> contrasts;
     OutlineStats st;
     for (int view = 0; view < 2; ++view) {
-      const cv::Vec3d o = centre_rect[view], w = c - o;
-      const double D = cv::norm(w);
-      if (!(D > 1.05 * r) || !(w[2] > r)) continue;
-      const cv::Vec3d a = w / D;
-      const cv::Vec3d e1 = cv::normalize(a.cross(cv::Vec3d(0, 1, 0))), e2 = a.cross(e1);
-      const double rho = r * std::sqrt(1 - r * r / (D * D));
-      const cv::Vec3d ring = c - a * (r * r / D);
-      auto project = [&](const cv::Vec3d& p) {
-        const cv::Vec3d q = p - o;
-        return cv::Point2d(f * q[0] / q[2] + cx[view], f * q[1] / q[2] + cy[view]);
-      };
-      // About one border point per pixel of the predicted outline.
-      const int samples = std::max(64, int(2 * CV_PI * f * rho / w[2]));
-      for (int k = 0; k < samples; ++k) {
-        const double phi = 2 * CV_PI * k / samples;
-        const cv::Vec3d u = std::cos(phi) * e1 + std::sin(phi) * e2, q = ring + rho * u;
-        const cv::Point2d p = project(q), p2 = project(q + 2.0 * u);
-        cv::Point2d n = p2 - p;
-        const double len = std::hypot(n.x, n.y);
-        if (!(len > 1e-9) || q[2] - o[2] <= 0) continue;
-        n /= len;
+      const cv::Vec3d o = centre_rect[view];
+      for (const SilhouettePoint& point : SphereSilhouette(c, r, o, f, cx[view], cy[view])) {
+        const cv::Vec3d& q = point.q;
+        const cv::Point2d& p = point.p;
+        const cv::Point2d& n = point.n;
         ++st.border;
         const cv::Mat& img = grey[view];
         if (p.x < kReach + 4 || p.y < kReach + 4 || p.x > img.cols - kReach - 5 || p.y > img.rows - kReach - 5) continue;

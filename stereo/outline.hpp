@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <map>
 #include <optional>
+#include <vector>
 
 #include "cloud/outline_rays.hpp"
 #include "cloud/point_cloud.hpp"
@@ -30,6 +31,21 @@ struct OutlineStats {
   std::size_t left = 0, right = 0;  ///< edges found in each view
   double contrast = 0;        ///< median edge contrast over the profile's scatter (left view)
 };
+
+/// One point of a sphere's outline as a camera sees it: the tangent point `q` (rectified frame,
+/// mm), its outward direction `u` from the ring's centre, its pixel `p` and the outline's outward
+/// normal `n` there (unit, px).
+struct SilhouettePoint {
+  cv::Vec3d u, q;
+  cv::Point2d p, n;
+};
+
+/// The outline of the sphere (`centre`, `radius`; rectified frame, mm) seen from `origin` through a
+/// rectified camera (focal `f`, principal point `cx`, `cy`, px): about one point per pixel of it and
+/// at least 64, in order round it. Empty when the camera is within 1.05 radii of the centre or the
+/// sphere is not wholly in front of it.
+std::vector<SilhouettePoint> SphereSilhouette(const cv::Vec3d& centre, double radius, const cv::Vec3d& origin, double f,
+                                              double cx, double cy);
 
 /// `start`: per hedge id, a sphere near its envelope (centre x, y, z and radius, mm, unrectified
 /// left frame). `labels` (optional): CV_32S hedge ids in the rectified left image, to leave out

@@ -93,5 +93,32 @@ TEST(Outline, AnotherHedgeBeyondAndTheGroundAtTheFootAreLeftOut) {
   EXPECT_GT(grounded, all / 2);
 }
 
+// The silhouette the outline is sought about, and the bench's edge profiles read along: every
+// point on the sphere where the camera's ray grazes it, its pixel the tangent point's projection,
+// its normal pointing away from the outline's middle, about one point per pixel of outline.
+TEST(Outline, ASpheresSilhouetteGrazesItFromTheCamera) {
+  const cv::Vec3d c(-300, 150, 2300), o(-140, 0, 0);
+  const double r = 900, f = 933, cx = 960, cy = 600;
+  const std::vector<SilhouettePoint> ring = SphereSilhouette(c, r, o, f, cx, cy);
+  const cv::Vec3d w = c - o;
+  const double rho = r * std::sqrt(1 - r * r / w.dot(w));
+  EXPECT_NEAR(double(ring.size()), 2 * CV_PI * f * rho / w[2], 1.0);
+  const cv::Point2d middle(f * w[0] / w[2] + cx, f * w[1] / w[2] + cy);
+  for (const SilhouettePoint& s : ring) {
+    EXPECT_NEAR(cv::norm(s.q - c), r, 1e-9 * r);
+    EXPECT_NEAR((s.q - o).dot(s.q - c) / (cv::norm(s.q - o) * r), 0.0, 1e-12);  // tangent
+    const cv::Vec3d v = s.q - o;
+    EXPECT_NEAR(s.p.x, f * v[0] / v[2] + cx, 1e-9);
+    EXPECT_NEAR(s.p.y, f * v[1] / v[2] + cy, 1e-9);
+    EXPECT_NEAR(std::hypot(s.n.x, s.n.y), 1.0, 1e-12);
+    EXPECT_GT(s.n.dot(s.p - middle), 0.0);  // outward
+  }
+  // A camera within 1.05 radii of the centre, or a sphere not wholly in front: no silhouette.
+  EXPECT_TRUE(SphereSilhouette(c, r, c + cv::Vec3d(0, 0, -1.0 * r), f, cx, cy).empty());
+  EXPECT_TRUE(SphereSilhouette(cv::Vec3d(3000, 0, 500), r, cv::Vec3d(0, 0, 0), f, cx, cy).empty());
+  // A small far sphere still gets 64 points.
+  EXPECT_EQ(SphereSilhouette(cv::Vec3d(0, 0, 50000), 100, cv::Vec3d(0, 0, 0), f, cx, cy).size(), 64u);
+}
+
 }  // namespace
 }  // namespace hedgefit::stereo
