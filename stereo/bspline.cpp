@@ -3,6 +3,11 @@
 #include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/core/utility.hpp>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define HEDGEFIT_HAVE_AVX512_REMAP 1
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -14,6 +19,8 @@
 namespace hedgefit::stereo {
 
 namespace {
+
+bool g_force_portable_remap = false;
 
 // The row prefilter of one channel of `image` (8-bit with any number of channels, or CV_32FC1),
 // written to the same channel of `out` (float, the image's size: one channel, or as many as the
@@ -149,6 +156,88 @@ inline void BSplineWeights2(const cv::v_float64x2& t, cv::v_float64x2 w[4]) {
 }  // namespace
 #endif
 
+#ifdef HEDGEFIT_HAVE_AVX512_REMAP
+// GCC 12 reports its own intrinsics' deliberately undefined lanes as "maybe uninitialized".
+#pragma GCC diagnostic push
+#if !defined(__clang__)  // clang (the fuzz build) has no such group and warns about the name
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+#pragma GCC diagnostic ignored "-Wuninitialized"
+namespace {
+
+// A colour row of RemapBSplineInto's output, two pixels at a time in one 512-bit register: lanes
+// 0-3 hold the first pixel's channels (B, G, R and a copy of R), lanes 4-7 the second's. Each of a
+// pixel's four coefficient rows is 12 floats in a run (four taps of three channels); two masked
+// loads and a permute put a tap of both pixels into one register. Every lane does the one-pixel
+// loop's arithmetic for its channel, operation for operation in the same order: the weights are
+// BSplineWeights', the taps are summed left to right, the rows added to a sum that starts at 0,
+// and this file is compiled without fused multiply-adds (stereo/CMakeLists.txt), so the output is
+// the same to the bit (a test holds both paths against the per-channel reference). Returns the
+// first column it did not do: pairs with a pixel off the source are left to the caller.
+#define HEDGEFIT_AVX512 __attribute__((target("avx512f"), always_inline)) inline
+
+// Permute indices: taps k and k+1 of pixel a (the first register) and b (the second), each tap as
+// (c0, c1, c2, c2); the low 8 floats are tap k, the high 8 tap k+1.
+HEDGEFIT_AVX512 __m512i Taps(int k) {
+  return _mm512_setr_epi32(3 * k, 3 * k + 1, 3 * k + 2, 3 * k + 2, 16 + 3 * k, 17 + 3 * k, 18 + 3 * k, 18 + 3 * k,
+                           3 * k + 3, 3 * k + 4, 3 * k + 5, 3 * k + 5, 19 + 3 * k, 20 + 3 * k, 21 + 3 * k, 21 + 3 * k);
+}
+// a in lanes 0-3, b in lanes 4-7.
+HEDGEFIT_AVX512 __m512d Pair(double a, double b) {
+  return _mm512_insertf64x4(_mm512_set1_pd(a), _mm256_set1_pd(b), 1);
+}
+HEDGEFIT_AVX512 __m512d LowToDouble(__m512 v) { return _mm512_cvtps_pd(_mm512_castps512_ps256(v)); }
+HEDGEFIT_AVX512 __m512d HighToDouble(__m512 v) {
+  return _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
+}
+
+__attribute__((target("avx512f"))) int RemapColourPairsAvx512(const cv::Vec2f* m, int cols, int x0, int y0,
+                                                              const cv::Mat& coeffs, std::uint8_t* o, int x) {
+  const int cw = coeffs.cols, ch = coeffs.rows;
+  const __m512i taps01 = Taps(0), taps23 = Taps(2);
+  for (; x + 1 < cols; x += 2) {
+    const double ua = m[x][0] - x0, va = m[x][1] - y0, ub = m[x + 1][0] - x0, vb = m[x + 1][1] - y0;
+    const int iua = FloorInt(ua), iva = FloorInt(va), iub = FloorInt(ub), ivb = FloorInt(vb);
+    if (!(iua >= 1 && iua + 2 < cw && iva >= 1 && iva + 2 < ch && iub >= 1 && iub + 2 < cw && ivb >= 1 &&
+          ivb + 2 < ch)) {
+      return x;
+    }
+    double wxa[4], wya[4], wxb[4], wyb[4];
+    BSplineWeights(ua - iua, wxa, nullptr);
+    BSplineWeights(va - iva, wya, nullptr);
+    BSplineWeights(ub - iub, wxb, nullptr);
+    BSplineWeights(vb - ivb, wyb, nullptr);
+    const __m512d wx0 = Pair(wxa[0], wxb[0]), wx1 = Pair(wxa[1], wxb[1]), wx2 = Pair(wxa[2], wxb[2]),
+                  wx3 = Pair(wxa[3], wxb[3]);
+    __m512d acc = _mm512_setzero_pd();
+    for (int j = 0; j < 4; ++j) {
+      const __m512 ra = _mm512_maskz_loadu_ps(0x0fff, coeffs.ptr<float>(iva - 1 + j) + (iua - 1) * 3);
+      const __m512 rb = _mm512_maskz_loadu_ps(0x0fff, coeffs.ptr<float>(ivb - 1 + j) + (iub - 1) * 3);
+      const __m512 t01 = _mm512_permutex2var_ps(ra, taps01, rb), t23 = _mm512_permutex2var_ps(ra, taps23, rb);
+      __m512d row = _mm512_mul_pd(wx0, LowToDouble(t01));
+      row = _mm512_add_pd(row, _mm512_mul_pd(wx1, HighToDouble(t01)));
+      row = _mm512_add_pd(row, _mm512_mul_pd(wx2, LowToDouble(t23)));
+      row = _mm512_add_pd(row, _mm512_mul_pd(wx3, HighToDouble(t23)));
+      acc = _mm512_add_pd(acc, _mm512_mul_pd(Pair(wya[j], wyb[j]), row));
+    }
+    alignas(64) double lanes[8];
+    _mm512_store_pd(lanes, acc);
+    for (int c = 0; c < 3; ++c) {
+      o[x * 3 + c] = cv::saturate_cast<std::uint8_t>(lanes[c]);
+      o[(x + 1) * 3 + c] = cv::saturate_cast<std::uint8_t>(lanes[4 + c]);
+    }
+  }
+  return x;
+}
+
+#undef HEDGEFIT_AVX512
+
+}  // namespace
+#pragma GCC diagnostic pop
+#endif
+
+void ForcePortableRemap(bool portable) { g_force_portable_remap = portable; }
+
 void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out) {
   if (source.depth() != CV_8U || (source.channels() != 1 && source.channels() != 3)) {
     throw Error("RemapBSpline: needs an 8-bit grey or BGR image");
@@ -186,6 +275,9 @@ void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out)
   ColumnPassInPlace(&columns);
   const int cw = crop.cols, ch = crop.rows;
   auto inside = [&](int iu, int iv) { return iu >= 1 && iu + 2 < cw && iv >= 1 && iv + 2 < ch; };
+#ifdef HEDGEFIT_HAVE_AVX512_REMAP
+  const bool avx512 = channels == 3 && !g_force_portable_remap && __builtin_cpu_supports("avx512f");
+#endif
   cv::parallel_for_(cv::Range(0, map_xy.rows), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
       const cv::Vec2f* m = map_xy.ptr<cv::Vec2f>(y);
@@ -210,6 +302,14 @@ void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out)
         }
       };
       int x = 0;
+#ifdef HEDGEFIT_HAVE_AVX512_REMAP
+      if (avx512) {
+        while (x + 1 < map_xy.cols) {
+          x = RemapColourPairsAvx512(m, map_xy.cols, x0, y0, coeffs, o, x);
+          if (x + 1 < map_xy.cols) one(x++);  // a pair with a pixel off the source
+        }
+      }
+#endif
 #if CV_SIMD128_64F
       // Two output pixels at a time, one in each lane of a pair of doubles: every lane does the
       // one-pixel arithmetic above, operation for operation in the same order (no fused

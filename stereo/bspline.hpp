@@ -25,6 +25,9 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy);
 /// a region of a larger image): a region rectified again lands in place, with no image between.
 void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out);
 
+/// Tests only: RemapBSpline's portable loops even where AVX-512 is available.
+void ForcePortableRemap(bool portable);
+
 /// floor(v) as an int without a library call (std::floor is one on baseline x86-64, and these
 /// run per pixel and per sample); the same value for every |v| < 2^31.
 inline int FloorInt(double v) {
