@@ -165,15 +165,7 @@ inline void BSplineWeights2(const cv::v_float64x2& t, cv::v_float64x2 w[4]) {
 #pragma GCC diagnostic ignored "-Wuninitialized"
 namespace {
 
-// A colour row of RemapBSplineInto's output, two pixels at a time in one 512-bit register: lanes
-// 0-3 hold the first pixel's channels (B, G, R and a copy of R), lanes 4-7 the second's. Each of a
-// pixel's four coefficient rows is 12 floats in a run (four taps of three channels); two masked
-// loads and a permute put a tap of both pixels into one register. Every lane does the one-pixel
-// loop's arithmetic for its channel, operation for operation in the same order: the weights are
-// BSplineWeights', the taps are summed left to right, the rows added to a sum that starts at 0,
-// and this file is compiled without fused multiply-adds (stereo/CMakeLists.txt), so the output is
-// the same to the bit (a test holds both paths against the per-channel reference). Returns the
-// first column it did not do: pairs with a pixel off the source are left to the caller.
+// The helpers below are inlined into the AVX-512 kernel (a lambda would not take its target).
 #define HEDGEFIT_AVX512 __attribute__((target("avx512f"), always_inline)) inline
 
 // Permute indices: taps k and k+1 of pixel a (the first register) and b (the second), each tap as
@@ -186,11 +178,21 @@ HEDGEFIT_AVX512 __m512i Taps(int k) {
 HEDGEFIT_AVX512 __m512d Pair(double a, double b) {
   return _mm512_insertf64x4(_mm512_set1_pd(a), _mm256_set1_pd(b), 1);
 }
-HEDGEFIT_AVX512 __m512d LowToDouble(__m512 v) { return _mm512_cvtps_pd(_mm512_castps512_ps256(v)); }
-HEDGEFIT_AVX512 __m512d HighToDouble(__m512 v) {
+// The low and high 8 floats of a register, as doubles.
+HEDGEFIT_AVX512 __m512d WidenLow(__m512 v) { return _mm512_cvtps_pd(_mm512_castps512_ps256(v)); }
+HEDGEFIT_AVX512 __m512d WidenHigh(__m512 v) {
   return _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
 }
 
+// A colour row of RemapBSplineInto's output, two pixels at a time in one 512-bit register: lanes
+// 0-3 hold the first pixel's channels (B, G, R and a copy of R), lanes 4-7 the second's. Each of a
+// pixel's four coefficient rows is 12 floats in a run (four taps of three channels); two masked
+// loads and a permute put a tap of both pixels into one register. Every lane does the one-pixel
+// loop's arithmetic for its channel, operation for operation in the same order: the weights are
+// BSplineWeights', the taps are summed left to right, the rows added to a sum that starts at 0,
+// and this file is compiled without fused multiply-adds (stereo/CMakeLists.txt), so the output is
+// the same to the bit (a test holds both paths against the per-channel reference). Returns the
+// first column it did not do: pairs with a pixel off the source are left to the caller.
 __attribute__((target("avx512f"))) int RemapColourPairsAvx512(const cv::Vec2f* m, int cols, int x0, int y0,
                                                               const cv::Mat& coeffs, std::uint8_t* o, int x) {
   const int cw = coeffs.cols, ch = coeffs.rows;
@@ -214,10 +216,10 @@ __attribute__((target("avx512f"))) int RemapColourPairsAvx512(const cv::Vec2f* m
       const __m512 ra = _mm512_maskz_loadu_ps(0x0fff, coeffs.ptr<float>(iva - 1 + j) + (iua - 1) * 3);
       const __m512 rb = _mm512_maskz_loadu_ps(0x0fff, coeffs.ptr<float>(ivb - 1 + j) + (iub - 1) * 3);
       const __m512 t01 = _mm512_permutex2var_ps(ra, taps01, rb), t23 = _mm512_permutex2var_ps(ra, taps23, rb);
-      __m512d row = _mm512_mul_pd(wx0, LowToDouble(t01));
-      row = _mm512_add_pd(row, _mm512_mul_pd(wx1, HighToDouble(t01)));
-      row = _mm512_add_pd(row, _mm512_mul_pd(wx2, LowToDouble(t23)));
-      row = _mm512_add_pd(row, _mm512_mul_pd(wx3, HighToDouble(t23)));
+      __m512d row = _mm512_mul_pd(wx0, WidenLow(t01));
+      row = _mm512_add_pd(row, _mm512_mul_pd(wx1, WidenHigh(t01)));
+      row = _mm512_add_pd(row, _mm512_mul_pd(wx2, WidenLow(t23)));
+      row = _mm512_add_pd(row, _mm512_mul_pd(wx3, WidenHigh(t23)));
       acc = _mm512_add_pd(acc, _mm512_mul_pd(Pair(wya[j], wyb[j]), row));
     }
     alignas(64) double lanes[8];
