@@ -12,8 +12,10 @@
 // "paper_pair": r 900 and 940 mm at 2.3 and 2.7 m), the frame issue "One pass" sets against the
 // lab's.
 // Usage: bench_capture [--frames N] [--stock-frames N] [--scenes lab,row,paper] [--method M] [--max-points N]
+//                     [--sgbm-mode hh|sgbm|3way|hh4]
 // (--max-points: today's pipeline matches and refines at most N pixels per hedge, as `measure
-// --max-points`; the 0.7.0 path keeps its own).
+// --max-points`; --sgbm-mode: today's pipeline runs that variant of OpenCV's SGBM, stereo.sgbm's
+// `mode`; the 0.7.0 path keeps its own of both).
 // The process starts as `hedgefit` does (cli::PrepareProcess: glibc keeps freed blocks for reuse),
 // so every path, stock OpenCV's included, runs under the allocator the shipped program has.
 
@@ -37,7 +39,9 @@
 #include "pipeline/pipeline.hpp"
 #include "pipeline/registry.hpp"
 #include "sim/simulator.hpp"
+#include "pipeline/option_table.hpp"
 #include "stereo/capture.hpp"
+#include "stereo/matching.hpp"
 #include "stereo/overlap.hpp"
 #include "stereo/stereo_stages.hpp"
 #include "measure/modules.hpp"
@@ -243,26 +247,40 @@ std::vector<std::string> Split(const std::string& s) {
 int main(int argc, char** argv) {
   cli::PrepareProcess();
   int frames = 20, stock_frames = 3;
-  std::string scenes = "lab,row,paper", method = "ransac_ray";
+  std::string scenes = "lab,row,paper", method = "ransac_ray", sgbm_mode;
   stereo::ConvertOptions today;
   const int done = bench::ParseOptionPairs(
-      argc, argv, "bench_capture", "[--frames N] [--stock-frames N] [--scenes lab,row,paper] [--method M] [--max-points N]",
+      argc, argv, "bench_capture", "[--frames N] [--stock-frames N] [--scenes lab,row,paper] [--method M] [--max-points N] "
+      "[--sgbm-mode hh|sgbm|3way|hh4]",
       [&](const std::string& a, const char* v) {
         if (a == "--frames" || a == "--repeats") frames = std::max(1, std::atoi(v));
         else if (a == "--stock-frames") stock_frames = std::max(0, std::atoi(v));
         else if (a == "--scenes") scenes = v;
         else if (a == "--method") method = v;
         else if (a == "--max-points") today.match.max_points = std::max(0, std::atoi(v));
+        else if (a == "--sgbm-mode") sgbm_mode = v;
         else return false;
         return true;
       });
   if (done >= 0) return done;
+  if (!sgbm_mode.empty()) {
+    const pipeline::OptionTable<stereo::SgbmOptions>& table = stereo::SgbmOptions::Table();
+    const auto specs = table.Specs();
+    const auto mode = std::find_if(specs.begin(), specs.end(), [](const pipeline::OptionSpec& s) { return s.name == "mode"; });
+    if (mode == specs.end() || std::find(mode->choices.begin(), mode->choices.end(), sgbm_mode) == mode->choices.end()) {
+      std::fprintf(stderr, "bench_capture: --sgbm-mode %s: not one of stereo.sgbm's modes (hh, sgbm, 3way, hh4)\n",
+                   sgbm_mode.c_str());
+      return 2;
+    }
+    table.Apply({{"mode", sgbm_mode}}, &today.match.sgbm);
+  }
   pipeline::Registry registry;
   measure::AddStageModules(registry);
   const std::vector<std::string> fits = {fitting::FindFitMethod(method, "--method").stage};
   std::printf("capture to spheres, 1920 x 1200 pairs (hedgefit's renderer), %u hardware threads; fit: %s; at most %d "
-              "points per hedge; ms per frame\n",
-              std::thread::hardware_concurrency(), method.c_str(), today.match.max_points);
+              "points per hedge;%s%s ms per frame\n",
+              std::thread::hardware_concurrency(), method.c_str(), today.match.max_points,
+              sgbm_mode.empty() ? "" : " today's SGBM mode: ", sgbm_mode.empty() ? "" : (sgbm_mode + ";").c_str());
   for (const Scene& s : MakeScenes(Split(scenes))) {
     std::printf("\n%s\n%-44s %8s %8s %6s %8s\n", s.what.c_str(), "path / stage", "median", "p95", "frames", "speed-up");
     const Timings stock = StockFrames(s, stock_frames);

@@ -14,6 +14,7 @@
 
 #include "bench/lab_bench.hpp"
 #include "bench/render_stamp.hpp"
+#include "bench/sgbm_mode_option.hpp"
 #include "cloud/filters.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/print.hpp"
@@ -33,7 +34,7 @@ GardenOptions::GardenOptions() : cleaning(cloud::DefaultCleaningJson()) { conver
 
 const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
   using O = GardenOptions;
-  static const auto table =
+  static const auto table = WithSgbmMode(
       pipeline::OptionTable<O>()
           .Add("dir", &O::dir, "where the simulated captures go")
           .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
@@ -75,7 +76,8 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
           .Bind<int>("max_points", [](O& o) -> int& { return o.convert.match.max_points; },
                      "at most this many pixels matched and refined per hedge: a larger hedge keeps every s-th pixel "
                      "and row (0 = every pixel)")
-          .Range(0, 100000000);
+          .Range(0, 100000000),
+      [](O& o) -> stereo::SgbmOptions& { return o.convert.match.sgbm; });
   return table;
 }
 

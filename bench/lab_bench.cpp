@@ -12,6 +12,7 @@
 #include <filesystem>
 
 #include "bench/render_stamp.hpp"
+#include "bench/sgbm_mode_option.hpp"
 #include "pipeline/pipeline.hpp"
 #include "pipeline/print.hpp"
 #include "fitting/fit_fields.hpp"
@@ -30,7 +31,7 @@ LabOptions::LabOptions() : alpha(stereo::CalibrationOptions{}.alpha) {}
 
 const pipeline::OptionTable<LabOptions>& LabOptions::Table() {
   using O = LabOptions;
-  static const auto table =
+  static const auto table = WithSgbmMode(
       pipeline::OptionTable<O>()
           .Add("dir", &O::dir, "where the simulated captures go")
           .Add("scale", &O::scale, "image scale of the simulated rig (1 = 1920 x 1200)")
@@ -90,7 +91,8 @@ const pipeline::OptionTable<LabOptions>& LabOptions::Table() {
           .Range(-1.0, 1.0)
           .Add("true_rig", &O::true_rig,
                "use the simulator's exact rig instead of calibrating from the boards (separates calibration error "
-               "from matching error)");
+               "from matching error)"),
+      [](O& o) -> stereo::SgbmOptions& { return o.convert.match.sgbm; });
   return table;
 }
 

@@ -6,7 +6,7 @@ runs with --reuse: it measures the captures already in its directory and renders
 they are missing. POV-Ray's renders take 15-25 minutes a set, so without --slow a configuration
 whose captures are not there yet is left out (its row says so); with --slow it is rendered.
 
-Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|depth|edges|find|beds|around|headline|real [--slow]
+Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|modes|depth|edges|find|beds|around|headline|real [--slow]
   lab       mean |AER| / mean LD over the lab's 7 spheres: both renderers, ideal and real camera,
             calibrated from the 16 boards and with the exact rig, ransac_ray and ransac_geometric
   stride    the lab's mean |AER| / mean LD against the pixels refined (`bench lab --min-stride 1-4`, every
@@ -20,6 +20,9 @@ Usage: scripts/accuracy_tables.py lab|stride|hard|random|leaves|paper|points|dep
             renderers: the envelope's AER, LD, error along the view ray, interval coverage and width
   points    the paper's hedge size against the pixels matched and refined per hedge (`bench garden --paper 4
             --max-points N`, held-back seeds 101-104, both renderers): the envelope's AER, LD and intervals
+  modes     the lab and the paper's hedge size against OpenCV's SGBM variant (`bench lab --sgbm-mode M`, each
+            lab configuration, and `bench garden --paper 4 --sgbm-mode M`, every paper-size set): mean AER and
+            LD of the lab's `ransac_ray` (calibrated) and of the gardens' envelope with each of stereo.sgbm's modes
   depth     the same gardens: the centre's error along the view ray as measured and with the points, the
             outline or both swapped for the renderer's truth, and with one view's outline alone
   edges     the same gardens per leaf preset: the left view's mean grey-level profile across the true
@@ -397,6 +400,41 @@ def points():
         print(f"| {label} | " + " | ".join(cells) + " |")
 
 
+SGBM_MODES = [("hh", "hh: 8 paths (the paper's, default)"), ("sgbm", "sgbm: 5 paths"), ("3way", "3way"),
+              ("hh4", "hh4: 4 paths")]
+
+
+def modes():
+    """The lab and the paper's hedge size against stereo.sgbm's mode: what each of OpenCV's SGBM
+    variants costs the lab's `ransac_ray` (calibrated) and the gardens' envelope."""
+    print("| data (simulated), fit | " + " | ".join(label for _, label in SGBM_MODES) + " |")
+    print("|---|" + "---|" * len(SGBM_MODES))
+    for k, (label, directory, flags) in enumerate(LAB):
+        runs = [bench("lab", f"lab{k}" if m == "hh" else f"modes-lab{k}-{m}", directory,
+                      flags if m == "hh" else flags + ["--sgbm-mode", m]) for m, _ in SGBM_MODES]
+        if any(j is None for j in runs):
+            print(f"| lab, {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * (len(SGBM_MODES) - 1))
+            continue
+        cells = [f"{j['summary']['ransac_ray']['mean_abs_aer_mm']:.2f} / {j['summary']['ransac_ray']['mean_ld_mm']:.2f}"
+                 for j in runs]
+        print(f"| lab, {label}, `ransac_ray` | " + " | ".join(cells) + " |")
+    for k, (label, directory, flags) in enumerate(GARDENS["paper"]):
+        runs = [bench("garden", f"paper{k}" if m == "hh" else f"modes{k}-{m}", directory,
+                      flags if m == "hh" else flags + ["--sgbm-mode", m]) for m, _ in SGBM_MODES]
+        if any(j is None for j in runs):
+            print(f"| {label} | not rendered here: `scripts/make_docs.sh --slow` |" + " |" * (len(SGBM_MODES) - 1))
+            continue
+        cells = []
+        for j in runs:
+            aer, ld = [], []
+            for h, fit in envelope_fits(j):
+                aer.append(abs(fit["aer_mm"]))
+                ld.append(fit["ld_mm"])
+            n = len(aer)
+            cells.append(f"{sum(aer) / n:.2f} / {sum(ld) / n:.2f} (worst {max(ld):.2f})")
+        print(f"| paper's size, {label}, envelope | " + " | ".join(cells) + " |")
+
+
 def depth():
     """Where the centre's depth error comes from: the envelope with its inputs swapped for the truth."""
     names = [("as measured", None), ("true points", "true_points"), ("true outline", "true_outline"),
@@ -722,6 +760,8 @@ if __name__ == "__main__":
         paper()
     elif what == "points":
         points()
+    elif what == "modes":
+        modes()
     elif what == "depth":
         depth()
     elif what == "edges":
