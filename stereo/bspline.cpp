@@ -79,12 +79,13 @@ void RowPass(const cv::Mat& image, int channel, cv::Mat* out) {
 }
 
 #ifdef HEDGEFIT_HAVE_AVX512_REMAP
-// RowPass<std::uint8_t> of all three channels of an 8-bit colour image at once, 8 rows to a group:
-// one register holds a channel's coefficient k of the 8 rows, so each step of the recursion is one
-// instruction for 8 rows, and the three channels are three independent chains (where RowPass runs
-// four rows' chains in scalar code, a channel at a time). Each row and channel does RowPass'
-// arithmetic, operation for operation in its order (no fused multiply-adds in this file), so the
-// coefficients are the same to the bit. The rows go into the registers through a buffer, k-major.
+// RowPass of all the channels of an image at once (8-bit colour or grey, or float grey), 8 rows to
+// a group: one register holds a channel's coefficient k of the 8 rows, so each step of the
+// recursion is one instruction for 8 rows, and a colour image's three channels are three
+// independent chains (where RowPass runs four rows of one channel in scalar code, a channel at a
+// time). Each row and channel does RowPass' arithmetic, operation for operation in its order (no
+// fused multiply-adds in this file), so the coefficients are the same to the bit. The rows go into
+// the registers through a buffer, k-major, by 8 x 8 transposes.
 // An 8 x 8 block of doubles transposed in registers: v[r] lane i becomes v[i] lane r (three rounds
 // of two-register permutes, swapping blocks of 1, 2 and 4 lanes).
 __attribute__((target("avx512f"), always_inline)) inline void Transpose8(__m512d v[8]) {
@@ -115,48 +116,58 @@ __attribute__((target("avx512f"), always_inline)) inline void Transpose8(__m512d
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
 #pragma GCC diagnostic ignored "-Wuninitialized"
-__attribute__((target("avx512f"))) void RowGroupColourAvx512(const cv::Mat& image, int g, double* c, cv::Mat* out) {
-  constexpr int kRows = 8;
+// 8 samples of a row as doubles: 8-bit or float, each the value RowPass reads.
+__attribute__((target("avx512f"), always_inline)) inline __m512d Load8(const std::uint8_t* p) {
+  return _mm512_cvtepi32_pd(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
+}
+__attribute__((target("avx512f"), always_inline)) inline __m512d Load8(const float* p) {
+  return _mm512_cvtps_pd(_mm256_loadu_ps(p));
+}
+
+template <typename T, int kChannels>
+__attribute__((target("avx512f"))) void RowGroupAvx512(const cv::Mat& image, int g, double* c, cv::Mat* out) {
+  constexpr int kRows = 8, C = kChannels;
   const double z = std::sqrt(3.0) - 2.0;  // the cubic spline's pole
   const int n = image.cols, horizon = std::min(n, 24);
-  // c[(k * 3 + channel) * kRows + r]: row r's sample, then its coefficient, k
-  auto at = [c](int k, int channel) { return c + (static_cast<std::ptrdiff_t>(k) * 3 + channel) * kRows; };
+  // c[(k * C + channel) * kRows + r]: row r's sample, then its coefficient, k
+  auto at = [c](int k, int channel) { return c + (static_cast<std::ptrdiff_t>(k) * C + channel) * kRows; };
   const int y0 = g * kRows, rows = std::min(kRows, image.rows - y0);
-  const std::uint8_t* s[kRows];
-  for (int r = 0; r < kRows; ++r) s[r] = image.ptr<std::uint8_t>(y0 + std::min(r, rows - 1));  // spare lanes repeat a row
+  const T* s[kRows];
+  for (int r = 0; r < kRows; ++r) s[r] = image.ptr<T>(y0 + std::min(r, rows - 1));  // spare lanes repeat a row
   int i = 0;
-  for (; i + 8 <= 3 * n; i += 8) {  // 8 samples of 8 rows, transposed
+  for (; i + 8 <= C * n; i += 8) {  // 8 samples of 8 rows, transposed
     __m512d v[kRows];
     for (int r = 0; r < kRows; ++r) {
-      v[r] = _mm512_cvtepi32_pd(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(s[r] + i))));
+      v[r] = Load8(s[r] + i);
     }
     Transpose8(v);
     for (int j = 0; j < 8; ++j) _mm512_storeu_pd(c + static_cast<std::ptrdiff_t>(i + j) * kRows, v[j]);
   }
-  for (; i < 3 * n; ++i) {
+  for (; i < C * n; ++i) {
     for (int r = 0; r < kRows; ++r) c[static_cast<std::ptrdiff_t>(i) * kRows + r] = s[r][i];
   }
   const __m512d vz = _mm512_set1_pd(z);
-  __m512d prev[3] = {_mm512_setzero_pd(), _mm512_setzero_pd(), _mm512_setzero_pd()};
+  __m512d prev[C];
+  for (int ch = 0; ch < C; ++ch) prev[ch] = _mm512_setzero_pd();
   double zk = 1;
   for (int k = 0; k < horizon; ++k, zk *= z) {  // causal pass, mirror boundary
     const __m512d vzk = _mm512_set1_pd(zk);
-    for (int ch = 0; ch < 3; ++ch) prev[ch] = _mm512_add_pd(prev[ch], _mm512_mul_pd(vzk, _mm512_loadu_pd(at(k, ch))));
+    for (int ch = 0; ch < C; ++ch) prev[ch] = _mm512_add_pd(prev[ch], _mm512_mul_pd(vzk, _mm512_loadu_pd(at(k, ch))));
   }
-  for (int ch = 0; ch < 3; ++ch) _mm512_storeu_pd(at(0, ch), prev[ch]);
+  for (int ch = 0; ch < C; ++ch) _mm512_storeu_pd(at(0, ch), prev[ch]);
   for (int k = 1; k < n; ++k) {
-    for (int ch = 0; ch < 3; ++ch) {
+    for (int ch = 0; ch < C; ++ch) {
       prev[ch] = _mm512_add_pd(_mm512_loadu_pd(at(k, ch)), _mm512_mul_pd(vz, prev[ch]));
       _mm512_storeu_pd(at(k, ch), prev[ch]);
     }
   }
   const __m512d edge = _mm512_set1_pd(z / (z * z - 1));
-  for (int ch = 0; ch < 3; ++ch) {
+  for (int ch = 0; ch < C; ++ch) {
     prev[ch] = _mm512_mul_pd(edge, _mm512_add_pd(prev[ch], _mm512_mul_pd(vz, _mm512_loadu_pd(at(n - 2, ch)))));
     _mm512_storeu_pd(at(n - 1, ch), prev[ch]);
   }
   for (int k = n - 2; k >= 0; --k) {
-    for (int ch = 0; ch < 3; ++ch) {
+    for (int ch = 0; ch < C; ++ch) {
       prev[ch] = _mm512_mul_pd(vz, _mm512_sub_pd(prev[ch], _mm512_loadu_pd(at(k, ch))));
       _mm512_storeu_pd(at(k, ch), prev[ch]);
     }
@@ -164,27 +175,39 @@ __attribute__((target("avx512f"))) void RowGroupColourAvx512(const cv::Mat& imag
   const __m512d six = _mm512_set1_pd(6.0);
   float* o[kRows];
   for (int r = 0; r < kRows; ++r) o[r] = out->ptr<float>(y0 + std::min(r, rows - 1));
-  for (i = 0; i + 8 <= 3 * n; i += 8) {  // back, 8 coefficients of 8 rows at a time
+  for (i = 0; i + 8 <= C * n; i += 8) {  // back, 8 coefficients of 8 rows at a time
     __m512d v[kRows];
     for (int j = 0; j < 8; ++j) v[j] = _mm512_mul_pd(six, _mm512_loadu_pd(c + static_cast<std::ptrdiff_t>(i + j) * kRows));
     Transpose8(v);
     for (int r = 0; r < rows; ++r) _mm256_storeu_ps(o[r] + i, _mm512_cvtpd_ps(v[r]));
   }
   alignas(32) float lanes[kRows];
-  for (; i < 3 * n; ++i) {
+  for (; i < C * n; ++i) {
     _mm256_store_ps(lanes, _mm512_cvtpd_ps(_mm512_mul_pd(six, _mm512_loadu_pd(c + static_cast<std::ptrdiff_t>(i) * kRows))));
     for (int r = 0; r < rows; ++r) o[r][i] = lanes[r];
   }
 }
 #pragma GCC diagnostic pop
 
-void RowPassColourAvx512(const cv::Mat& image, cv::Mat* out) {
+// RowPass of every channel of `image` (8-bit with 1 or 3 channels, or CV_32FC1) into `out`, 8 rows
+// at a time: RowGroupAvx512's bits, which are RowPass'. False where this CPU or image has no such
+// path (the caller runs RowPass).
+bool RowPassAvx512(const cv::Mat& image, cv::Mat* out) {
+  if (g_force_portable_remap || image.cols < 2 || !__builtin_cpu_supports("avx512f")) return false;
+  void (*group)(const cv::Mat&, int, double*, cv::Mat*) = nullptr;
+  if (image.type() == CV_8UC3) group = RowGroupAvx512<std::uint8_t, 3>;
+  if (image.type() == CV_8UC1) group = RowGroupAvx512<std::uint8_t, 1>;
+  if (image.type() == CV_32FC1) group = RowGroupAvx512<float, 1>;
+  if (!group) return false;
   constexpr int kRows = 8;
   cv::parallel_for_(cv::Range(0, (image.rows + kRows - 1) / kRows), [&](const cv::Range& range) {
-    std::vector<double> buffer(static_cast<std::size_t>(image.cols) * 3 * kRows);
-    for (int g = range.start; g < range.end; ++g) RowGroupColourAvx512(image, g, buffer.data(), out);
+    std::vector<double> buffer(static_cast<std::size_t>(image.cols) * image.channels() * kRows);
+    for (int g = range.start; g < range.end; ++g) group(image, g, buffer.data(), out);
   });
+  return true;
 }
+#else
+bool RowPassAvx512(const cv::Mat&, cv::Mat*) { return false; }
 #endif
 
 // One block of the column pass (columns x0 .. x0 + bw of `coeffs`, `c` n x kColumnBlock doubles of
@@ -255,7 +278,7 @@ void ColumnPassInPlace(cv::Mat* coeffs) {
 cv::Mat BSplineCoefficientsAlongRows(const cv::Mat& image) {
   if (image.type() != CV_32FC1) throw Error("BSplineCoefficientsAlongRows: needs a CV_32FC1 image");
   cv::Mat out(image.size(), CV_32F);
-  RowPass<float>(image, 0, &out);
+  if (!RowPassAvx512(image, &out)) RowPass<float>(image, 0, &out);
   return out;
 }
 
@@ -480,15 +503,11 @@ void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out)
   // One coefficient image, the channels interleaved as in the source: a pixel's 4 x 4 samples of
   // every channel then lie in 4 runs of 12 floats instead of 12 runs of 4.
   cv::Mat coeffs(crop.size(), CV_32FC(channels));
-#ifdef HEDGEFIT_HAVE_AVX512_REMAP
-  const bool avx512 = channels == 3 && !g_force_portable_remap && __builtin_cpu_supports("avx512f");
-  if (avx512 && crop.cols >= 2) {
-    RowPassColourAvx512(crop, &coeffs);
-  } else {
+  if (!RowPassAvx512(crop, &coeffs)) {
     for (int c = 0; c < channels; ++c) RowPass<std::uint8_t>(crop, c, &coeffs);  // straight from the 8-bit crop
   }
-#else
-  for (int c = 0; c < channels; ++c) RowPass<std::uint8_t>(crop, c, &coeffs);
+#ifdef HEDGEFIT_HAVE_AVX512_REMAP
+  const bool avx512 = channels == 3 && !g_force_portable_remap && __builtin_cpu_supports("avx512f");
 #endif
   cv::Mat columns = coeffs.reshape(1);  // the column pass is per column: each channel's columns in turn
   ColumnPassInPlace(&columns);

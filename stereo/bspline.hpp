@@ -25,7 +25,8 @@ cv::Mat RemapBSpline(const cv::Mat& source, const cv::Mat& map_xy);
 /// a region of a larger image): a region rectified again lands in place, with no image between.
 void RemapBSplineInto(const cv::Mat& source, const cv::Mat& map_xy, cv::Mat out);
 
-/// Tests only: RemapBSpline's portable loops even where AVX-512 is available.
+/// Tests only: the portable loops of RemapBSpline and the coefficient functions even where AVX-512
+/// is available.
 void ForcePortableRemap(bool portable);
 
 /// floor(v) as an int without a library call (std::floor is one on baseline x86-64, and these
