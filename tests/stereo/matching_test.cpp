@@ -686,6 +686,35 @@ TEST(BSpline, CoefficientsInterpolateAndTheColumnPassIsTheRowPassTransposed) {
   EXPECT_LT(worst, 1e-3);  // float coefficients: ~1e-5 of 255
 }
 
+// The prefilter runs 8 rows to a register where the CPU has AVX-512 and in scalar code elsewhere;
+// both must give the same coefficients to the bit (the refinement and the vertical-disparity
+// estimate read them), for float grey images of any shape (8-row groups with spare rows, rows
+// shorter than a transpose's 8 samples, long thin ones), and RemapBSpline the same grey output.
+// Where the CPU has no AVX-512 both runs take the scalar code and the test shows nothing.
+TEST(BSpline, EveryPathGivesTheSameCoefficients) {
+  cv::RNG rng(17);
+  for (const cv::Size size : {cv::Size(37, 19), cv::Size(2, 9), cv::Size(131, 8), cv::Size(9, 131), cv::Size(7, 3)}) {
+    cv::Mat image(size, CV_32F);
+    rng.fill(image, cv::RNG::UNIFORM, 0.0, 255.0);
+    ForcePortableRemap(true);
+    const cv::Mat rows_portable = BSplineCoefficientsAlongRows(image), both_portable = BSplineCoefficients2D(image);
+    ForcePortableRemap(false);
+    const cv::Mat rows = BSplineCoefficientsAlongRows(image), both = BSplineCoefficients2D(image);
+    EXPECT_EQ(0, std::memcmp(rows.data, rows_portable.data, rows.total() * sizeof(float))) << size;
+    EXPECT_EQ(0, std::memcmp(both.data, both_portable.data, both.total() * sizeof(float))) << size;
+  }
+  cv::Mat grey(61, 83, CV_8U);
+  rng.fill(grey, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat map(50, 77, CV_32FC2);
+  for (int y = 0; y < map.rows; ++y) {
+    for (int x = 0; x < map.cols; ++x) map.at<cv::Vec2f>(y, x) = cv::Vec2f(float(2.3 + 0.99 * x + 0.02 * y), float(4.6 - 0.02 * x + y));
+  }
+  ForcePortableRemap(true);
+  const cv::Mat portable = RemapBSpline(grey, map);
+  ForcePortableRemap(false);
+  EXPECT_EQ(cv::norm(RemapBSpline(grey, map), portable, cv::NORM_INF), 0.0);
+}
+
 // FloorInt stands in for std::floor in the samplers, so it must agree with it everywhere they
 // reach: below zero (where truncation does not), on whole numbers either side, and just under them.
 TEST(BSpline, FloorIntIsFloor) {
