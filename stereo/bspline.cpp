@@ -79,13 +79,6 @@ void RowPass(const cv::Mat& image, int channel, cv::Mat* out) {
 }
 
 #ifdef HEDGEFIT_HAVE_AVX512_REMAP
-// RowPass of all the channels of an image at once (8-bit colour or grey, or float grey), 8 rows to
-// a group: one register holds a channel's coefficient k of the 8 rows, so each step of the
-// recursion is one instruction for 8 rows, and a colour image's three channels are three
-// independent chains (where RowPass runs four rows of one channel in scalar code, a channel at a
-// time). Each row and channel does RowPass' arithmetic, operation for operation in its order (no
-// fused multiply-adds in this file), so the coefficients are the same to the bit. The rows go into
-// the registers through a buffer, k-major, by 8 x 8 transposes.
 // An 8 x 8 block of doubles transposed in registers: v[r] lane i becomes v[i] lane r (three rounds
 // of two-register permutes, swapping blocks of 1, 2 and 4 lanes).
 __attribute__((target("avx512f"), always_inline)) inline void Transpose8(__m512d v[8]) {
@@ -109,8 +102,7 @@ __attribute__((target("avx512f"), always_inline)) inline void Transpose8(__m512d
   }
 }
 
-// (A lambda would not take the target, so the group is a function of its own.) GCC 12 reports its
-// own intrinsics' deliberately undefined lanes as "maybe uninitialized".
+// GCC 12 reports its own intrinsics' deliberately undefined lanes as "maybe uninitialized".
 #pragma GCC diagnostic push
 #if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
@@ -124,6 +116,14 @@ __attribute__((target("avx512f"), always_inline)) inline __m512d Load8(const flo
   return _mm512_cvtps_pd(_mm256_loadu_ps(p));
 }
 
+// RowPass of all the channels of an image at once (8-bit colour or grey, or float grey), 8 rows to
+// a group: one register holds a channel's coefficient k of the 8 rows, so each step of the
+// recursion is one instruction for 8 rows, and a colour image's three channels are three
+// independent chains (where RowPass runs four rows of one channel in scalar code, a channel at a
+// time). Each row and channel does RowPass' arithmetic, operation for operation in its order (no
+// fused multiply-adds in this file), so the coefficients are the same to the bit. The rows go into
+// the registers through a buffer, k-major, by 8 x 8 transposes. One group of 8 rows (a lambda would
+// not take the target, so RowPassAvx512 runs the groups).
 template <typename T, int kChannels>
 __attribute__((target("avx512f"))) void RowGroupAvx512(const cv::Mat& image, int g, double* c, cv::Mat* out) {
   constexpr int kRows = 8, C = kChannels;
