@@ -213,8 +213,9 @@ bool RowPassAvx512(const cv::Mat&, cv::Mat*) { return false; }
 // One block of the column pass (columns x0 .. x0 + bw of `coeffs`, `c` n x kColumnBlock doubles of
 // scratch): the row pass' recursion run down the image. Each column's arithmetic is exactly the
 // row pass's, in the same order, and columns never mix, so the result is the same to the bit at
-// any vector width: the body is compiled twice, for baseline x86-64 and for AVX-512 (8 columns
-// an instruction instead of 2), and ColumnPassInPlace picks one at run time.
+// any vector width: the body is compiled twice, for baseline x86-64 (SSE2, 2 columns an
+// instruction) and for AVX-512 (GCC vectorises it with 4- and 8-double registers), and
+// ColumnPassInPlace picks one at run time.
 constexpr int kColumnBlock = 32;  // columns per block: n x 32 doubles stay in cache (faster than 16, 64, 128)
 __attribute__((always_inline)) inline void ColumnBlock(cv::Mat* coeffs, int x0, int bw, double* c) {
   const double z = std::sqrt(3.0) - 2.0;
