@@ -274,6 +274,33 @@ TEST(EnvelopeFit, TheOutlinePinsTheEnvelopeWhereTheFrontCannot) {
   EXPECT_LT((*both.std_error_mm)[3], 1.5);
 }
 
+// An edge that fades over several pixels (large, sparse leaves at the silhouette: POV-Ray's holly
+// balls of the paper's size) scatters its cuts on both sides of where the model puts them, by
+// more than the outline's noise is allowed (0.52 px at most): the noise ends at its bound and the
+// fit says so in its message. The outline of the test above (1.5 px ragged inwards, 0.2 px of
+// noise) fits its model and gets no such word; the same with 2 px of noise does.
+TEST(EnvelopeFit, SaysSoWhenTheOutlinesEdgeIsWiderThanItsModel) {
+  const Eigen::Vector3d centre(60, -20, 2300);
+  const double f = 933, R = 450;
+  for (const double noise_px : {0.2, 2.0}) {
+    SCOPED_TRACE(noise_px);
+    std::mt19937_64 rng(23);
+    auto pts = hedgefit::testing::LeafyCap(centre, R, 8, 60, 8000, 1.5, rng, 0.3);
+    std::vector<double> pixel_mm;
+    for (const auto& p : pts) pixel_mm.push_back(p.z() / f);
+    const std::vector<cloud::TangentRay> outline = RaggedOutline(centre, R, 1.5, noise_px, rng);
+    const EnvelopeFit e = FitEnvelope(pts, {}, nullptr, &pixel_mm, &outline);
+    ASSERT_TRUE(e.fit.converged) << e.fit.message;
+    if (noise_px < 1) {
+      EXPECT_LT(e.outline_noise_px, 0.4);
+      EXPECT_EQ(e.fit.message, "");
+    } else {
+      EXPECT_GT(e.outline_noise_px, 0.51);
+      EXPECT_NE(e.fit.message.find("wider than its model allows"), std::string::npos) << e.fit.message;
+    }
+  }
+}
+
 // points_per_ray thins the front to at most that many points per outline ray, the way max_points
 // thins it (every n-th point): the fit is the one max_points = points_per_ray x rays gives, to
 // the bit, and it leaves a fit without an outline, or with the option off, as it was. One point
