@@ -566,8 +566,9 @@ namespace {
 // tips), so the outline's cuts lie inside the envelope by more than the model allows and the
 // centre may sit farther along the view than its interval says. Not corrected (how far the
 // envelope lies past such an edge is what the renderers disagree on), but said. POV-Ray's holly
-// balls of the paper's size ended here, 4.5 and 10.8 mm too far; no other ball of either
-// renderer's paper-size gardens came above 0.23 px (docs/accuracy.md, "the paper's hedge size").
+// balls of the paper's size ended here (tuning, held-back and unseen seeds: 4.5, 10.8 and 1.7 mm
+// too far); no other ball of either renderer's paper-size gardens came above 0.23 px
+// (docs/accuracy.md, "the paper's hedge size").
 // Empty below the bound.
 std::string WiderEdgeWarning(double noise_px) {
   if (noise_px < kMinOutlineNoisePx + kOutlineNoiseAtBound * kOutlineNoiseRangePx) return "";
