@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "pipeline/error.hpp"
@@ -182,6 +183,37 @@ MatchResult MatchHedgeRegion(const StereoRig& rig, const cv::Mat* raw_left, cons
 
 }  // namespace
 
+namespace {
+
+// `region` placed at `roi` in a frame of `size` holding `outside` everywhere else, written row by
+// row in one pass on every core. A fill of the frame and then a copy of the region, on one core,
+// took 7 ms of a lab frame for the three maps.
+template <typename T>
+cv::Mat PlaceInFrame(const cv::Mat& region, const cv::Rect& roi, cv::Size size, T outside) {
+  cv::Mat out(size, cv::traits::Type<T>::value);
+  if (region.empty() || roi.empty()) {
+    out.setTo(outside);
+    return out;
+  }
+  CV_Assert(region.size() == roi.size() && region.type() == out.type() &&
+            (roi & cv::Rect(0, 0, size.width, size.height)) == roi);
+  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      T* row = out.ptr<T>(y);
+      if (y < roi.y || y >= roi.y + roi.height) {
+        std::fill_n(row, size.width, outside);
+        continue;
+      }
+      std::fill_n(row, roi.x, outside);
+      std::copy_n(region.ptr<T>(y - roi.y), roi.width, row + roi.x);
+      std::fill_n(row + roi.x + roi.width, size.width - roi.x - roi.width, outside);
+    }
+  }, 8);
+  return out;
+}
+
+}  // namespace
+
 MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::Mat* raw_right, cv::Mat* left_rect,
                        cv::Mat* right_rect, const cv::Mat& mask, const MatchOptions& options) {
   MatchResult r = MatchHedgeRegion(rig, raw_left, raw_right, left_rect, right_rect, mask, options);
@@ -189,12 +221,11 @@ MatchResult MatchHedge(const StereoRig& rig, const cv::Mat* raw_left, const cv::
   const cv::Size size = left_rect->size();
   const cv::Rect roi = r.matched_region;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  cv::Mat disparity(size, CV_32F, cv::Scalar(nan)), filled = cv::Mat::zeros(size, CV_8U),
-      sigma(size, CV_32F, cv::Scalar(nan));
-  r.disparity.copyTo(disparity(roi));
-  r.filled.copyTo(filled(roi));
-  r.disparity_sigma.copyTo(sigma(roi));
-  r.disparity = disparity, r.filled = filled, r.disparity_sigma = sigma;
+  r.disparity = PlaceInFrame<float>(r.disparity, roi, size, nan);
+  r.filled = PlaceInFrame<std::uint8_t>(r.filled, roi, size, 0);
+  r.disparity_sigma = PlaceInFrame<float>(r.disparity_sigma, roi, size, nan);
+  const cv::Mat& disparity = r.disparity;
+  const cv::Mat& filled = r.filled;
   if (!mask.empty()) {
     HedgeMatch h;
     h.pixels = cv::countNonZero(mask);

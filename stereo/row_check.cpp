@@ -4,6 +4,8 @@
 #include <opencv2/video/tracking.hpp>
 
 #include <algorithm>
+#include <cfloat>
+#include <cstdint>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -92,6 +94,92 @@ VerticalDisparity FitPlane(const std::vector<RowSample>& s, cv::Size size) {
 constexpr int kTwinReachPx = 40;  // half size: the 80 px either side of the match in full size
 constexpr double kTwinMargin = 0.05, kTwinRowPx = 3.0;
 
+}  // namespace
+
+namespace internal {
+
+// c[k] += sum_j t[j] s[k + j] for k < cols: one template row's share of the cross-correlation.
+// Compiled for AVX-512 as well, chosen when the processor has it (the loop over k is 16 wide).
+__attribute__((target_clones("avx512f", "default"))) static void CorrelateRow(const float* s, const std::uint8_t* t,
+                                                                         int t_cols, float* c, int cols) {
+  for (int j = 0; j < t_cols; ++j) {
+    const float tj = float(t[j]);
+    const float* sj = s + j;
+    for (int k = 0; k < cols; ++k) c[k] += tj * sj[k];
+  }
+}
+
+// cv::matchTemplate's TM_CCOEFF_NORMED of the 8-bit `tpl` over the 8-bit `strip`, with the same
+// normalisation and the same guards for a flat window or template (OpenCV's common_matchTemplate),
+// but the cross-correlation summed directly: over a strip 17 rows by about 95 columns OpenCV goes
+// through a DFT, which took about half the rig check's CPU time. Products of 8-bit values summed
+// over up to 258 pixels stay under 2^24, so float sums them exactly (a larger template rounds as
+// floats do), and the loop over the result's columns vectorises.
+cv::Mat CorrCoeffNormed(const cv::Mat& strip, const cv::Mat& tpl) {
+  CV_Assert(strip.type() == CV_8UC1 && tpl.type() == CV_8UC1 && tpl.rows <= strip.rows && tpl.cols <= strip.cols);
+  const int rows = strip.rows - tpl.rows + 1, cols = strip.cols - tpl.cols + 1;
+  cv::Mat out(rows, cols, CV_32F, cv::Scalar(0));
+  const double n = double(tpl.total());
+  double sum_t = 0, sum_t2 = 0;
+  for (int i = 0; i < tpl.rows; ++i) {
+    for (int j = 0; j < tpl.cols; ++j) {
+      const double v = tpl.at<std::uint8_t>(i, j);
+      sum_t += v, sum_t2 += v * v;
+    }
+  }
+  const double mean_t = sum_t / n, var_t = std::max(0.0, sum_t2 / n - mean_t * mean_t);
+  if (var_t < DBL_EPSILON) {
+    out.setTo(1.0f);
+    return out;
+  }
+  const double norm_t = std::sqrt(var_t * n);
+  const int w = strip.cols;
+  std::vector<float> s(static_cast<std::size_t>(strip.rows * w)), cc(static_cast<std::size_t>(cols));
+  for (int i = 0; i < strip.rows; ++i) {
+    const std::uint8_t* srow = strip.ptr<std::uint8_t>(i);
+    for (int k = 0; k < w; ++k) s[std::size_t(i * w + k)] = float(srow[k]);
+  }
+  // Each column's sum and sum of squares over the window's rows, in integers (exact), moved down
+  // a row at a time; along the row, the window's slid the same way.
+  std::vector<std::int32_t> col(static_cast<std::size_t>(w), 0), col2(static_cast<std::size_t>(w), 0);
+  for (int i = 0; i < tpl.rows; ++i) {
+    const std::uint8_t* srow = strip.ptr<std::uint8_t>(i);
+    for (int k = 0; k < w; ++k) col[std::size_t(k)] += srow[k], col2[std::size_t(k)] += srow[k] * srow[k];
+  }
+  for (int r = 0; r < rows; ++r) {
+    if (r > 0) {
+      const std::uint8_t* gone = strip.ptr<std::uint8_t>(r - 1);
+      const std::uint8_t* come = strip.ptr<std::uint8_t>(r + tpl.rows - 1);
+      for (int k = 0; k < w; ++k) {
+        col[std::size_t(k)] += come[k] - gone[k];
+        col2[std::size_t(k)] += come[k] * come[k] - gone[k] * gone[k];
+      }
+    }
+    std::fill(cc.begin(), cc.end(), 0.0f);
+    for (int i = 0; i < tpl.rows; ++i) CorrelateRow(&s[std::size_t((r + i) * w)], tpl.ptr<std::uint8_t>(i), tpl.cols, cc.data(), cols);
+    std::int64_t wsum = 0, wsum2 = 0;
+    for (int j = 0; j < tpl.cols; ++j) wsum += col[std::size_t(j)], wsum2 += col2[std::size_t(j)];
+    for (int c = 0; c < cols; ++c) {
+      if (c > 0) {
+        wsum += col[std::size_t(c + tpl.cols - 1)] - col[std::size_t(c - 1)];
+        wsum2 += col2[std::size_t(c + tpl.cols - 1)] - col2[std::size_t(c - 1)];
+      }
+      const double sum = double(wsum), sum2 = double(wsum2);
+      double num = double(cc[std::size_t(c)]) - sum * mean_t;
+      const double t = std::sqrt(std::max(sum2 - sum * sum / n, 0.0)) * norm_t;
+      if (std::abs(num) < t) num /= t;
+      else if (std::abs(num) < t * 1.125) num = num > 0 ? 1 : -1;
+      else num = 0;
+      out.at<float>(r, c) = float(num);
+    }
+  }
+  return out;
+}
+
+}  // namespace internal
+
+namespace {
+
 // The best correlation of `tpl` centred on each column of [x - reach, x + reach] (clipped to the
 // image) within a pixel of row `y` of `img`; `*first` is the column of the first. Empty when the
 // band leaves the image above or below.
@@ -99,8 +187,7 @@ std::vector<float> CorrelationAlongRow(const cv::Mat& img, const cv::Mat& tpl, i
   const int hw = tpl.cols / 2, hh = tpl.rows / 2;
   const int x0 = std::max(hw, x - kTwinReachPx), x1 = std::min(img.cols - 1 - hw, x + kTwinReachPx);
   if (y - 1 - hh < 0 || y + 1 + hh >= img.rows || x1 < x0) return {};
-  cv::Mat ncc;
-  cv::matchTemplate(img(cv::Rect(x0 - hw, y - 1 - hh, x1 - x0 + tpl.cols, tpl.rows + 2)), tpl, ncc, cv::TM_CCOEFF_NORMED);
+  const cv::Mat ncc = internal::CorrCoeffNormed(img(cv::Rect(x0 - hw, y - 1 - hh, x1 - x0 + tpl.cols, tpl.rows + 2)), tpl);
   std::vector<float> best(std::size_t(ncc.cols), -1.0f);
   for (int r = 0; r < ncc.rows; ++r) {
     for (int c = 0; c < ncc.cols; ++c) best[std::size_t(c)] = std::max(best[std::size_t(c)], ncc.at<float>(r, c));

@@ -353,7 +353,10 @@ void AddMatcher(pipeline::Registry& r) {
           // A hedge thinned to every stride-th pixel and row (max_points) is judged on the pixels kept.
           if (mask && !mask->empty()) {
             const int hedge = cv::countNonZero(*mask) / (m.stride * m.stride);
-            const cv::Mat measured = (m.disparity == m.disparity) & (m.filled == 0) & (*mask != 0);
+            // Over the matched region: outside it every disparity is NaN.
+            const cv::Rect in = m.matched_region & cv::Rect(0, 0, m.disparity.cols, m.disparity.rows);
+            const cv::Mat d = m.disparity(in);
+            const cv::Mat measured = (d == d) & (m.filled(in) == 0) & ((*mask)(in) != 0);
             const int matched = cv::countNonZero(measured) + m.less_certain_dropped;  // judged before the cut
             if (hedge >= 500 && matched < hedge / 10) {
               char buf[160];

@@ -298,3 +298,55 @@ TEST(RigCheck, AHedgeThatBarelyMatchedBlamesTheRigOnlyWhenTheRowsCouldNotSay) {
   EXPECT_NE(smooth.checks.at(1).unusable.find("the rig does not fit these cameras"), std::string::npos)
       << smooth.checks.at(1).unusable;
 }
+
+// The twin test's correlation (internal::CorrCoeffNormed) against the definition, summed in
+// double: the template's and each window's means taken out, the products over the root of both
+// sums of squares. The direct sums are exact in float for a 15 x 15 template of 8-bit values, so
+// only the result's rounding to float remains (|r| <= 1: under 1e-7; 1e-6 allows for the double
+// arithmetic of both sides). OpenCV's own TM_CCOEFF_NORMED, through a DFT, agrees only to a few
+// thousandths on such strips, so it is held to 0.01 here: the guards for flat windows are its.
+TEST(RigCheck, TheTwinTestsCorrelationIsTheNormedCoefficientExactly) {
+  cv::RNG rng(7);
+  cv::Mat texture(120, 200, CV_8U);
+  rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(texture, texture, cv::Size(0, 0), 1.5);  // leaves' scale of texture, not white noise
+  texture(cv::Rect(150, 80, 40, 30)).setTo(90);              // a flat patch: windows with no variance
+  int compared = 0, flat_windows = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const int x = rng.uniform(0, 200 - 95), y = rng.uniform(0, 120 - 17);
+    const cv::Mat strip = texture(cv::Rect(x, y, 95, 17));
+    cv::Mat tpl = texture(cv::Rect(rng.uniform(0, 200 - 15), rng.uniform(0, 120 - 15), 15, 15)).clone();
+    if (trial == 0) tpl = cv::Mat(15, 15, CV_8U, cv::Scalar(128));  // a flat template: 1 everywhere
+    const cv::Mat got = hedgefit::stereo::internal::CorrCoeffNormed(strip, tpl);
+    cv::Mat opencv;
+    cv::matchTemplate(strip, tpl, opencv, cv::TM_CCOEFF_NORMED);
+    ASSERT_EQ(got.size(), opencv.size());
+    ASSERT_EQ(got.type(), CV_32F);
+    cv::Mat t;
+    tpl.convertTo(t, CV_64F);
+    t -= cv::mean(t)[0];
+    const double tt = t.dot(t);
+    for (int r = 0; r < got.rows; ++r) {
+      for (int c = 0; c < got.cols; ++c) {
+        cv::Mat w;
+        strip(cv::Rect(c, r, tpl.cols, tpl.rows)).convertTo(w, CV_64F);
+        w -= cv::mean(w)[0];
+        const double ww = w.dot(w);
+        double expected = 0;
+        if (tt == 0) {
+          expected = 1;
+        } else if (ww == 0) {
+          expected = 0;
+          ++flat_windows;
+        } else {
+          expected = t.dot(w) / std::sqrt(tt * ww);
+        }
+        ASSERT_NEAR(got.at<float>(r, c), expected, 1e-6) << "trial " << trial << " at " << r << ", " << c;
+        ASSERT_NEAR(got.at<float>(r, c), opencv.at<float>(r, c), 0.01) << "trial " << trial << " at " << r << ", " << c;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 60 * 3 * 81);
+  EXPECT_GT(flat_windows, 0) << "the flat patch was not reached: the guard is untested";
+}
