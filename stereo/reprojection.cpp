@@ -22,9 +22,12 @@ const pipeline::OptionTable<ReprojectOptions>& ReprojectOptions::Table() {
 
 void ReprojectOptions::Check() const { Table().Validate(*this); }
 
-cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
-                            const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma,
-                            const cv::Mat& hedge_labels) {
+namespace {
+
+// Reproject() of maps cut from the frame at `origin` (the pixels' coordinates in the frame).
+cloud::PointCloud ReprojectFrom(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
+                                const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma,
+                                const cv::Mat& hedge_labels, cv::Point origin) {
   cloud::PointCloud out;
   const cv::Matx44d Q(rig.Q);
   const cv::Matx33d R1t = cv::Matx33d(rig.R1).t();
@@ -48,7 +51,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
         }
         continue;
       }
-      const cv::Vec4d h = Q * cv::Vec4d(x, y, d, 1.0);
+      const cv::Vec4d h = Q * cv::Vec4d(x + origin.x, y + origin.y, d, 1.0);
       const cv::Vec3d p_rect(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
       const cv::Vec3d p = R1t * p_rect;  // unrectified left camera frame
       out.points_mm.emplace_back(float(p[0]), float(p[1]), float(p[2]));
@@ -63,7 +66,7 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
       const double sigma_d = std::isfinite(own) ? std::max(0.02, double(own)) : o.sigma_disparity_px;
       sigma_field.push_back(float(p_rect[2] * p_rect[2] * sigma_d / (f * b)));
       pixel_field.push_back(float(p_rect[2] / f));  // one pixel's lateral footprint at the point
-      u_field.push_back(float(x)), v_field.push_back(float(y));  // where it was measured
+      u_field.push_back(float(x + origin.x)), v_field.push_back(float(y + origin.y));  // where it was measured
     }
   }
   if (o.organized) {
@@ -83,14 +86,45 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
   return out;
 }
 
+// Whether any disparity outside `in` is finite (x - x is 0 only for a finite x; a loop that vectorises).
+bool FiniteOutside(const cv::Mat& disparity, const cv::Rect& in) {
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* row = disparity.ptr<float>(y);
+    const bool inside = y >= in.y && y < in.y + in.height;
+    const int spans[2][2] = {{0, inside ? in.x : disparity.cols}, {inside ? in.x + in.width : disparity.cols, disparity.cols}};
+    for (const auto& span : spans) {
+      int finite = 0;
+      for (int x = span[0]; x < span[1]; ++x) finite |= (row[x] - row[x] == 0.0f);
+      if (finite) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& left_rect,
+                            const StereoRig& rig, const ReprojectOptions& o, const cv::Mat& disparity_sigma,
+                            const cv::Mat& hedge_labels) {
+  return ReprojectFrom(disparity, mask, left_rect, rig, o, disparity_sigma, hedge_labels, cv::Point(0, 0));
+}
+
 cloud::PointCloud ReprojectMeasured(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& filled,
                                     const cv::Mat& left_rect, const StereoRig& rig, const ReprojectOptions& options,
-                                    const cv::Mat& disparity_sigma, const cv::Mat& hedge_labels) {
+                                    const cv::Mat& disparity_sigma, const cv::Mat& hedge_labels,
+                                    const cv::Rect& region) {
+  // An unorganized cloud holds only the pixels with a disparity, in the frame's row order: read
+  // over the region that can hold one, it is the same cloud (a lab frame's region is a tenth of it).
+  const cv::Rect frame(0, 0, disparity.cols, disparity.rows);
+  cv::Rect in = options.organized || region.empty() ? frame : (region & frame);
+  if (in != frame && FiniteOutside(disparity, in)) in = frame;  // a later stage wrote past the region
+  const auto cut = [&in](const cv::Mat& m) { return m.empty() ? m : m(in); };
   // Filled pixels are occluded or mismatched in the other view: no measurement, so by
   // default they stay in the dense map but not in the cloud.
-  cv::Mat use = mask;
-  if (!filled.empty() && !options.keep_filled) use = use.empty() ? ~filled : (use & ~filled);
-  cloud::PointCloud cloud = Reproject(disparity, use, left_rect, rig, options, disparity_sigma, hedge_labels);
+  cv::Mat use = cut(mask);
+  if (!filled.empty() && !options.keep_filled) use = use.empty() ? ~cut(filled) : (use & ~cut(filled));
+  cloud::PointCloud cloud = ReprojectFrom(cut(disparity), use, cut(left_rect), rig, options, cut(disparity_sigma),
+                                          cut(hedge_labels), in.tl());
   if (cloud.size() - cloud::CountNonFinite(cloud) == 0) {
     throw Error("no hedge found: no disparity inside the mask within the working range");
   }

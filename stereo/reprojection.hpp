@@ -31,10 +31,12 @@ cloud::PointCloud Reproject(const cv::Mat& disparity, const cv::Mat& mask, const
                             const cv::Mat& disparity_sigma = cv::Mat(), const cv::Mat& hedge_labels = cv::Mat());
 
 /// Reproject() over the mask less the `filled` pixels (unless options.keep_filled): what both
-/// `convert` and the stereo.reproject stage write.
+/// `convert` and the stereo.reproject stage write. `region` (optional): where the disparity can be
+/// finite (stereo.sgbm's `matched_region`; NaN everywhere outside it); an unorganized cloud is read
+/// over it only, and is the same cloud.
 cloud::PointCloud ReprojectMeasured(const cv::Mat& disparity, const cv::Mat& mask, const cv::Mat& filled,
                                     const cv::Mat& left_rect, const StereoRig& rig, const ReprojectOptions& options,
                                     const cv::Mat& disparity_sigma = cv::Mat(),
-                                    const cv::Mat& hedge_labels = cv::Mat());
+                                    const cv::Mat& hedge_labels = cv::Mat(), const cv::Rect& region = cv::Rect());
 
 }  // namespace hedgefit::stereo

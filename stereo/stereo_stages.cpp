@@ -442,9 +442,11 @@ void AddReprojection(pipeline::Registry& r) {
           const cv::Mat* filled = ctx.Find<cv::Mat>("filled");
           const cv::Mat* sigma = ctx.Find<cv::Mat>("disparity_sigma");
           const cv::Mat* labels = ctx.Find<cv::Mat>("hedge_labels");
+          const cv::Rect* region = ctx.Find<cv::Rect>("matched_region");
           cloud::PointCloud pc = ReprojectMeasured(ctx.Get<cv::Mat>("disparity"), mask ? *mask : cv::Mat(),
                                                    filled ? *filled : cv::Mat(), ctx.Get<cv::Mat>("left_image"),
-                                                   RigOf(ctx), p, sigma ? *sigma : cv::Mat(), labels ? *labels : cv::Mat());
+                                                   RigOf(ctx), p, sigma ? *sigma : cv::Mat(), labels ? *labels : cv::Mat(),
+                                                   region ? *region : cv::Rect());
           // Garden segmentation found the ground: fine points on the lawn (at a hedge's foot, where
           // the coarse mask reaches down) are dropped as the coarse ones were.
           const cv::Vec4d* ground = ctx.Find<cv::Vec4d>("ground_plane");

@@ -385,6 +385,38 @@ TEST(Capture, RigForARectifiedPairReprojectsByTheNumbers) {
   EXPECT_THROW(RigForRectifiedPair(cv::Size(640, 480), f, cx, cy, 0), Error);
 }
 
+// ReprojectMeasured over the matcher's region (stereo.sgbm's `matched_region`) gives the cloud of
+// the whole frame: the same points, colours and fields in the same order, the pixels' coordinates
+// those of the frame. And a disparity a later stage wrote outside the region is not lost.
+TEST(Capture, ReprojectingOverTheMatchedRegionGivesTheWholeFramesCloud) {
+  const StereoRig rig = RigForRectifiedPair(cv::Size(640, 480), 368.5, 318.1, 224.3, 838.7);
+  cv::Mat img(480, 640, CV_8UC3), mask(480, 640, CV_8U, cv::Scalar(255)), filled = cv::Mat::zeros(480, 640, CV_8U);
+  cv::randu(img, 0, 255);
+  const cv::Rect region(200, 120, 150, 90);
+  cv::Mat disparity(480, 640, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  cv::Mat sigma = disparity.clone();
+  cv::randu(disparity(region), 10.0, 14.0);
+  cv::randu(sigma(region), 0.01, 0.1);
+  mask(cv::Rect(200, 120, 20, 90)).setTo(0);    // masked out at the region's left
+  filled(cv::Rect(300, 150, 10, 10)).setTo(255);  // filled, not measured
+  const auto same = [](const cloud::PointCloud& a, const cloud::PointCloud& b) {
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      ASSERT_EQ(a.points_mm[i], b.points_mm[i]) << i;
+      ASSERT_EQ(a.colors[i], b.colors[i]) << i;
+    }
+    ASSERT_EQ(a.fields.size(), b.fields.size());
+    for (const auto& [name, values] : a.fields) ASSERT_EQ(values, b.fields.at(name)) << name;
+  };
+  const cloud::PointCloud whole = ReprojectMeasured(disparity, mask, filled, img, rig, {}, sigma);
+  EXPECT_EQ(whole.size(), std::size_t(130 * 90 - 100));  // the region less the masked strip and the filled square
+  same(ReprojectMeasured(disparity, mask, filled, img, rig, {}, sigma, cv::Mat(), region), whole);
+  disparity.at<float>(400, 50) = 12.0f;  // outside the region
+  const cloud::PointCloud more = ReprojectMeasured(disparity, mask, filled, img, rig, {}, sigma);
+  EXPECT_EQ(more.size(), whole.size() + 1);
+  same(ReprojectMeasured(disparity, mask, filled, img, rig, {}, sigma, cv::Mat(), region), more);
+}
+
 }  // namespace
 }  // namespace hedgefit::stereo
 
