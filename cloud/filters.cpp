@@ -158,8 +158,8 @@ namespace {
 
 // Below this many points left to a 3-D search, NearestOthers scans every point for them instead
 // of building a k-d tree: on a stereo capture's cloud the image grid answers all but a few dozen
-// (66 of a lab ball's 10,888), and building the tree over all of them (about 1.5 ms) cost more
-// than scanning them all for those few (about 0.1 ms each per 10,000 points, on both cores).
+// (66 of a lab ball's 10,888), and building the tree over all of them (about 1.5 ms on one core)
+// cost more than scanning every point for those few (about 25 us a point among 10,000).
 constexpr std::size_t kFewForTheTree = 96;
 
 // The `kk` nearest others of each point in `rest` (positions in `finite`), written as
@@ -176,8 +176,8 @@ void NearestOthersByScan(const PointCloud& cloud, const std::vector<std::uint32_
     xs[j] = p.x(), ys[j] = p.y(), zs[j] = p.z();
   }
   ParallelFor(rest.size(), num_threads, 4, [&](std::size_t begin, std::size_t end) {
-    std::vector<float> sq(n);
-    std::vector<std::pair<float, std::uint32_t>> best;  // a max-heap of the kk nearest so far
+    std::vector<float> sq(n), order(n);
+    std::vector<std::pair<float, std::uint32_t>> best;
     for (std::size_t r = begin; r < end; ++r) {
       const std::size_t j = rest[r];
       const float qx = xs[j], qy = ys[j], qz = zs[j];
@@ -188,20 +188,16 @@ void NearestOthersByScan(const PointCloud& cloud, const std::vector<std::uint32_
         s += dz * dz;
         sq[i] = s;
       }
+      // The kk-th smallest distance of the others (the point itself is one 0 among them), then
+      // every other within it, ordered by distance and position: the kk nearest, ties by position.
+      order = sq;
+      std::nth_element(order.begin(), order.begin() + std::ptrdiff_t(kk), order.end());
+      const float within = order[kk];  // the (kk + 1)-th smallest, the point itself counted
       best.clear();
       for (std::size_t i = 0; i < n; ++i) {
-        if (i == j) continue;
-        const std::pair<float, std::uint32_t> c{sq[i], std::uint32_t(i)};
-        if (best.size() < kk) {
-          best.push_back(c);
-          std::push_heap(best.begin(), best.end());
-        } else if (c < best.front()) {
-          std::pop_heap(best.begin(), best.end());
-          best.back() = c;
-          std::push_heap(best.begin(), best.end());
-        }
+        if (i != j && sq[i] <= within) best.emplace_back(sq[i], std::uint32_t(i));
       }
-      std::sort_heap(best.begin(), best.end());
+      std::sort(best.begin(), best.end());
       for (std::size_t t = 0; t < kk; ++t) {
         (*nbr)[j * kk + t] = best[t].second;
         (*dist)[j * kk + t] = std::sqrt(best[t].first);
