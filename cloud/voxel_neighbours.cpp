@@ -42,8 +42,8 @@ double EstimateKthDistance(const std::vector<Eigen::Vector3f>& pts, std::size_t 
     const Eigen::Vector3f& p = pts[pick(rng)];
     for (std::size_t j = 0; j < subset; ++j) d[j] = (sub[j] - p).squaredNorm();
     // The (ks + 1)-th smallest, as nth_element would place at d[ks], from a max-heap of the ks + 1
-    // smallest so far: most distances fail the one comparison with its top (a third of the
-    // nth_element's time on a 10,000-point cloud).
+    // smallest so far: most distances fail the one comparison with its top, where nth_element
+    // partitions the whole subset (2.5 ms of the 32 queries on a lab ball's 10,888 points).
     smallest.assign(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(ks + 1));
     std::make_heap(smallest.begin(), smallest.end());
     for (std::size_t j = ks + 1; j < subset; ++j) {
