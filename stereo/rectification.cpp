@@ -9,6 +9,7 @@
 
 #include "pipeline/error.hpp"
 #include "stereo/bspline.hpp"
+#include "stereo/remap_linear.hpp"
 
 namespace hedgefit::stereo {
 
@@ -60,8 +61,8 @@ void RectifyPair(const StereoRig& rig, const cv::Mat& left, const cv::Mat& right
   }
   const auto lm = MapsFor(rig.K1, rig.D1, rig.R1, rig.P1, rig.image_size);
   const auto rm = MapsFor(rig.K2, rig.D2, rig.R2, rig.P2, rig.image_size);
-  cv::remap(left, *left_rect, lm->map1, lm->map2, cv::INTER_LINEAR);
-  cv::remap(right, *right_rect, rm->map1, rm->map2, cv::INTER_LINEAR);
+  RemapLinearFixed(left, lm->map1, lm->map2, left_rect);
+  RemapLinearFixed(right, rm->map1, rm->map2, right_rect);
 }
 
 cv::Rect RectifiedBox(const StereoRig& rig, const cv::Rect& box) {

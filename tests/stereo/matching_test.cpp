@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -19,6 +20,7 @@
 
 #include "stereo/bspline.hpp"
 #include "stereo/ldlt5.hpp"
+#include "stereo/remap_linear.hpp"
 #include "stereo/segmentation.hpp"
 #include "bench/middlebury.hpp"
 #include "tests/test_data.hpp"
@@ -842,6 +844,77 @@ TEST(BSpline, RemapIntoARegionLeavesTheRestAlone) {
   cv::Mat grey_view(100, 140, CV_8UC1);
   EXPECT_THROW(RemapBSplineInto(image, map, grey_view(roi)), hedgefit::Error);
   EXPECT_THROW(RemapBSplineInto(image, map, view(cv::Rect(0, 0, 10, 10))), hedgefit::Error);
+}
+
+// The whole-frame rectification's own bilinear remap must be cv::remap's to the bit: the colour
+// segmentation, the rig check and the matcher's range all read its image. Three kinds of map,
+// against cv::remap on the same fixed-point maps: a rectification's (distortion, a small turn,
+// its corners off the source), random positions anywhere within 3 px of the source (many runs of 16
+// with a corner off it, on the border or wholly outside) with every fraction and a fraction
+// word's unused high bits set (OpenCV masks them), and a source and output that are regions of
+// larger images; the random positions both as made and through cv::convertMaps. It fails with the
+// fraction's rows and columns swapped, or with the right neighbour's bytes read at the wrong shift.
+TEST(RemapLinear, IsOpenCvsBilinearRemapToTheBit) {
+  cv::RNG rng(5);
+  cv::Mat image(157, 203, CV_8UC3);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  const auto same = [](const cv::Mat& source, const cv::Mat& m1, const cv::Mat& m2) {
+    cv::Mat want, got, portable;
+    cv::remap(source, want, m1, m2, cv::INTER_LINEAR);
+    RemapLinearFixed(source, m1, m2, &got);
+    ForcePortableLinearRemap(true);
+    RemapLinearFixed(source, m1, m2, &portable);
+    ForcePortableLinearRemap(false);
+    EXPECT_EQ(got.size(), want.size());
+    EXPECT_EQ(got.type(), want.type());
+    EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(portable, want, cv::NORM_INF), 0.0);
+  };
+  {  // a rectification's map
+    const cv::Mat K = (cv::Mat_<double>(3, 3) << 180, 0, 101, 0, 180, 78, 0, 0, 1);
+    const cv::Mat D = (cv::Mat_<double>(1, 5) << -0.2, 0.08, 0.002, -0.001, 0);
+    cv::Mat R;
+    cv::Rodrigues(cv::Vec3d(0.02, -0.03, 0.01), R);
+    cv::Mat f1, f2, m1, m2;
+    cv::initUndistortRectifyMap(K, D, R, K, cv::Size(211, 149), CV_32FC2, f1, f2);
+    cv::convertMaps(f1, f2, m1, m2, CV_16SC2);
+    same(image, m1, m2);
+  }
+  {  // random positions, every fraction, the high bits of the fraction word set
+    cv::Mat m1(64, 1024 + 37, CV_16SC2), m2(m1.size(), CV_16UC1);
+    for (int y = 0; y < m1.rows; ++y) {
+      for (int x = 0; x < m1.cols; ++x) {
+        const bool inside = (x / 16 + y) % 3 != 0;  // two runs in three wholly inside the source
+        m1.at<cv::Vec2s>(y, x) = inside ? cv::Vec2s(short(rng.uniform(0, image.cols - 1)), short(rng.uniform(0, image.rows - 1)))
+                                        : cv::Vec2s(short(rng.uniform(-3, image.cols + 3)), short(rng.uniform(-3, image.rows + 3)));
+        m2.at<std::uint16_t>(y, x) = std::uint16_t((x % 1024) | (y % 4 == 1 ? 0xfc00 : 0));
+      }
+    }
+    same(image, m1, m2);
+    cv::Mat f1, f2, c1, c2;  // the same positions through convertMaps
+    cv::convertMaps(m1, m2, f1, f2, CV_32FC2);
+    cv::convertMaps(f1, f2, c1, c2, CV_16SC2);
+    same(image, c1, c2);
+  }
+  {  // a region of a larger source, written into a region of a larger output
+    cv::Mat big(300, 400, CV_8UC3);
+    rng.fill(big, cv::RNG::UNIFORM, 0, 256);
+    const cv::Mat source = big(cv::Rect(17, 23, 203, 157));
+    cv::Mat m1(60, 90, CV_16SC2), m2(m1.size(), CV_16UC1);
+    for (int y = 0; y < m1.rows; ++y) {
+      for (int x = 0; x < m1.cols; ++x) {
+        m1.at<cv::Vec2s>(y, x) = cv::Vec2s(short(x * 2 + 20), short(y * 2 + 10));
+        m2.at<std::uint16_t>(y, x) = std::uint16_t(rng.uniform(0, 1024));
+      }
+    }
+    cv::Mat want;
+    cv::remap(source, want, m1, m2, cv::INTER_LINEAR);
+    cv::Mat canvas(100, 130, CV_8UC3, cv::Scalar(7, 8, 9));
+    cv::Mat view = canvas(cv::Rect(11, 13, m1.cols, m1.rows));
+    RemapLinearFixed(source, m1, m2, &view);
+    EXPECT_EQ(view.data, canvas.ptr(13) + 11 * 3);  // written in place
+    EXPECT_EQ(cv::norm(view, want, cv::NORM_INF), 0.0);
+  }
 }
 
 // ErodeMask and OpenMask take their own path on large elements (each row's distance to the
