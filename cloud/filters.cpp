@@ -16,6 +16,7 @@
 #include "cloud/pcl_adapter.hpp"
 #include "cloud/neighbour_search.hpp"
 #include "cloud/pixel_grid.hpp"
+#include "cloud/squared_distance.hpp"
 #include "cloud/voxel_neighbours.hpp"
 
 namespace hedgefit::cloud {
@@ -182,11 +183,7 @@ void NearestOthersByScan(const PointCloud& cloud, const std::vector<std::uint32_
       const std::size_t j = rest[r];
       const float qx = xs[j], qy = ys[j], qz = zs[j];
       for (std::size_t i = 0; i < n; ++i) {
-        const float dx = qx - xs[i], dy = qy - ys[i], dz = qz - zs[i];
-        float s = dx * dx;
-        s += dy * dy;
-        s += dz * dz;
-        sq[i] = s;
+        sq[i] = internal::SquaredDistanceAsTrees(qx - xs[i], qy - ys[i], qz - zs[i]);
       }
       // The kk-th smallest distance of the others (the point itself is one 0 among them), then
       // every other within it, ordered by distance and position: the kk nearest, ties by position.

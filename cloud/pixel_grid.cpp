@@ -5,6 +5,8 @@
 #include <cstring>
 #include <numeric>
 
+#include "cloud/squared_distance.hpp"
+
 namespace hedgefit::cloud::internal {
 
 std::optional<PixelGrid> PixelGrid::Of(const PointCloud& cloud) {
@@ -77,12 +79,9 @@ std::size_t PixelGrid::Nearest(std::size_t i, std::size_t k, std::uint32_t* indi
       for (int x = std::max(0, u - half); x <= std::min(cols_ - 1, u + half); ++x) {
         const std::int32_t j = row[x];
         if (j < 0 || std::size_t(j) == i) continue;
-        // The same float operations as the 3-D searches' L2 (no FMA), so equal neighbours tie alike.
+        // The same float operations as the 3-D searches' L2, so equal neighbours tie alike.
         const Eigen::Vector3f& q = cloud_->points_mm[std::size_t(j)];
-        const float ex = p.x() - q.x(), ey = p.y() - q.y(), ez = p.z() - q.z();
-        float acc = ex * ex;
-        acc += ey * ey;
-        acc += ez * ez;
+        const float acc = SquaredDistanceAsTrees(p.x() - q.x(), p.y() - q.y(), p.z() - q.z());
         // A non-negative float's bits order as the float does: distance and index in one key.
         std::uint32_t bits = 0;
         std::memcpy(&bits, &acc, sizeof bits);

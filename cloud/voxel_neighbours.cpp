@@ -13,6 +13,7 @@
 #include <immintrin.h>
 #endif
 
+#include "cloud/squared_distance.hpp"
 #include "pipeline/parallel.hpp"
 
 namespace hedgefit::cloud::internal {
@@ -68,10 +69,7 @@ double EstimateKthDistance(const std::vector<Eigen::Vector3f>& pts, std::size_t 
 std::size_t ScanPortable(const float* xs, const float* ys, const float* zs, std::size_t b, std::size_t e, float qx,
                          float qy, float qz, float limit, float* near, std::size_t count) {
   for (std::size_t j = b; j < e; ++j) {
-    const float ex = qx - xs[j], ey = qy - ys[j], ez = qz - zs[j];
-    float acc = ex * ex;
-    acc += ey * ey;
-    acc += ez * ez;
+    const float acc = SquaredDistanceAsTrees(qx - xs[j], qy - ys[j], qz - zs[j]);
     near[count] = acc;
     count += acc <= limit ? 1 : 0;  // branch-free compaction
   }
