@@ -81,6 +81,17 @@ __attribute__((target("avx512f,avx512bw"), always_inline)) inline void WeightPai
   *bottom = _mm512_mask_mov_epi32(*bottom, whole, _mm512_set1_epi32(1 << 16));
 }
 
+// Channel c of 16 pixels added into `result` (byte c of each lane): the top pairs (pixel, right
+// neighbour) and the bottom pairs, each as two shorts a lane, against their weight pairs; the
+// rounded sum is 0-255 already (the weights sum to 2^15 and every value is 0-255).
+__attribute__((target("avx512f,avx512bw"), always_inline)) inline __m512i AddChannel(__m512i result, int c, __m512i top,
+                                                                                      __m512i bottom, __m512i wt,
+                                                                                      __m512i wb) {
+  const __m512i sum = _mm512_add_epi32(_mm512_add_epi32(_mm512_madd_epi16(top, wt), _mm512_madd_epi16(bottom, wb)),
+                                       _mm512_set1_epi32(1 << 14));
+  return _mm512_or_si512(result, _mm512_slli_epi32(_mm512_srai_epi32(sum, 15), 8 * c));
+}
+
 // 16 pixels of an 8-bit colour row at once, from column x; returns the first column not done (a
 // run of 16 with a pixel whose four corners are not all in the source is left to RemapPixel, as
 // are the last columns). A channel's two top values (the pixel's and its right neighbour's) go
@@ -99,7 +110,7 @@ __attribute__((target("avx512f,avx512bw,avx512vbmi"))) int ColourRowAvx512(const
   const __m512i step_v = _mm512_set1_epi32(step), three = _mm512_set1_epi32(3);
   const __m512i x_end = _mm512_set1_epi32(source.cols - 1), y_end = _mm512_set1_epi32(source.rows - 1);
   const __m512i byte = _mm512_set1_epi32(0xff), fraction = _mm512_set1_epi32(1023);
-  const __m512i half = _mm512_set1_epi32(1 << 14), span = _mm512_set1_epi32(20);
+  const __m512i span = _mm512_set1_epi32(20);
   const __mmask64 low_bytes = 0x5555555555555555ull;  // bytes 0 and 2 of every lane: two shorts
   // Each 128-bit lane's four pixels' B, G, R packed to 12 bytes, then the 12 words of 16 pixels.
   const __m512i pack = _mm512_broadcast_i32x4(_mm_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1));
@@ -130,9 +141,7 @@ __attribute__((target("avx512f,avx512bw,avx512vbmi"))) int ColourRowAvx512(const
         const __m512i idx = _mm512_add_epi32(pick, _mm512_set1_epi32(c | (c << 16)));
         const __m512i top = _mm512_maskz_permutexvar_epi8(low_bytes, idx, row0);
         const __m512i bottom = _mm512_maskz_permutexvar_epi8(low_bytes, idx, row1);
-        const __m512i sum = _mm512_add_epi32(_mm512_add_epi32(_mm512_madd_epi16(top, wt), _mm512_madd_epi16(bottom, wb)), half);
-        // 0-255 already: the weights sum to 2^15 and every value is 0-255.
-        result = _mm512_or_si512(result, _mm512_slli_epi32(_mm512_srai_epi32(sum, 15), 8 * c));
+        result = AddChannel(result, c, top, bottom, wt, wb);
       }
     } else {
       const __m512i at = _mm512_add_epi32(_mm512_mullo_epi32(sy, step_v), _mm512_mullo_epi32(sx, three));
@@ -148,8 +157,7 @@ __attribute__((target("avx512f,avx512bw,avx512vbmi"))) int ColourRowAvx512(const
         const __m512i bottom =
             _mm512_or_si512(_mm512_and_si512(_mm512_srli_epi32(b0, 8 * c), byte),
                             _mm512_slli_epi32(_mm512_and_si512(_mm512_srli_epi32(b2, 8 * (c + 1)), byte), 16));
-        const __m512i sum = _mm512_add_epi32(_mm512_add_epi32(_mm512_madd_epi16(top, wt), _mm512_madd_epi16(bottom, wb)), half);
-        result = _mm512_or_si512(result, _mm512_slli_epi32(_mm512_srai_epi32(sum, 15), 8 * c));
+        result = AddChannel(result, c, top, bottom, wt, wb);
       }
     }
     const __m512i packed = _mm512_permutexvar_epi32(words, _mm512_shuffle_epi8(result, pack));
