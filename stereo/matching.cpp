@@ -9,11 +9,17 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define HEDGEFIT_HAVE_AVX512_REFINE 1
+#endif
+
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <mutex>
 #include <vector>
@@ -502,6 +508,9 @@ void CorrectCurvature(const cv::Mat& gain, int c, int step_px, cv::Mat* disparit
 
 namespace {
 
+// Set by ForcePortableRefinement: the refinement's 4-lane sums even where AVX-512 would do 16.
+bool g_force_portable_refine = false;
+
 // Gauss-Newton in a (2r+1)^2 window about (x, y) from SGBM's d0: true and the estimate and its
 // standard deviation when it settles. One per worker: it keeps the window's samples.
 //
@@ -517,7 +526,12 @@ class WindowRefiner {
                 double max_sigma_px, int max_radius)
       : L_(L), R_(R), mask_(mask), iterations_(iterations), curvature_(curvature), max_sigma_px_(max_sigma_px) {
     const std::size_t n = std::size_t((2 * max_radius + 1) * (2 * max_radius + 1)) + 4;
-    di_.reserve(n), dj_.reserve(n), left_.reserve(n), live_.reserve(n), rows_.reserve(n);
+    // Room for the largest window and its padding to a whole number of 16 samples.
+    di_.resize(n + 15), dj_.resize(n + 15), left_.resize(n + 15), live_.resize(n + 15), rows_.resize(n + 15);
+    offsets_.resize(n + 15);
+#ifdef HEDGEFIT_HAVE_AVX512_REFINE
+    wide_ = !g_force_portable_refine && __builtin_cpu_supports("avx512f");
+#endif
   }
   bool Solve(int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out);
 
@@ -531,6 +545,9 @@ class WindowRefiner {
     int used;
   };
   Sums Accumulate(int x, const Eigen::Matrix<double, 5, 1>& q, bool respond) const;
+#ifdef HEDGEFIT_HAVE_AVX512_REFINE
+  Sums Accumulate16(int x, const Eigen::Matrix<double, 5, 1>& q, bool respond) const;
+#endif
 
   const cv::Mat& L_;
   const cv::Mat& R_;
@@ -538,9 +555,14 @@ class WindowRefiner {
   int iterations_;
   bool curvature_;
   double max_sigma_px_;
-  // The window's samples, structure of arrays, padded to a multiple of 4 with dead ones.
+  // The window's samples, structure of arrays, padded to a multiple of 4 (16 with AVX-512) with
+  // dead ones: the first `samples_` of each.
+  int samples_ = 0;
   std::vector<float> di_, dj_, left_, live_;
   std::vector<const float*> rows_;
+  // With AVX-512: 16 samples at a time, each sample's row as its offset in floats from R's first.
+  std::vector<std::int32_t> offsets_;
+  bool wide_ = false;
 };
 
 WindowRefiner::Sums WindowRefiner::Accumulate(int x, const Eigen::Matrix<double, 5, 1>& q, bool respond) const {
@@ -562,7 +584,7 @@ WindowRefiner::Sums WindowRefiner::Accumulate(int x, const Eigen::Matrix<double,
   const V fraction = cv::v_setall_f32(float(base - whole)), sx = cv::v_setall_f32(float(q[1])),
           sy = cv::v_setall_f32(float(q[2])), gain = cv::v_setall_f32(float(1 + q[3])),
           offset = cv::v_setall_f32(float(q[4]));
-  for (int k = 0; k < int(di_.size()); k += 4) {
+  for (int k = 0; k < samples_; k += 4) {
     const V vdi = cv::v_load(&di_[std::size_t(k)]), vdj = cv::v_load(&dj_[std::size_t(k)]);
     V live = cv::v_load(&live_[std::size_t(k)]);
     const V at = fraction + vdi - sx * vdi - sy * vdj;
@@ -616,6 +638,96 @@ WindowRefiner::Sums WindowRefiner::Accumulate(int x, const Eigen::Matrix<double,
   return out;
 }
 
+#ifdef HEDGEFIT_HAVE_AVX512_REFINE
+// GCC 12 reports its own intrinsics' deliberately undefined lanes as "maybe uninitialized".
+#pragma GCC diagnostic push
+#if !defined(__clang__)  // clang (the fuzz build) has no such group and warns about the name
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+#pragma GCC diagnostic ignored "-Wuninitialized"
+// Accumulate, 16 samples at a time: the same terms in the same single precision, the four taps
+// gathered by each sample's row offset (a sample off the row or dead gathers nothing and counts
+// 0), and the products fused. The lanes' sums add in another order than Accumulate's four, so
+// the two differ in the last bits of the sums (a test bounds how far the refined disparities
+// move: bits of float rounding, not of the estimate).
+__attribute__((target("avx512f"))) WindowRefiner::Sums WindowRefiner::Accumulate16(
+    int x, const Eigen::Matrix<double, 5, 1>& q, bool respond) const {
+  const int w = L_.cols;
+  const float* r0 = R_.ptr<float>(0);
+  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f), sixth = _mm512_set1_ps(1.f / 6),
+               half = _mm512_set1_ps(0.5f), two = _mm512_set1_ps(2.f), three = _mm512_set1_ps(3.f),
+               four = _mm512_set1_ps(4.f), six = _mm512_set1_ps(6.f), three_halves = _mm512_set1_ps(1.5f);
+  __m512 hs[15], g[5], vq[3][5], ssr = zero, used = zero;
+  for (__m512& v : hs) v = zero;
+  for (__m512& v : g) v = zero;
+  for (auto& t : vq) {
+    for (__m512& v : t) v = zero;
+  }
+  const double base = x - q[0], whole = std::floor(base);
+  const int column = int(whole);
+  const __m512 fraction = _mm512_set1_ps(float(base - whole)), sx = _mm512_set1_ps(float(q[1])),
+               sy = _mm512_set1_ps(float(q[2])), gain = _mm512_set1_ps(float(1 + q[3])),
+               offset = _mm512_set1_ps(float(q[4]));
+  const __m512i vcolumn = _mm512_set1_epi32(column), lo = _mm512_set1_epi32(1), hi = _mm512_set1_epi32(w - 2);
+  for (int k = 0; k < samples_; k += 16) {
+    const __m512 vdi = _mm512_loadu_ps(&di_[std::size_t(k)]), vdj = _mm512_loadu_ps(&dj_[std::size_t(k)]);
+    const __m512 at = _mm512_sub_ps(_mm512_sub_ps(_mm512_add_ps(fraction, vdi), _mm512_mul_ps(sx, vdi)),
+                                    _mm512_mul_ps(sy, vdj));
+    const __m512i floor_at = _mm512_cvt_roundps_epi32(at, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    const __m512 t = _mm512_sub_ps(at, _mm512_cvtepi32_ps(floor_at));
+    const __m512i x0 = _mm512_add_epi32(vcolumn, floor_at);
+    const __mmask16 inside = _mm512_cmpneq_ps_mask(_mm512_loadu_ps(&live_[std::size_t(k)]), zero) &
+                             _mm512_cmpge_epi32_mask(x0, lo) & _mm512_cmplt_epi32_mask(x0, hi);
+    const __m512i at0 = _mm512_add_epi32(_mm512_loadu_si512(&offsets_[std::size_t(k)]), _mm512_sub_epi32(x0, lo));
+    const __m512 c0 = _mm512_mask_i32gather_ps(zero, inside, at0, r0, 4);
+    const __m512 c1 = _mm512_mask_i32gather_ps(zero, inside, _mm512_add_epi32(at0, lo), r0, 4);
+    const __m512 c2 = _mm512_mask_i32gather_ps(zero, inside, _mm512_add_epi32(at0, _mm512_set1_epi32(2)), r0, 4);
+    const __m512 c3 = _mm512_mask_i32gather_ps(zero, inside, _mm512_add_epi32(at0, _mm512_set1_epi32(3)), r0, 4);
+    const __m512 live = _mm512_mask_mov_ps(zero, inside, one);
+    const __m512 t2 = _mm512_mul_ps(t, t), t3 = _mm512_mul_ps(t2, t), u = _mm512_sub_ps(one, t);
+    const __m512 w0 = _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(u, u), u), sixth);
+    const __m512 w1 = _mm512_mul_ps(_mm512_add_ps(_mm512_sub_ps(_mm512_mul_ps(three, t3), _mm512_mul_ps(six, t2)), four), sixth);
+    const __m512 w2 = _mm512_mul_ps(_mm512_add_ps(_mm512_mul_ps(three, _mm512_add_ps(_mm512_sub_ps(t2, t3), t)), one), sixth);
+    const __m512 w3 = _mm512_mul_ps(t3, sixth);
+    const __m512 dw0 = _mm512_sub_ps(zero, _mm512_mul_ps(_mm512_mul_ps(half, u), u));
+    const __m512 dw1 = _mm512_sub_ps(_mm512_mul_ps(three_halves, t2), _mm512_mul_ps(two, t));
+    const __m512 dw2 = _mm512_add_ps(_mm512_sub_ps(t, _mm512_mul_ps(three_halves, t2)), half);
+    const __m512 dw3 = _mm512_mul_ps(half, t2);
+    // Dead and off-row samples gathered 0 for every tap: their value and slope are 0 already.
+    const __m512 rv = _mm512_fmadd_ps(w3, c3, _mm512_fmadd_ps(w2, c2, _mm512_fmadd_ps(w1, c1, _mm512_mul_ps(w0, c0))));
+    const __m512 gv = _mm512_mul_ps(
+        gain, _mm512_fmadd_ps(dw3, c3, _mm512_fmadd_ps(dw2, c2, _mm512_fmadd_ps(dw1, c1, _mm512_mul_ps(dw0, c0)))));
+    const __m512 res = _mm512_maskz_mov_ps(
+        inside, _mm512_sub_ps(_mm512_fnmadd_ps(gain, rv, _mm512_loadu_ps(&left_[std::size_t(k)])), offset));
+    const __m512 J[5] = {gv, _mm512_mul_ps(gv, vdi), _mm512_mul_ps(gv, vdj), _mm512_sub_ps(zero, rv),
+                         _mm512_sub_ps(zero, live)};
+    for (int a = 0, m = 0; a < 5; ++a) {
+      g[a] = _mm512_fnmadd_ps(J[a], res, g[a]);
+      for (int c = a; c < 5; ++c, ++m) hs[m] = _mm512_fmadd_ps(J[a], J[c], hs[m]);
+    }
+    if (respond) {
+      const __m512 mt[3] = {_mm512_mul_ps(vdi, vdi), _mm512_mul_ps(vdi, vdj), _mm512_mul_ps(vdj, vdj)};
+      for (int tq = 0; tq < 3; ++tq) {
+        const __m512 gm = _mm512_mul_ps(gv, mt[tq]);
+        for (int a = 0; a < 5; ++a) vq[tq][a] = _mm512_fmadd_ps(J[a], gm, vq[tq][a]);
+      }
+    }
+    ssr = _mm512_fmadd_ps(res, res, ssr);
+    used = _mm512_add_ps(used, live);
+  }
+  Sums out{};
+  for (int m = 0; m < 15; ++m) out.hs[m] = double(_mm512_reduce_add_ps(hs[m]));
+  for (int a = 0; a < 5; ++a) {
+    out.g[a] = double(_mm512_reduce_add_ps(g[a]));
+    for (int tq = 0; respond && tq < 3; ++tq) out.vq[tq][a] = double(_mm512_reduce_add_ps(vq[tq][a]));
+  }
+  out.ssr = double(_mm512_reduce_add_ps(ssr));
+  out.used = int(std::lround(_mm512_reduce_add_ps(used)));
+  return out;
+}
+#pragma GCC diagnostic pop
+#endif
+
 bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* sigma_out_px, cv::Vec3f* gain_out) {
   const cv::Mat& L = L_;
   const cv::Mat& R = R_;
@@ -624,22 +736,26 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
   const bool curvature = curvature_;
   const double max_sigma_px = max_sigma_px_;
   const int side = 2 * r + 1, min_samples = std::max(9, (side * side * 2) / 5);  // 40 % of the window
-  di_.clear(), dj_.clear(), left_.clear(), live_.clear(), rows_.clear();
+  const float* r0 = R.ptr<float>(0);
+  std::size_t n = 0;
   for (int j = std::max(0, y - r); j <= std::min(h - 1, y + r); ++j) {
     const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(j);
     const float* lrow = L.ptr<float>(j);
     const float* rrow = R.ptr<float>(j);
+    const std::int32_t offset = std::int32_t(rrow - r0);
     for (int i = std::max(0, x - r); i <= std::min(w - 1, x + r); ++i) {
       if (m && m[i] == 0) continue;
-      di_.push_back(float(i - x)), dj_.push_back(float(j - y)), left_.push_back(lrow[i]), live_.push_back(1.f);
-      rows_.push_back(rrow);
+      di_[n] = float(i - x), dj_[n] = float(j - y), left_[n] = lrow[i], live_[n] = 1.f;
+      rows_[n] = rrow, offsets_[n] = offset;
+      ++n;
     }
   }
-  const int n = int(di_.size());
-  if (n < min_samples) return false;
-  while (di_.size() % 4 != 0) {  // dead samples: their terms are multiplied by live 0
-    di_.push_back(0.f), dj_.push_back(0.f), left_.push_back(0.f), live_.push_back(0.f), rows_.push_back(nullptr);
+  if (int(n) < min_samples) return false;
+  const std::size_t lanes = wide_ ? 16 : 4;
+  for (; n % lanes != 0; ++n) {  // dead samples: their terms are multiplied by live 0
+    di_[n] = 0.f, dj_[n] = 0.f, left_[n] = 0.f, live_[n] = 0.f, rows_[n] = nullptr, offsets_[n] = 0;
   }
+  samples_ = int(n);
   // Parameters: disparity at (x, y), its slopes along x and y (a slanted window:
   // surfaces seen at an angle, like a sphere's limb, are stretched between the views),
   // gain and offset between the cameras.
@@ -652,7 +768,11 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
     // within 1e-3 px early would otherwise stop before the last), and the response is summed
     // in the last step only.
     const bool respond = curvature && it + 1 == iterations;
+#ifdef HEDGEFIT_HAVE_AVX512_REFINE
+    const Sums sums = wide_ ? Accumulate16(x, q, respond) : Accumulate(x, q, respond);
+#else
     const Sums sums = Accumulate(x, q, respond);
+#endif
     const int n_used = sums.used;
     // Textureless windows (tiny gradient energy) or a singular system: not settled.
     if (n_used < min_samples || sums.hs[0] < 0.25 * n_used) return false;
@@ -681,6 +801,8 @@ bool WindowRefiner::Solve(int x, int y, float d0, int r, double* d_out, double* 
 }
 
 }  // namespace
+
+void ForcePortableRefinement(bool portable) { g_force_portable_refine = portable; }
 
 int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mask, const cv::Mat& skip, int radius,
                    int iterations, cv::Mat* disparity, double max_sigma_px, cv::Mat* sigma_out, cv::Mat* dropped,

@@ -146,6 +146,11 @@ int RefineSubpixel(const cv::Mat& left, const cv::Mat& right, const cv::Mat& mas
                    cv::Mat* sigma = nullptr, cv::Mat* dropped = nullptr, int max_radius = 0,
                    double retry_sigma_px = 0.0, int curvature_radius = 0, int curvature_step_px = 2);
 
+/// For tests and benchmarks: with `portable`, RefineSubpixel sums each window 4 samples at a time
+/// on every CPU; without, 16 at a time where the CPU has AVX-512 (the default). The two sum in
+/// different orders, so their estimates differ by single precision's rounding.
+void ForcePortableRefinement(bool portable);
+
 /// Estimates the pair's residual vertical disparity from `disparity` (CV_32F, NaN = unknown, left
 /// view): on a grid of 9 x 9 windows inside `mask` (all when empty), each window's disparity,
 /// its slopes, a vertical shift, gain and offset by Gauss-Newton against the right view's 2-D
