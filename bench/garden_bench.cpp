@@ -70,8 +70,8 @@ const pipeline::OptionTable<GardenOptions>& GardenOptions::Table() {
                      "curvature correction grid half-size for hedges found by depth, steps of 2 px (0 = off)")
           .Range(0, 10)
           .Add("envelope_points_per_ray", &O::envelope_points_per_ray,
-               "the envelope fit's points_per_ray: with an outline, at most this many of the front's points per outline "
-               "ray (0 = off; -1, the default, leaves the fit's own default, 1)")
+               "the envelope fit's points_per_ray: with an outline, the front weighted to the say of this many points per "
+               "outline ray (0 = off; -1, the default, leaves the fit's own default, 1)")
           .Min(-1)
           .Bind<int>("max_points", [](O& o) -> int& { return o.convert.match.max_points; },
                      "at most this many pixels matched and refined per hedge: a larger hedge keeps every s-th pixel "

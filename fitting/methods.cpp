@@ -166,16 +166,18 @@ SphereFitResult FitEnvelopeFrom(const EnvelopeFitOptions& p, const std::string& 
   } else {
     FitInputs sub = in;
     sub.inliers = nullptr;
-    // The start sees the points the likelihood will (every n-th, at most
-    // max_points): it only has to land in the likelihood's basin, and RANSAC
-    // and the geometric fit cost in proportion to the points.
+    // The start sees about max_points of the points, chosen as the likelihood chooses them
+    // (by where each lies, so a point more or fewer does not redraw them): it only has to land in
+    // the likelihood's basin, and RANSAC and the geometric fit cost in proportion to the points.
     std::vector<Eigen::Vector3d> thinned;
     const std::size_t n = in.points_mm->size(), cap = std::size_t(p.max_points);
     if (cap > 0 && n > cap) {
-      const std::size_t step = (n + cap - 1) / cap;
-      thinned.reserve(n / step + 1);
-      for (std::size_t i = 0; i < n; i += step) thinned.push_back((*in.points_mm)[i]);
-      sub.points_mm = &thinned;
+      const std::vector<std::size_t> kept = internal::StableSubset(*in.points_mm, cap);
+      if (kept.size() * 2 >= cap) {
+        thinned.reserve(kept.size());
+        for (const std::size_t i : kept) thinned.push_back((*in.points_mm)[i]);
+        sub.points_mm = &thinned;
+      }
     }
     start = FindFitMethod(initial, "initial").bind(pipeline::Options(
         [&] {
