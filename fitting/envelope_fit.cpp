@@ -309,7 +309,7 @@ const pipeline::OptionTable<EnvelopeFitOptions>& EnvelopeFitOptions::Table() {
                "points")
           .Range(0, 1e9)
           .Add("points_per_ray", &O::points_per_ray,
-               "with an outline, about this many of the front's points per outline ray (chosen as for max_points); 0 = off")
+               "with an outline, the front's points weighted to the say of this many points per outline ray; 0 = off (full weight)")
           .Min(0)
           .Add("top_bias", &O::top_bias_px,
                "the matcher reads the outermost leaves this many pixel footprints too deep; added back where the "
