@@ -568,7 +568,10 @@ ceres::GradientProblemSolver::Summary SolveShell(const ShellLikelihood& model, c
   ceres::GradientProblemSolver::Summary all;
   ceres::Solve(ShellSolverOptions(options), problem, q, &all);
   *iterations += static_cast<int>(all.iterations.size());
-  if (!all.IsSolutionUsable()) return all;
+  // The first search's optimum stands where the last could not go on from it (a failed line
+  // search, a cost that went non-finite): `p` still holds it, and its cost is per point of the
+  // same say, so it compares with other fits as the last's would.
+  if (!all.IsSolutionUsable()) return first;
   for (int k = 0; k < 4; ++k) q[k] *= unit;
   std::copy(q, q + kParams, p);
   return all;
