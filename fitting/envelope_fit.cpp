@@ -1,4 +1,5 @@
 #include "fitting/envelope_fit.hpp"
+
 #include "fitting/log_erfc.hpp"
 
 #include <Eigen/Cholesky>
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "cloud/stable_sample.hpp"
 #include "pipeline/error.hpp"
 #include "pipeline/parallel.hpp"
 #include "fitting/algebraic_fit.hpp"
@@ -323,7 +325,7 @@ void EnvelopeFitOptions::Check() const { Table().Validate(*this); }
 
 // The points about their mean, the matcher's reading of the outermost leaves below them (per
 // point), the residuals' robust spread from the start and where outliers may fall; about
-// max_points of them (internal::StableSubset) when there are more.
+// max_points of them (cloud::StableSample) when there are more.
 struct ShellData {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> centred;
@@ -334,37 +336,6 @@ struct ShellData {
   std::vector<std::size_t> first;  // with weight < 1: the points (of `centred`) the search starts on
 };
 
-namespace internal {
-
-std::vector<std::size_t> StableSubset(const std::vector<Eigen::Vector3d>& points_mm, std::size_t most) {
-  std::vector<std::size_t> kept;
-  if (points_mm.size() <= most) {
-    kept.resize(points_mm.size());
-    for (std::size_t i = 0; i < kept.size(); ++i) kept[i] = i;
-    return kept;
-  }
-  // SplitMix64's finaliser (Steele, Lea and Flood 2014): every bit of the cell's three indices
-  // reaches every bit of the key.
-  const auto mix = [](std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  };
-  // Keys below share * 2^64 are kept.
-  const double share = double(most) / double(points_mm.size());
-  const std::uint64_t below = std::uint64_t(std::ldexp(share, 64));
-  kept.reserve(most + most / 8);
-  for (std::size_t i = 0; i < points_mm.size(); ++i) {
-    const Eigen::Vector3d& q = points_mm[i];
-    if (!q.allFinite()) continue;
-    std::uint64_t key = 0;
-    for (int a = 0; a < 3; ++a) key = mix(key ^ std::uint64_t(std::int64_t(std::floor(q[a]))));
-    if (key < below) kept.push_back(i);
-  }
-  return kept;
-}
-
-}  // namespace internal
 
 ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const EnvelopeFitOptions& options,
                        const SphereFitResult& start, const std::vector<double>* pixel_mm,
@@ -400,7 +371,7 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
     }
   }
   // At most about max_points of the points (the likelihood's cost grows with each), each kept or
-  // not by where it lies (StableSubset). Every n-th by its place in the list made one point more
+  // not by where it lies (cloud::StableSample). Every n-th by its place in the list made one point more
   // or fewer ahead of it (a cleaning decision, a pixel on a threshold) change which points the
   // whole fit saw: a paper-size hedge's fit drew another sixth of its front and its centre moved
   // 0.35 mm when its cloud lost one point of 13,760 (CHANGELOG).
@@ -408,7 +379,7 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
   std::vector<std::size_t> kept(centred.size());  // of points_mm: the points `centred` holds
   for (std::size_t i = 0; i < kept.size(); ++i) kept[i] = i;
   if (centred.size() > most) {
-    std::vector<std::size_t> subset = internal::StableSubset(points_mm, most);
+    std::vector<std::size_t> subset = cloud::StableSample(points_mm, most);
     if (subset.size() * 2 >= most) {
       std::vector<Eigen::Vector3d> thinned;
       std::vector<double> thinned_bias;
@@ -434,7 +405,7 @@ ShellData PrepareShell(const std::vector<Eigen::Vector3d>& points_mm, const Enve
     const double say = std::max(1.0, std::ceil(options.points_per_ray * double(outline_rays)));
     if (double(centred.size()) > say) {
       d.weight = say / double(centred.size());
-      const std::vector<std::size_t> fewer = internal::StableSubset(points_mm, std::size_t(say));
+      const std::vector<std::size_t> fewer = cloud::StableSample(points_mm, std::size_t(say));
       for (std::size_t a = 0, b = 0; a < kept.size() && b < fewer.size();) {
         if (kept[a] == fewer[b]) d.first.push_back(a), ++a, ++b;
         else if (kept[a] < fewer[b]) ++a;

@@ -33,7 +33,7 @@ struct EnvelopeFitOptions {
   double outlier_share = 0.02;  ///< prior share of points from neither leaves nor noise (uniform)
   int max_iterations = 200;     ///< LBFGS iterations at most
   /// The likelihood is summed over about this many points (a share of them chosen by where each
-  /// lies: internal::StableSubset): six parameters are settled to ~0.1 mm by 10000 points, and
+  /// lies: cloud::StableSample): six parameters are settled to ~0.1 mm by 10000 points, and
   /// the cost grows with every point. 0 = all.
   int max_points = 10000;
   /// With an outline, about this many of the front's points per outline ray (chosen as for
@@ -101,13 +101,6 @@ EnvelopeFit FitEnvelope(const std::vector<Eigen::Vector3d>& points_mm, const Env
                         const std::vector<cloud::TangentRay>* outline = nullptr,
                         const std::vector<Eigen::Vector3d>* viewpoints = nullptr);
 
-namespace internal {
-/// About `most` of `points_mm` (their indices, in order), each kept by a hash of its 1 mm grid
-/// cell: which points are kept does not depend on their order or on the others, so a point
-/// added, removed or moved by a hair changes the subset by that point alone. All of them when
-/// there are at most `most`; non-finite points are never kept.
-std::vector<std::size_t> StableSubset(const std::vector<Eigen::Vector3d>& points_mm, std::size_t most);
-}  // namespace internal
 
 namespace detail {
 /// The shell model's mean negative log-likelihood over `points` at the 10 parameters p (centre x,

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "cloud/stable_sample.hpp"
 #include "fitting/algebraic_fit.hpp"
 #include "fitting/ellipsoid_fit.hpp"
 #include "fitting/envelope_fit.hpp"
@@ -172,7 +173,7 @@ SphereFitResult FitEnvelopeFrom(const EnvelopeFitOptions& p, const std::string& 
     std::vector<Eigen::Vector3d> thinned;
     const std::size_t n = in.points_mm->size(), cap = std::size_t(p.max_points);
     if (cap > 0 && n > cap) {
-      const std::vector<std::size_t> kept = internal::StableSubset(*in.points_mm, cap);
+      const std::vector<std::size_t> kept = cloud::StableSample(*in.points_mm, cap);
       if (kept.size() * 2 >= cap) {
         thinned.reserve(kept.size());
         for (const std::size_t i : kept) thinned.push_back((*in.points_mm)[i]);

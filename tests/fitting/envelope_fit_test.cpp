@@ -9,9 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <iterator>
 #include <limits>
-#include <set>
 
 #include "pipeline/error.hpp"
 #include "fitting/geometric_fit.hpp"
@@ -349,47 +347,6 @@ TEST(EnvelopeFit, PointsPerRayGivesTheFrontTheSayOfThatManyPoints) {
   const EnvelopeFit b = FitEnvelope(pts, no_per_ray, nullptr, &pixel_mm);
   EXPECT_EQ(a.fit.sphere.center_mm, b.fit.sphere.center_mm);
   EXPECT_EQ(a.fit.sphere.radius_mm, b.fit.sphere.radius_mm);
-}
-
-// Which points the likelihood sums over is a property of each point, not of the list: a fit
-// whose cloud lost one point of 13,760 (a cleaning decision on a paper-size hedge) used to see
-// another sixth of its front (every 6th by index from there on), and its centre moved 0.35 mm.
-TEST(EnvelopeFit, StableSubsetDependsOnEachPointAlone) {
-  std::mt19937_64 rng(31);
-  std::uniform_real_distribution<double> u(-500, 500);
-  std::vector<Eigen::Vector3d> pts(20000);
-  for (auto& p : pts) p = Eigen::Vector3d(u(rng), u(rng), 2000 + u(rng));
-  const std::size_t most = 3000;
-  auto as_set = [](const std::vector<Eigen::Vector3d>& from, const std::vector<std::size_t>& idx) {
-    std::set<std::array<double, 3>> out;
-    for (const std::size_t i : idx) out.insert({from[i].x(), from[i].y(), from[i].z()});
-    return out;
-  };
-  const std::vector<std::size_t> kept = internal::StableSubset(pts, most);
-  // Each point is kept with probability most / n = 0.15: the count is binomial, sd 50; 5 sd.
-  EXPECT_NEAR(double(kept.size()), double(most), 250.0);
-  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
-  EXPECT_TRUE(std::adjacent_find(kept.begin(), kept.end()) == kept.end());
-  const auto before = as_set(pts, kept);
-  // The first point removed: the others keep their fate (every n-th by index would redraw all).
-  std::vector<Eigen::Vector3d> fewer(pts.begin() + 1, pts.end());
-  auto expected = before;
-  expected.erase({pts[0].x(), pts[0].y(), pts[0].z()});
-  // Asked for the same share of the list one shorter (most (n - 1) / n, rounded down), the keys'
-  // threshold drops by under 1 / n of the share, which drops 0.14 points in expectation: at most
-  // a few may differ, where every n-th by index (every 7th here) drew a disjoint set: 5,714 differ.
-  const auto after = as_set(fewer, internal::StableSubset(fewer, std::size_t(most * (pts.size() - 1) / pts.size())));
-  std::vector<std::array<double, 3>> changed;
-  std::set_symmetric_difference(after.begin(), after.end(), expected.begin(), expected.end(), std::back_inserter(changed));
-  EXPECT_LE(changed.size(), 3u);
-  // Another order, the same points.
-  std::vector<Eigen::Vector3d> reversed(pts.rbegin(), pts.rend());
-  EXPECT_EQ(as_set(reversed, internal::StableSubset(reversed, most)), before);
-  // A point that cannot be fitted is never kept; a list no longer than `most` is kept whole.
-  std::vector<Eigen::Vector3d> with_nan = pts;
-  with_nan[5] = Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0);
-  for (const std::size_t i : internal::StableSubset(with_nan, most)) EXPECT_TRUE(with_nan[i].allFinite());
-  EXPECT_EQ(internal::StableSubset(fewer, fewer.size()).size(), fewer.size());
 }
 
 // Through the method table: the row reports both radii.

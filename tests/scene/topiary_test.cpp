@@ -814,6 +814,45 @@ TEST(RealData, TopiaryOfTheWageningenGardenWestHalf) {
   }
 }
 
+// The same half with its points in another order (a shuffle of the file, as another exporter or
+// a filter that sorts would leave it): the cloud's spacing, which the thresholds scale with, was
+// read from every 56th point by its place in the file, 24.4, 24.7 or 25.3 mm by the order where
+// all points' median is 24.7, and one shuffle lost the topiary at (6.77, -2.44) m. Now the same
+// six, each with the same class and centre to 1 mm (the sums in another order round apart; a
+// millimetre is far under the 200 mm the map is matched to and the semi-axes' +-20-135 mm).
+TEST(RealData, TheWestHalfInAnotherOrderKeepsItsTopiary) {
+  HEDGEFIT_REQUIRE_DATA("gardens/wageningen_west/garden_west.ply");
+  const cloud::PointCloud c = cloud::ReadCloud(hedgefit::testing::DataPath("gardens/wageningen_west/garden_west.ply"));
+  std::vector<std::size_t> order(c.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  fitting::QuietSolverWarnings();
+  auto topiary = [](const cloud::PointCloud& cloud) {
+    const double scale = cloud::GuessScale(cloud);
+    cloud::PointCloud mm = cloud;
+    for (auto& p : mm.points_mm) p *= float(scale);
+    std::vector<std::pair<std::string, Eigen::Vector3d>> out;
+    for (const auto& o : FindHedges(mm).objects) {
+      if (o.topiary && o.shape) out.emplace_back(o.shape->family, o.shape->center_mm);
+    }
+    return out;
+  };
+  const auto as_read = topiary(c);
+  EXPECT_EQ(as_read.size(), 6u);
+  for (const std::uint64_t seed : {1u, 2u}) {
+    std::mt19937_64 rng(seed);
+    std::shuffle(order.begin(), order.end(), rng);
+    cloud::PointCloud shuffled;
+    for (const std::size_t i : order) shuffled.points_mm.push_back(c.points_mm[i]);
+    shuffled.Flatten();
+    const auto again = topiary(shuffled);
+    ASSERT_EQ(again.size(), as_read.size()) << "shuffle " << seed;
+    for (std::size_t k = 0; k < again.size(); ++k) {
+      EXPECT_EQ(again[k].first, as_read[k].first) << "shuffle " << seed << ", topiary " << k + 1;
+      EXPECT_LT((again[k].second - as_read[k].second).norm(), 1.0) << "shuffle " << seed << ", topiary " << k + 1;
+    }
+  }
+}
+
 // The same half turned about the vertical: the height model's grid falls differently on the
 // points, and the sparsest topiary (380 points, 60 mm of relief) keeps a few of its neighbour's
 // leaves. Turned 200 degrees, an ellipsoid stretched towards them (its footprint 65 % covered)
