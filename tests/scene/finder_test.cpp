@@ -441,6 +441,26 @@ TEST(RealData, FindsTheVelodyneSphereWithDefaults) {
   EXPECT_LE(highest_low, lowest_high) << "no radius lies within every scan's 95 % interval";
 }
 
+// The same five scans with ten seeds each: the ball search draws its hypotheses at random, and
+// the sphere (140-196 points in an object of 7,000 with the walls, its stand and people) was
+// missed on 26 of 250 runs with seeds 200-249 and on 4 of these 50 (scans 1, 3, 3 and 5) before
+// the search drew three hypotheses per four points and refined those within four times a ball's
+// lumpiness (kMaxDraws, kFirstLookLumpiness in scene/finder.cpp). One miss in 50 would be a rate
+// several times the 2 in 250 measured since.
+TEST(RealData, FindsTheVelodyneSphereWhateverTheSeed) {
+  HEDGEFIT_REQUIRE_DATA("sphere_scans/example2/L1_S1.xyz");
+  fitting::QuietSolverWarnings();
+  for (int i = 1; i <= 5; ++i) {
+    for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+      FindOptions o;
+      o.seed = seed;
+      const FindReport rep =
+          FindInCloudFile(hedgefit::testing::DataPath("sphere_scans/example2/L1_S" + std::to_string(i) + ".xyz"), 0, o);
+      EXPECT_EQ(rep.result.Balls(), 1u) << "scan " << i << ", seed " << seed;
+    }
+  }
+}
+
 // A 16-beam LiDAR parked by a simulated garden (seed 1), at three places along its drive, with a
 // sphere of leaves the beams mostly pass through (60 % of them: a cage, a stand's rim or a
 // sparse crown seen as one shell) standing free on the lawn in front of it. Told where it stood,
