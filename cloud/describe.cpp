@@ -63,7 +63,7 @@ double MedianSpacing(const PointCloud& cloud) {
   const std::size_t finite = cloud.size() - CountNonFinite(cloud);
   constexpr std::size_t kBase = 200000, kQueries = 20000;
   PointCloud base;
-  for (const std::size_t i : StableSample(cloud.points_mm, kBase, cell)) base.points_mm.push_back(cloud.points_mm[i]);
+  base.points_mm = StablePoints(cloud.points_mm, kBase, cell);
   if (base.size() < 2) return 0;
   base.Flatten();
   const internal::FiniteIndex index(base);
