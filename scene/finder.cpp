@@ -188,19 +188,22 @@ class BallFinder {
     std::uniform_int_distribution<std::size_t> pick(0, sample.size() - 1);
     std::uniform_real_distribution<double> unit(0, 1);
     std::vector<Hypothesis> all;
-    std::vector<std::size_t> near;
+    std::vector<std::size_t> near(sample.size());
     const int draws = int(std::clamp<std::size_t>(idx.size() * 3 / 4, 900, kMaxDraws));
     for (int it = 0; it < draws; ++it) {
       const Eigen::Vector3d& a = pts_[sample[pick(rng_)]];
       const double reach = 2 * o_.min_radius_mm * std::pow(o_.max_radius_mm / o_.min_radius_mm, unit(rng_));
-      near.clear();
       const Eigen::ArrayXf d2 = distance2(a);
       const float reach2 = float(reach * reach);
+      // Every index written and the count moved by the test: no branch to mispredict on a point
+      // that is near about as often as not.
+      std::size_t n_near = 0;
       for (Eigen::Index k = 0; k < m; ++k) {
-        if (d2(k) < reach2 && d2(k) > 1) near.push_back(sample[std::size_t(k)]);
+        near[n_near] = sample[std::size_t(k)];
+        n_near += std::size_t((d2(k) < reach2) & (d2(k) > 1));
       }
-      if (near.size() < 3) continue;
-      std::uniform_int_distribution<std::size_t> pick_near(0, near.size() - 1);
+      if (n_near < 3) continue;
+      std::uniform_int_distribution<std::size_t> pick_near(0, n_near - 1);
       const auto s = SphereThrough(a, pts_[near[pick_near(rng_)]], pts_[near[pick_near(rng_)]], pts_[near[pick_near(rng_)]]);
       if (!s || s->radius_mm < o_.min_radius_mm || s->radius_mm > o_.max_radius_mm) continue;
       if (CenterHeight(*s) < -0.5) continue;
@@ -208,11 +211,19 @@ class BallFinder {
       const double outer = s->radius_mm + band + std::max(0.2 * s->radius_mm, 60.0);
       const Eigen::ArrayXf d = distance2(s->center_mm).sqrt();
       const Eigen::ArrayXf e = (d - float(s->radius_mm)) * float(1 / band);
-      const auto shell = e.abs() < 1.f;
-      // MSAC's truncated quadratic: the sphere that fits its points closest wins.
-      const double on = shell.select(1.f - e.square(), 0.f).sum();
-      const double about = double(
-          (!shell && (d < float(inner) || (d > float(s->radius_mm) && d < float(outer)))).count());
+      // MSAC's truncated quadratic: the sphere that fits its points closest wins. Summed in order
+      // in single precision, as Eigen's select(...).sum() did, but with no branch on which points
+      // are on the shell. And the points about the shell, counted in integers.
+      const float r_f = float(s->radius_mm), inner_f = float(inner), outer_f = float(outer);
+      float on_f = 0;
+      int about_n = 0;
+      for (Eigen::Index k = 0; k < m; ++k) {
+        const float ek = e(k), dk = d(k);
+        // 1 - e^2 > 0 exactly when |e| < 1 in floats too (e^2 rounds below 1 for |e| < 1).
+        on_f += std::max(1.f - ek * ek, 0.f);
+        about_n += int((std::abs(ek) >= 1.f) & ((dk < inner_f) | ((dk > r_f) & (dk < outer_f))));
+      }
+      const double on = on_f, about = about_n;
       if (on < 5 || on < 0.75 * (on + about)) continue;
       all.push_back({*s, on, on / (on + about)});
     }
