@@ -12,9 +12,13 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <utility>
 #include <vector>
 
 namespace hedgefit::cloud {
@@ -65,6 +69,53 @@ std::vector<Point> StablePoints(const std::vector<Point>& points_mm, std::size_t
   std::vector<Point> out;
   for (const std::size_t i : StableSample(points_mm, most, cell_mm)) out.push_back(points_mm[i]);
   return out;
+}
+
+/// The indices of the finite points of `points_mm` in an order that is a property of the points,
+/// not of the list: along a Z-order (Morton) curve over their bounding box, 2^21 steps a side,
+/// ties broken by the coordinates themselves. Points next to each other in it lie near each other
+/// in space, as in a scan's or a tiled model's own order, so every n-th point of it is a sample
+/// spread evenly over the cloud, and the same whatever order the cloud came in. Exact duplicates
+/// keep their order in the list; their coordinates are the same.
+template <class Point>
+std::vector<std::size_t> SpatialOrder(const std::vector<Point>& points_mm) {
+  std::vector<std::size_t> idx;
+  idx.reserve(points_mm.size());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (std::size_t i = 0; i < points_mm.size(); ++i) {
+    if (!points_mm[i].allFinite()) continue;
+    idx.push_back(i);
+    const Eigen::Vector3d q = points_mm[i].template cast<double>();
+    lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+  }
+  if (idx.empty()) return idx;
+  constexpr int kBits = 21;
+  const double step = std::max((hi - lo).maxCoeff() / double((1 << kBits) - 1), 1e-300);
+  // The cell's three indices, their bits interleaved (x lowest).
+  const auto spread = [](std::uint64_t v) {
+    v &= 0x1fffffULL;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+  };
+  std::vector<std::pair<std::uint64_t, std::size_t>> keyed;
+  keyed.reserve(idx.size());
+  for (const std::size_t i : idx) {
+    const Eigen::Vector3d q = (points_mm[i].template cast<double>() - lo) / step;
+    keyed.emplace_back(spread(std::uint64_t(q.x())) | spread(std::uint64_t(q.y())) << 1 | spread(std::uint64_t(q.z())) << 2, i);
+  }
+  std::stable_sort(keyed.begin(), keyed.end(), [&](const auto& a, const auto& b) {
+    if (a.first != b.first) return a.first < b.first;
+    const Point& p = points_mm[a.second];
+    const Point& q = points_mm[b.second];
+    return std::array<double, 3>{double(p[0]), double(p[1]), double(p[2])} <
+           std::array<double, 3>{double(q[0]), double(q[1]), double(q[2])};
+  });
+  for (std::size_t k = 0; k < keyed.size(); ++k) idx[k] = keyed[k].second;
+  return idx;
 }
 
 }  // namespace hedgefit::cloud

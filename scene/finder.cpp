@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "cloud/describe.hpp"
+#include "cloud/stable_sample.hpp"
 #include "fitting/ellipsoid_fit.hpp"
 #include "fitting/envelope_fit.hpp"
 #include "fitting/geometric_fit.hpp"
@@ -535,15 +536,15 @@ struct ScenePoints {
   std::vector<std::size_t> source;
 };
 
+// The cloud's finite points turned into the scene, in an order of their own (cloud::SpatialOrder):
+// every step after this, and every n-th sample any of them takes (the shape fits' and their
+// intervals', the ball refinement's shell), reads the points in that order, so `find` gives one
+// answer for one set of points whatever order the file lists them in. `source` leads back.
 ScenePoints Turn(const cloud::PointCloud& cloud, const Eigen::Matrix3d& rotation) {
   ScenePoints s;
-  s.pts.reserve(cloud.size());
-  s.source.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (!cloud.points_mm[i].allFinite()) continue;
-    s.pts.push_back(rotation * cloud.points_mm[i].cast<double>());
-    s.source.push_back(i);
-  }
+  s.source = cloud::SpatialOrder(cloud.points_mm);
+  s.pts.reserve(s.source.size());
+  for (const std::size_t i : s.source) s.pts.push_back(rotation * cloud.points_mm[i].cast<double>());
   return s;
 }
 
