@@ -603,31 +603,48 @@ std::vector<TopiaryCandidate> JudgeSplitting(const std::vector<Eigen::Vector3d>&
 // A box hedge row that the height model parts at a low saddle leaves an end that passes for a
 // clipped box or ellipsoid: held-back drone bed 102 (simulated) called a 766 x 460 mm piece of a
 // row's end a cuboid, its 3.6 m remainder refused as a row. A topiary whose footprint is stretched
-// along a row refused for its length (within 20 degrees) is refused as that row's end when the
-// row's own points next to it, along the row's axis within twice its length either side, are as
-// wide as it within a third (their 5-95 % spread across the axis), its centre lies within their
-// half-width of their middle, and the gap between it and them along the axis is at most half its
-// own length or two cells. The row's points, not its fitted shape: a row the height model joined
+// along a refused object whose points are stretched in the top view (a row; within 20 degrees) is
+// refused as that row's end when the row's own points next to it, along the row's axis within
+// twice its length either side, are as wide as it within a third (their 5-95 % spread across the
+// axis), its centre lies within their half-width of their middle, and the gap between it and them
+// along the axis is at most half its own length or two cells. The row's points, not its fitted shape: a row the height model joined
 // to a dome at its other end (80 mm apart, bench bed and FindHedges.ARowsEndPartedAtAGapIsNotTopiary)
 // fits a shape as wide as the dome and centred off the row's end, and the piece then passed as
 // topiary on 6 of 16 seeds. A ball or round dome at a row's end has no direction to continue it
 // in and is not touched, nor is a shape across a row's end or beside it.
 void RefuseRowEnds(const std::vector<Eigen::Vector3d>& pts, std::vector<TopiaryCandidate>* out,
                    const TopiaryOptions& o, double cell) {
-  std::vector<const TopiaryCandidate*> rows;
+  // A row: refused, and its points' own spread in the top view (their principal axes) longer
+  // than max_elongation times its width. Read from the points, as its fitted shape can be round:
+  // held-back drone bed 102 (simulated) fitted its 3.6 m row's middle with a disc 2.2 m across.
+  struct Row {
+    const TopiaryCandidate* c;
+    Eigen::Vector2d axis;
+  };
+  std::vector<Row> rows;
   for (const auto& c : *out) {
-    if (!c.topiary && c.shape.converged && c.shape.footprint_mm.x() > o.max_elongation * c.shape.footprint_mm.y()) {
-      rows.push_back(&c);
+    if (c.topiary || c.points.size() < 30) continue;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (std::size_t i : c.points) mean += pts[i].head<2>();
+    mean /= double(c.points.size());
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (std::size_t i : c.points) {
+      const Eigen::Vector2d d = pts[i].head<2>() - mean;
+      cov += d * d.transpose();
     }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov / double(c.points.size()));
+    const Eigen::Vector2d spread = eig.eigenvalues().cwiseMax(0).cwiseSqrt();  // ascending
+    if (spread.y() > o.max_elongation * spread.x()) rows.push_back({&c, eig.eigenvectors().col(1)});
   }
   for (auto& c : *out) {
     const TopiaryShape& s = c.shape;
     if (!c.topiary || !s.converged || s.footprint_mm.x() < 1.15 * s.footprint_mm.y()) continue;
-    for (const TopiaryCandidate* row : rows) {
-      const double turn = (s.heading_deg - row->shape.heading_deg) * M_PI / 180;
-      if (std::abs(std::sin(turn)) > std::sin(20 * M_PI / 180)) continue;
-      const double h = row->shape.heading_deg * M_PI / 180;
-      const Eigen::Vector2d u(std::cos(h), std::sin(h)), v(-u.y(), u.x());
+    const double hs = s.heading_deg * M_PI / 180;
+    const Eigen::Vector2d heading(std::cos(hs), std::sin(hs));
+    for (const Row& r : rows) {
+      const TopiaryCandidate* row = r.c;
+      if (std::abs(heading.x() * r.axis.y() - heading.y() * r.axis.x()) > std::sin(20 * M_PI / 180)) continue;
+      const Eigen::Vector2d u = r.axis, v(-u.y(), u.x());
       const double half = s.footprint_mm.x(), reach = 4 * half;
       std::vector<double> across;
       double gap = std::numeric_limits<double>::infinity();
