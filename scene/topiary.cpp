@@ -545,6 +545,21 @@ TopiaryCandidate JudgeTopiary(const std::vector<Eigen::Vector3d>& pts, std::vect
 
 namespace {
 
+// The second moments of `items`' positions in the top view (x, y) about their mean; `at(item)`
+// gives an item's position.
+template <class Items, class At>
+Eigen::Matrix2d TopViewCovariance(const Items& items, At at) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& item : items) mean += at(item).template head<2>();
+  mean /= double(items.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const auto& item : items) {
+    const Eigen::Vector2d d = at(item).template head<2>() - mean;
+    cov += d * d.transpose();
+  }
+  return cov / double(items.size());
+}
+
 // One part of the watershed, fitted and judged.
 TopiaryCandidate JudgeHeightPart(const std::vector<Eigen::Vector3d>& pts, HeightPart part, const GroundModel& ground,
                                  const LawnDensity& lawn, double cell, const TopiaryOptions& o) {
@@ -555,12 +570,7 @@ TopiaryCandidate JudgeHeightPart(const std::vector<Eigen::Vector3d>& pts, Height
   // with a leaf layer to spare.
   double widest = 0;
   if (part.upper_cells.size() >= 4) {
-    Eigen::Vector2d cm = Eigen::Vector2d::Zero();
-    for (const auto& v : part.upper_cells) cm += v.head<2>();
-    cm /= double(part.upper_cells.size());
-    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-    for (const auto& v : part.upper_cells) cov += (v.head<2>() - cm) * (v.head<2>() - cm).transpose();
-    cov /= double(part.upper_cells.size());
+    const Eigen::Matrix2d cov = TopViewCovariance(part.upper_cells, [](const Eigen::Vector3d& v) { return v; });
     // A cell is a square of side `cell`: its own second moment is cell^2 / 12 per axis.
     const double sd = std::sqrt(std::max(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()(1), 0.0) + cell * cell / 12);
     widest = std::max(cell, 1.3 * 2 * sd);
@@ -607,10 +617,10 @@ std::vector<TopiaryCandidate> JudgeSplitting(const std::vector<Eigen::Vector3d>&
 // refused as that row's end when the row's own points next to it, along the row's axis within
 // twice its length either side, are as wide as it within a third (their 5-95 % spread across the
 // axis), its centre lies within their half-width of their middle, and the gap between it and them
-// along the axis is at most half its own length or two cells. The row's points, not its fitted shape: a row the height model joined
-// to a dome at its other end (80 mm apart, bench bed and FindHedges.ARowsEndPartedAtAGapIsNotTopiary)
-// fits a shape as wide as the dome and centred off the row's end, and the piece then passed as
-// topiary on 6 of 16 seeds. A ball or round dome at a row's end has no direction to continue it
+// along the axis is at most half its own length or two cells. The row's points, not its fitted
+// shape: a row the height model joined to a dome at its other end (80 mm apart, bench bed and
+// FindHedges.ARowsEndPartedAtAGapIsNotTopiary) fits a shape as wide as the dome and centred off
+// the row's end, and the piece then passed as topiary on 6 of 16 seeds. A ball or round dome at a row's end has no direction to continue it
 // in and is not touched, nor is a shape across a row's end or beside it.
 void RefuseRowEnds(const std::vector<Eigen::Vector3d>& pts, std::vector<TopiaryCandidate>* out,
                    const TopiaryOptions& o, double cell) {
@@ -624,15 +634,8 @@ void RefuseRowEnds(const std::vector<Eigen::Vector3d>& pts, std::vector<TopiaryC
   std::vector<Row> rows;
   for (const auto& c : *out) {
     if (c.topiary || c.points.size() < 30) continue;
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (std::size_t i : c.points) mean += pts[i].head<2>();
-    mean /= double(c.points.size());
-    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-    for (std::size_t i : c.points) {
-      const Eigen::Vector2d d = pts[i].head<2>() - mean;
-      cov += d * d.transpose();
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov / double(c.points.size()));
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(
+        TopViewCovariance(c.points, [&](std::size_t i) -> const Eigen::Vector3d& { return pts[i]; }));
     const Eigen::Vector2d spread = eig.eigenvalues().cwiseMax(0).cwiseSqrt();  // ascending
     if (spread.y() > o.max_elongation * spread.x()) rows.push_back({&c, eig.eigenvectors().col(1)});
   }
