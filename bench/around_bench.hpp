@@ -22,7 +22,9 @@ struct AroundBenchOptions {
   std::string poses = "exact,odometry"; ///< exact and/or odometry (1-3 % of the distance, 1-2 degrees of heading)
   std::string registration = "centres";  ///< around::FuseOptions::registration
   double scale = 1.0;                   ///< image scale (0.5: a quarter of the pixels, for quick runs)
-  std::uint64_t seed = 1;               ///< the odometry errors' and the camera noise's
+  /// The odometry errors', the camera noise's and the leaves' seed. 1: the sets the fusion was
+  /// developed on; any other draws another garden's leaves (held-back sets, docs/around.md).
+  std::uint64_t seed = 1;
   std::string dir = "build/around";     ///< captures, manifests and truths are written here (reused while stamped, bench/render_stamp.hpp)
   double trim_depth_mm = 40;            ///< the trim target: the true envelope less this
   static const pipeline::OptionTable<AroundBenchOptions>& Table();
