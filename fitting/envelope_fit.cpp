@@ -651,11 +651,12 @@ std::optional<Eigen::Vector4d> SandwichStdError(const ShellLikelihood& model, co
       if (!se.allFinite()) return std::nullopt;
       return se;
     }
+    if (!hold_flat) return std::nullopt;
     int flattest = -1;
     for (int a = 4; a < n; ++a) {
       if (flattest < 0 || H(keep[a], keep[a]) < H(keep[flattest], keep[flattest])) flattest = a;
     }
-    if (!hold_flat || flattest < 0) return std::nullopt;  // (flattest < 0: the sphere's own are not pinned)
+    if (flattest < 0) return std::nullopt;  // only the sphere's own are left, and they are not pinned
     keep.erase(keep.begin() + flattest);
   }
 }
