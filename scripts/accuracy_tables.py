@@ -620,8 +620,9 @@ def around():
     """`bench around` on both renderers: the fused hedge against the truth, per set and pose error."""
     print("| renderer | scene | captures | poses | used | radius error mm | centre error mm | stated se of R mm | "
           "x, y, z, r within 95 % | sphere covered | one capture covers | one capture alone: radius error mm | "
-          "given poses, worst mm / deg | registered, worst mm / deg | trim volume seen / truth L |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "one capture alone: centre error mm | given poses, worst mm / deg | registered, worst mm / deg | "
+          "trim volume seen / truth L |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     OUT.mkdir(parents=True, exist_ok=True)
     for label, renderer, seed, runs in AROUND:
         directory = "build/around" if seed == 1 else f"build/around-seed{seed}"
@@ -641,7 +642,8 @@ def around():
                 print(f"| {label} | {r['scene']} | {r['layout']} of {r['captures']} | {r['poses']} | {r['used']} | "
                       f"{r['radius_error_mm']:.2f} | {r['center_error_mm']:.2f} | {r['radius_se_mm']:.2f} | "
                       f"{100 * r['inside_share']:.0f} % | {100 * r['coverage']:.1f} % | {100 * r['view_coverage']:.1f} % | "
-                      f"{r['single_radius_error_mm']:.2f} | {r['given_pose_mm']:.0f} / {r['given_pose_deg']:.2f} | "
+                      f"{r['single_radius_error_mm']:.2f} | {r['single_center_error_mm']:.2f} | "
+                      f"{r['given_pose_mm']:.0f} / {r['given_pose_deg']:.2f} | "
                       f"{r['pose_mm']:.1f} / {r['pose_deg']:.2f} | {trim} |")
 
 
