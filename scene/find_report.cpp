@@ -69,7 +69,9 @@ double UpShift(const FindResult& r, const Eigen::Vector3d& offset) { return (r.s
 
 // The centroid of an object's points, in the cloud's frame (for an object no sphere fits).
 Eigen::Vector3d Centroid(const FindResult& r, const FoundObject& o) {
-  const Eigen::Vector3d top(o.top_center_mm.x(), o.top_center_mm.y(), o.ground_mm + o.height_mm / 2);
+  // Half-way up from the ground; with no ground under it, half-way up its own points.
+  const double z = std::isfinite(o.ground_mm) && std::isfinite(o.height_mm) ? o.ground_mm + o.height_mm / 2 : o.middle_mm;
+  const Eigen::Vector3d top(o.top_center_mm.x(), o.top_center_mm.y(), z);
   return r.scene_from_cloud.transpose() * top;
 }
 

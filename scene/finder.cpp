@@ -1202,13 +1202,18 @@ FoundObject MakeObject(const Candidate& c, int id, const Scene& sc, const cloud:
   std::sort(obj.indices.begin(), obj.indices.end());
   std::vector<Eigen::Vector2d> top;
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  double highest = -1e300;
+  // With no ground model (a cloud with no ground the finder could fit: a camera's view of a
+  // table), heights above it are unknown: NaN, which every writer prints as unknown.
+  double highest = sc.ground.empty() ? std::numeric_limits<double>::quiet_NaN() : -1e300;
+  double low = 1e300, high = -1e300;
   for (std::size_t i : c.points) {
     const Eigen::Vector3d& p = sc.s.pts[i];
     top.push_back(p.head<2>());
     mean += p.head<2>();
-    highest = std::max(highest, p.z() - sc.ground.HeightAt(p.x(), p.y()));
+    low = std::min(low, p.z()), high = std::max(high, p.z());
+    if (!sc.ground.empty()) highest = std::max(highest, p.z() - sc.ground.HeightAt(p.x(), p.y()));
   }
+  obj.middle_mm = c.points.empty() ? 0.0 : (low + high) / 2;
   obj.top_outline_mm = ConvexHull(top);
   obj.top_center_mm = mean / double(std::max<std::size_t>(1, c.points.size()));
   obj.height_mm = highest;
@@ -1352,6 +1357,11 @@ FindResult FindHedges(const cloud::PointCloud& cloud, const FindOptions& given) 
         "no object stands out of the ground model (%zu of %zu points are ground): the whole cloud was searched as one "
         "object, with no ground under it (a cloud of one hedge alone; or give the cloud's --up)",
         res.ground_points, res.points));
+  } else if (res.points > 0 && sc.ground.empty()) {
+    res.warnings.push_back(pipeline::Format(
+        "no ground could be fitted under up %s: objects were taken apart in the top view, but their heights and "
+        "whether the ground cuts a ball are unknown (give the cloud's --up)",
+        res.up_source.c_str()));
   } else if (sc.ground.noise_mm > 50) {
     res.warnings.push_back(pipeline::Format(
         "the ground's points scatter %.0f mm about the terrain model: it is rough, stepped or cluttered, and heights "

@@ -109,6 +109,7 @@ struct FoundObject {
   double ground_mm = 0;         ///< the ground's height under the centre (along up; scene frame)
   double height_mm = 0;         ///< the top above the ground (balls), or the highest point above it
   double base_height_mm = 0;    ///< the centre above the ground, in radii (balls)
+  double middle_mm = 0;         ///< half-way between its lowest and highest point (along up; scene frame)
   Eigen::Vector2d top_center_mm = Eigen::Vector2d::Zero();  ///< in the top view (scene x, y)
   std::vector<Eigen::Vector2d> top_outline_mm;              ///< convex hull of the points, top view
 };

@@ -4,6 +4,7 @@
 // in which there is no ball.
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <tbb/task_arena.h>
 
 #include <cmath>
@@ -580,6 +581,36 @@ TEST(RealData, PclTestCloudsHoldNoBall) {
     const FindResult r = FindHedges(c);
     EXPECT_EQ(r.Balls(), 0u) << name;
     EXPECT_EQ(r.Topiary(), 0u) << name << ": a clipped shape found by height in a cloud that holds none";
+  }
+}
+
+// A camera's view of a table (organised, so up is taken as -y) has no ground the finder can fit
+// under that up. Its objects are still reported where their points are, with their heights
+// unknown (null) and a warning that says why, not a NaN centre and a height of -1e300 (what it
+// printed before).
+TEST(RealData, NoGroundLeavesHeightsUnknownAndCentresWhereThePointsAre) {
+  HEDGEFIT_REQUIRE_DATA("pcl_test/table_scene_mug_stereo_textured.pcd");
+  fitting::QuietSolverWarnings();
+  const std::string file = hedgefit::testing::DataPath("pcl_test/table_scene_mug_stereo_textured.pcd");
+  const FindReport rep = FindInCloudFile(file, 0, FindOptions{});
+  ASSERT_EQ(rep.result.ground_points, 0u) << "the case this test is about: no ground fitted under -y";
+  ASSERT_FALSE(rep.result.objects.empty());
+  std::ostringstream out;
+  WriteFindJson(out, {rep});
+  const auto j = nlohmann::json::parse(out.str());
+  const auto& cloud_json = j["clouds"][0];
+  bool warned = false;
+  for (const auto& w : cloud_json["warnings"]) warned |= w.get<std::string>().find("no ground could be fitted") != std::string::npos;
+  EXPECT_TRUE(warned) << cloud_json["warnings"].dump();
+  // The cloud's bounds (info: x -0.456..0.715, y -0.511..0.179, z 0.690..2.593 m): every
+  // object's centre lies inside them.
+  for (const auto& h : cloud_json["hedges"]) {
+    ASSERT_TRUE(h["center_mm"].is_array());
+    for (int k = 0; k < 3; ++k) ASSERT_TRUE(h["center_mm"][k].is_number()) << h.dump();
+    EXPECT_GT(h["center_mm"][2].get<double>(), 690.0);
+    EXPECT_LT(h["center_mm"][2].get<double>(), 2593.0);
+    EXPECT_TRUE(h["height_mm"].is_null()) << h.dump();
+    EXPECT_TRUE(h["ground_mm"].is_null()) << h.dump();
   }
 }
 
