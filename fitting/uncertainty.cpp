@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "pipeline/parallel.hpp"
+#include "pipeline/print.hpp"
 #include "fitting/geometric_fit.hpp"
 
 namespace hedgefit::fitting {
@@ -267,6 +268,15 @@ void AddUncertainty(const std::vector<Eigen::Vector3d>& points_mm, const cloud::
   }
   if (rig && rig->samples > 1) fit->rig_std_error_mm = PerturbationStdError(support, fit->sphere, *rig);
   if (matching && matching->samples > 1) fit->matching_std_error_mm = PerturbationStdError(support, fit->sphere, *matching);
+  // A sphere whose radius the points do not pin (its 95 % interval wider than the radius: a
+  // consensus that picked a few hundred points of a lamppost, a fit to a wall) is no ball to act
+  // on, however small its residuals; find refuses such a shape the same way
+  // (`max_axis_uncertainty`).
+  if (const auto total = TotalStdError(*fit); total && !fit->not_a_ball && 1.96 * total->w() > fit->sphere.radius_mm) {
+    fit->not_a_ball = pipeline::Format(
+        "the radius' 95 %% interval (+-%.0f mm) is wider than the radius itself (%.0f mm): the points do not pin a sphere",
+        1.96 * total->w(), fit->sphere.radius_mm);
+  }
 }
 
 std::optional<Eigen::Vector4d> TotalStdError(const SphereFitResult& fit) {

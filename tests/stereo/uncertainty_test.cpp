@@ -403,6 +403,32 @@ TEST(SupportingPoints, AMajorityOfOtherPointsDoesNotCount) {
   for (int k = 0; k < 4; ++k) EXPECT_LT((*jack)[k], 2.0) << k;
 }
 
+// A sphere whose radius' 95 % interval is wider than the radius itself is not pinned by its
+// points, however small its residuals (RANSAC's pick of 205 points of PCL's lamppost: r 4.2 m +-
+// 55 km): the fit says so (not_a_ball). The same points with a method's own standard error of a
+// few mm are a ball. The points lie on the sphere (2 mm of noise), so only the interval decides.
+TEST(AddUncertainty, ARadiusThePointsDoNotPinIsNoBall) {
+  cv::RNG rng(11);
+  const fitting::Sphere sphere{{0, 0, 5000}, 2000};
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 400; ++i) {
+    Eigen::Vector3d d(rng.gaussian(1), rng.gaussian(1), -std::abs(rng.gaussian(1)));
+    pts.push_back(sphere.center_mm + (sphere.radius_mm + rng.gaussian(2.0)) * d.normalized());
+  }
+  for (const double se_r : {1100.0, 3.0}) {  // 1.96 x 1100 > 2000 > 1.96 x 3
+    fitting::SphereFitResult f;
+    f.converged = true;
+    f.sphere = sphere;
+    f.std_error_mm = Eigen::Vector4d(3, 3, 3, se_r);
+    f.std_error_own = true;  // the method's own: no jackknife over it
+    fitting::AddUncertainty(pts, nullptr, &f);
+    ASSERT_EQ(f.not_a_ball.has_value(), se_r > 1000) << se_r;
+    if (f.not_a_ball) {
+      EXPECT_NE(f.not_a_ball->find("do not pin a sphere"), std::string::npos) << *f.not_a_ball;
+    }
+  }
+}
+
 // With the rig it came from, re-triangulation gives the points back.
 TEST(Retriangulate, NominalRigReturnsThePoints) {
   const StereoRig rig = RigFromSimulation(PaperRig(0.5));
