@@ -1,10 +1,13 @@
-// XYZ text: 'x y z [r g b]' per line.
+// XYZ text: 'x y z [r g b]' per line, and the text layouts scanners and CloudCompare write.
 
 #include <algorithm>
+#include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "cloud/formats/formats.hpp"
@@ -14,51 +17,118 @@ namespace hedgefit::cloud::internal {
 
 namespace {
 
-// Reads x y z [r g b] lines; '#' or '//' start a comment; separators: spaces, tabs, commas.
+constexpr const char* kLayouts =
+    "lines are 'x y z', 'x y z i', 'x y z r g b' or 'x y z i r g b' (Leica PTS), or give a first line naming the "
+    "columns (x y z, and r g b or red green blue)";
+
+// Where each column goes: x, y, z, and red, green and blue when the file has colour; the rest
+// (intensity, normals, scalar fields) is read past.
+struct Layout {
+  std::size_t columns = 0;
+  std::array<std::size_t, 3> xyz{0, 1, 2};
+  std::optional<std::array<std::size_t, 3>> rgb;
+};
+
+// A headerless line's layout from its count of values, as PDAL's and CloudCompare's text readers
+// and Leica's PTS take them.
+std::optional<Layout> LayoutOfCount(std::size_t n) {
+  Layout l;
+  l.columns = n;
+  if (n == 3 || n == 4) return l;
+  if (n == 6) return l.rgb = std::array<std::size_t, 3>{3, 4, 5}, l;
+  if (n == 7) return l.rgb = std::array<std::size_t, 3>{4, 5, 6}, l;
+  return std::nullopt;
+}
+
+// A header line's layout from its column names (any case, '//' or quotes about them).
+Layout LayoutOfNames(const std::vector<std::string>& names, const std::string& where) {
+  Layout l;
+  l.columns = names.size();
+  std::array<std::optional<std::size_t>, 6> at;  // x y z r g b
+  const std::array<std::vector<std::string>, 6> aliases = {{{"x"}, {"y"}, {"z"}, {"r", "red"}, {"g", "green"}, {"b", "blue"}}};
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    std::string n;
+    for (char c : names[i]) {
+      if (c != '"' && c != '\'' && c != '/') n += char(std::tolower(static_cast<unsigned char>(c)));
+    }
+    for (std::size_t k = 0; k < aliases.size(); ++k) {
+      if (!at[k] && std::find(aliases[k].begin(), aliases[k].end(), n) != aliases[k].end()) at[k] = i;
+    }
+  }
+  if (!at[0] || !at[1] || !at[2]) throw Error(where + ": the header names no x, y and z columns; " + kLayouts);
+  l.xyz = {*at[0], *at[1], *at[2]};
+  if (at[3] && at[4] && at[5]) l.rgb = std::array<std::size_t, 3>{*at[3], *at[4], *at[5]};
+  return l;
+}
+
+// Reads x y z [r g b] lines; '#' or '//' start a comment (a first '//' line naming the columns,
+// as CloudCompare writes, is the header); separators: spaces, tabs, commas, semicolons. A line of
+// one whole number is a count (PTS writes one before each scan).
 PointCloud ReadXyz(const std::string& path) {
   std::ifstream in(path);
   PointCloud cloud;
   std::vector<Eigen::Vector3d> xyz;  // as written: shifted once all are read (SetPoints)
   std::string line;
   std::size_t line_no = 0;
-  int columns = -1;
+  std::optional<Layout> layout;
   while (std::getline(in, line)) {
     ++line_no;
+    const std::string where = path + ":" + std::to_string(line_no);
     const auto hash = line.find_first_of('#');
     if (hash != std::string::npos) line.erase(hash);
-    if (line.rfind("//", 0) == 0) continue;
+    const bool slashes = line.rfind("//", 0) == 0;
+    if (slashes && (layout || !xyz.empty())) continue;
     std::replace(line.begin(), line.end(), ',', ' ');
     std::replace(line.begin(), line.end(), ';', ' ');
-    std::istringstream ss(line);
+    std::istringstream ss(slashes ? line.substr(2) : line);
     std::vector<double> v;
+    std::vector<std::string> tokens;
+    bool names = false;
     std::string tok;
     while (ss >> tok) {
       char* end = nullptr;
       const double d = std::strtod(tok.c_str(), &end);
-      if (end == tok.c_str() || *end != '\0') {
-        throw Error(path + ":" + std::to_string(line_no) + ": '" + tok +
-                    "' is not a number; XYZ lines are 'x y z' or 'x y z r g b'");
-      }
+      if (end == tok.c_str() || *end != '\0') names = true;
+      tokens.push_back(tok);
       v.push_back(d);
     }
-    if (v.empty()) continue;
-    if (v.size() != 3 && v.size() != 6) {
-      throw Error(path + ":" + std::to_string(line_no) + ": " + std::to_string(v.size()) +
-                  " values; XYZ lines are 'x y z' or 'x y z r g b'");
+    if (tokens.empty()) continue;
+    if (names || slashes) {
+      // Only the first line before any point may name the columns.
+      if (layout || !xyz.empty()) {
+        const auto bad = std::find_if(tokens.begin(), tokens.end(), [](const std::string& t) {
+          char* end = nullptr;
+          std::strtod(t.c_str(), &end);
+          return end == t.c_str() || *end != '\0';
+        });
+        throw Error(where + ": '" + *bad + "' is not a number; " + kLayouts);
+      }
+      if (slashes) {
+        // A '//' line names the columns when it names x, y and z; else it is a comment.
+        try {
+          layout = LayoutOfNames(tokens, where);
+        } catch (const Error&) {
+        }
+        continue;
+      }
+      layout = LayoutOfNames(tokens, where);
+      continue;
     }
-    if (columns == -1) columns = static_cast<int>(v.size());
-    if (static_cast<int>(v.size()) != columns) {
-      throw Error(path + ":" + std::to_string(line_no) + ": " + std::to_string(v.size()) + " values but line 1 of data had " +
-                  std::to_string(columns) + "; use one layout for the whole file");
+    if (v.size() == 1 && v[0] >= 0 && v[0] == std::floor(v[0])) continue;  // a PTS count
+    if (!layout) {
+      layout = LayoutOfCount(v.size());
+      if (!layout) throw Error(where + ": " + std::to_string(v.size()) + " values; " + kLayouts);
     }
-    xyz.emplace_back(v[0], v[1], v[2]);
-    if (columns == 6) {
+    if (v.size() != layout->columns) {
+      throw Error(where + ": " + std::to_string(v.size()) + " values but the file's layout has " +
+                  std::to_string(layout->columns) + "; use one layout for the whole file");
+    }
+    xyz.emplace_back(v[layout->xyz[0]], v[layout->xyz[1]], v[layout->xyz[2]]);
+    if (layout->rgb) {
       Rgb c;
       for (int k = 0; k < 3; ++k) {
-        const double x = v[3 + k];
-        if (!(x >= 0 && x <= 255)) {
-          throw Error(path + ":" + std::to_string(line_no) + ": colour " + std::to_string(x) + " is outside 0..255");
-        }
+        const double x = v[(*layout->rgb)[std::size_t(k)]];
+        if (!(x >= 0 && x <= 255)) throw Error(where + ": colour " + std::to_string(x) + " is outside 0..255");
         c[k] = static_cast<std::uint8_t>(std::lround(x));
       }
       cloud.colors.push_back(c);
@@ -103,7 +173,8 @@ void WriteXyzFile(const std::string& path, const PointCloud& cloud, const WriteO
 }  // namespace
 
 CloudFormat XyzFormat() {
-  return {"xyz", "text 'x y z [r g b]' per line", {".xyz", ".txt", ".csv"}, ReadXyzFile, WriteXyzFile, {"precision"}};
+  return {"xyz", "text 'x y z [r g b]' per line (read: also 'x y z i [r g b]', Leica PTS, a header naming the columns)",
+          {".xyz", ".txt", ".csv", ".pts"}, ReadXyzFile, WriteXyzFile, {"precision"}};
 }
 
 }  // namespace hedgefit::cloud::internal

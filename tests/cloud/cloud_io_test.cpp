@@ -151,6 +151,35 @@ TEST(CloudIo, ScaleConvertsMetresToMillimetres) {
   EXPECT_THROW(ReadCloud((dir / "m.xyz").string(), r), Error);
 }
 
+// The text layouts scanners and CloudCompare write: Leica's PTS (a count line before each scan,
+// then 'x y z intensity r g b'), 'x y z intensity', and a header naming the columns in any order
+// (CloudCompare's '//X,Y,Z,R,G,B', or names with semicolons). Each file holds the same two
+// points, so every reading must give them exactly.
+TEST(CloudIo, TextLayoutsOfScannersAndCloudCompare) {
+  const fs::path dir = testing::ScratchDir();
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"scan.pts", "2\n1.5 -0.25 2 -1200 10 20 30\n4 5 6 -900 40 50 60\n"},
+      {"two_scans.pts", "1\n1.5 -0.25 2 -1200 10 20 30\n1\n4 5 6 -900 40 50 60\n"},
+      {"intensity.txt", "1.5 -0.25 2 0.7\n4 5 6 0.1\n"},
+      {"cloudcompare.txt", "//X,Y,Z,R,G,B\n1.5,-0.25,2,10,20,30\n4,5,6,40,50,60\n"},
+      {"named.csv", "Intensity;Z;Red;Green;Blue;X;Y\n0.7;2;10;20;30;1.5;-0.25\n0.1;6;40;50;60;4;5\n"},
+      {"comment.xyz", "// exported by a scanner\n1.5 -0.25 2\n4 5 6\n"},
+  };
+  for (const auto& [name, text] : files) {
+    WriteText(dir / name, text);
+    const PointCloud c = ReadCloud((dir / name).string());
+    ASSERT_EQ(c.size(), 2u) << name;
+    EXPECT_EQ(c.points_mm[0], Eigen::Vector3f(1.5f, -0.25f, 2.f)) << name;
+    EXPECT_EQ(c.points_mm[1], Eigen::Vector3f(4.f, 5.f, 6.f)) << name;
+    const bool colour = name != "intensity.txt" && name != "comment.xyz";
+    ASSERT_EQ(c.HasColor(), colour) << name;
+    if (colour) {
+      EXPECT_EQ(c.colors[0], (Rgb{10, 20, 30})) << name;
+      EXPECT_EQ(c.colors[1], (Rgb{40, 50, 60})) << name;
+    }
+  }
+}
+
 // Every bad input: an Error whose one-line message names the file.
 void ExpectReadError(const std::string& path, const std::string& fragment) {
   try {
@@ -430,6 +459,12 @@ TEST(CloudIo, BadFilesGiveOneLineErrors) {
   ExpectReadError((dir / "no_xyz.pcd").string(), "x, y and z");
   WriteText(dir / "bad.xyz", "1 2 3\n4 five 6\n");
   ExpectReadError((dir / "bad.xyz").string(), "bad.xyz:2");
+  WriteText(dir / "five.xyz", "1 2 3 4 5\n");
+  ExpectReadError((dir / "five.xyz").string(), "five.xyz:1: 5 values; lines are");
+  WriteText(dir / "no_z.csv", "x,y,intensity\n1,2,3\n");
+  ExpectReadError((dir / "no_z.csv").string(), "no_z.csv:1: the header names no x, y and z columns");
+  WriteText(dir / "mixed.xyz", "1 2 3\n1 2 3 4 5 6\n");
+  ExpectReadError((dir / "mixed.xyz").string(), "mixed.xyz:2: 6 values but the file's layout has 3");
   WriteText(dir / "bad.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n");
   ExpectReadError((dir / "bad.ply").string(), "PLY");
   WriteText(dir / "cloud.e57", "x");
