@@ -40,8 +40,17 @@ std::optional<Layout> LayoutOfCount(std::size_t n) {
   return std::nullopt;
 }
 
-// A header line's layout from its column names (any case, '//' or quotes about them).
-Layout LayoutOfNames(const std::vector<std::string>& names, const std::string& where) {
+// The token as a number, or nullopt when it is not one whole.
+std::optional<double> Number(const std::string& token) {
+  char* end = nullptr;
+  const double d = std::strtod(token.c_str(), &end);
+  if (end == token.c_str() || *end != '\0') return std::nullopt;
+  return d;
+}
+
+// A header line's layout from its column names (any case, '//' or quotes about them); nullopt
+// when they name no x, y and z.
+std::optional<Layout> LayoutOfNames(const std::vector<std::string>& names) {
   Layout l;
   l.columns = names.size();
   std::array<std::optional<std::size_t>, 6> at;  // x y z r g b
@@ -55,7 +64,7 @@ Layout LayoutOfNames(const std::vector<std::string>& names, const std::string& w
       if (!at[k] && std::find(aliases[k].begin(), aliases[k].end(), n) != aliases[k].end()) at[k] = i;
     }
   }
-  if (!at[0] || !at[1] || !at[2]) throw Error(where + ": the header names no x, y and z columns; " + kLayouts);
+  if (!at[0] || !at[1] || !at[2]) return std::nullopt;
   l.xyz = {*at[0], *at[1], *at[2]};
   if (at[3] && at[4] && at[5]) l.rgb = std::array<std::size_t, 3>{*at[3], *at[4], *at[5]};
   return l;
@@ -83,35 +92,21 @@ PointCloud ReadXyz(const std::string& path) {
     std::istringstream ss(slashes ? line.substr(2) : line);
     std::vector<double> v;
     std::vector<std::string> tokens;
-    bool names = false;
+    std::optional<std::string> word;  // the first token that is not a number
     std::string tok;
     while (ss >> tok) {
-      char* end = nullptr;
-      const double d = std::strtod(tok.c_str(), &end);
-      if (end == tok.c_str() || *end != '\0') names = true;
+      const std::optional<double> d = Number(tok);
+      if (!d && !word) word = tok;
       tokens.push_back(tok);
-      v.push_back(d);
+      v.push_back(d.value_or(0.0));
     }
     if (tokens.empty()) continue;
-    if (names || slashes) {
-      // Only the first line before any point may name the columns.
-      if (layout || !xyz.empty()) {
-        const auto bad = std::find_if(tokens.begin(), tokens.end(), [](const std::string& t) {
-          char* end = nullptr;
-          std::strtod(t.c_str(), &end);
-          return end == t.c_str() || *end != '\0';
-        });
-        throw Error(where + ": '" + *bad + "' is not a number; " + kLayouts);
-      }
-      if (slashes) {
-        // A '//' line names the columns when it names x, y and z; else it is a comment.
-        try {
-          layout = LayoutOfNames(tokens, where);
-        } catch (const Error&) {
-        }
-        continue;
-      }
-      layout = LayoutOfNames(tokens, where);
+    if (word || slashes) {
+      // Only the first line before any point may name the columns; a '//' line that names no
+      // x, y and z is a comment.
+      if (layout || !xyz.empty()) throw Error(where + ": '" + *word + "' is not a number; " + kLayouts);
+      layout = LayoutOfNames(tokens);
+      if (!layout && !slashes) throw Error(where + ": the header names no x, y and z columns; " + kLayouts);
       continue;
     }
     if (v.size() == 1 && v[0] >= 0 && v[0] == std::floor(v[0])) continue;  // a PTS count
